@@ -1,0 +1,36 @@
+# Two commands: `make demo` and `make test`, each sets up .venv by itself on a fresh machine.
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+export SDL_VIDEODRIVER := dummy
+export SDL_AUDIODRIVER := dummy
+export PYGAME_HIDE_SUPPORT_PROMPT := 1
+
+.PHONY: demo test test-slow lint bench clean
+
+# torch is pinned first and on its own: an unpinned torch (pulled by stable-baselines3)
+# would fetch a CUDA build of several GB.
+$(VENV)/.installed: setup.cfg pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet torch==2.13.0
+	$(PY) -m pip install --quiet -e '.[dev]'
+	touch $@
+
+demo: $(VENV)/.installed
+	$(PY) -m training.demo --out out/demo
+
+test: $(VENV)/.installed
+	$(PY) -m pytest -q -m "not slow"
+
+test-slow: $(VENV)/.installed
+	$(PY) -m pytest -q -m slow
+
+lint: $(VENV)/.installed
+	$(VENV)/bin/ruff check .
+
+bench: $(VENV)/.installed
+	$(PY) benchmarks/bench_env.py
+
+clean:
+	rm -rf $(VENV) out runs

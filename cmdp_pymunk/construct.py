@@ -1,0 +1,133 @@
+"""P_cons: task progress, material fetching and the crane, with invading crews (Eq. 2).
+
+Efficiencies are drawn from Table 3 with the episode's own generator when a task is initiated
+(one draw per task: a crew's pace on a task is one realisation; drawing every second would
+average Table 3's spread away).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import events
+from .state import CraneRequest, CrewState, CrewStatus, Rect, Site, StorageState, TaskState, inside
+
+EPS = 1e-9
+MIN_PACE_SHARE = 0.1  # a draw below 10 % of the mean is clipped there: no crew stands still
+
+
+def invaded_efficiency(nominal: float, invasion: float) -> float:
+    """Efficiency with invading crews, Eq. (2): e_t = max(0, e * (1 - n * I_agent)).
+
+    Args:
+        nominal: e_i, the nominal task or material-acquisition efficiency (any unit per s).
+        invasion: n * I_agent, the number of invaders times their inefficiency index; with
+            invaders of different types, the sum of their indices.
+    """
+    return max(0.0, nominal * (1.0 - invasion))
+
+
+def invasion(site: Site, positions, crew: CrewState, area: Rect) -> float:
+    """n * I_agent for the area a crew works in: the indices of the other crews inside it."""
+    total = 0.0
+    for other in site.crews:
+        if other is not crew and other.status != CrewStatus.LEFT:
+            x, y = positions[other.index]
+            if inside(x, y, area):
+                total += other.spec.invasion_index
+    return total
+
+
+def draw_pace(rng: np.random.Generator, crew: CrewState, task: TaskState) -> float:
+    """Work per second on this task, drawn from Table 3 (normal, clipped at 10 % of the mean)."""
+    spec = crew.spec
+    if spec.by_duration:
+        mean, sd = spec.duration_mean_min, spec.duration_sd_min or 0.0
+        minutes = max(rng.normal(mean, sd), MIN_PACE_SHARE * mean)
+        return task.work / (minutes * 60.0)
+    mean, sd = spec.efficiency_mean_per_min, spec.efficiency_sd_per_min or 0.0
+    return max(rng.normal(mean, sd), MIN_PACE_SHARE * mean) / 60.0
+
+
+def material_sufficient(crew: CrewState, task: TaskState) -> bool:
+    return task.material_per_work == 0.0 or crew.load > EPS
+
+
+def crane_ready(task: TaskState) -> bool:
+    return not task.needs_crane or task.crane_assisted
+
+
+def advance(site: Site, positions, log: events.EventLog, dt: float) -> None:
+    """One step of P_cons for every crew that tasks or fetches, then the crane."""
+    for crew in site.crews:
+        if crew.status == CrewStatus.TASKING:
+            _work(site, positions, crew, dt)
+        elif crew.status == CrewStatus.FETCHING:
+            _fetch(site, positions, crew, dt)
+    _serve_crane(site, log, dt)
+
+
+def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
+    task = site.tasks[crew.task]
+    if not crane_ready(task) or not material_sufficient(crew, task):
+        return
+    remaining = task.work - task.progress
+    if site.stage == 1:  # section 4.2: no task durations, no stock consumption
+        task.progress = task.work
+        return
+    amount = min(remaining, invaded_efficiency(task.pace, invasion(
+        site, positions, crew, task.area)) * dt)
+    if task.material_per_work > 0.0:
+        amount = min(amount, crew.load / task.material_per_work)
+        crew.load = max(0.0, crew.load - amount * task.material_per_work)
+    task.progress += amount
+
+
+def _fetch(site: Site, positions, crew: CrewState, dt: float) -> None:
+    storage = site.storages[crew.storage]
+    rate = site.case.materials[storage.material].acquire_per_min / 60.0
+    amount = min(invaded_efficiency(rate, invasion(site, positions, crew, storage.rect)) * dt,
+                 storage.stock, crew.capacity - crew.load)
+    crew.load += amount
+    storage.stock -= amount
+
+
+def request_crane(site: Site, log: events.EventLog, request: CraneRequest) -> None:
+    site.crane.queue.append(request)
+    log.add(site.time_s, "crane_request", site.crews[request.crew].id,
+            site.tasks[request.task].id if request.task >= 0 else
+            site.storages[request.storage].id, request.kind)
+
+
+def _serve_crane(site: Site, log: events.EventLog, dt: float) -> None:
+    crane = site.crane
+    if crane.current is not None:
+        crane.remaining_s -= dt
+        if crane.remaining_s <= EPS:
+            _complete(site, log, crane.current)
+            crane.current = None
+    if crane.current is None and crane.queue:
+        crane.current = crane.queue.popleft()
+        cfg = site.case.crane
+        crane.remaining_s = cfg.lift_time_s if crane.current.kind == "material" \
+            else cfg.assist_time_s
+
+
+def _complete(site: Site, log: events.EventLog, request: CraneRequest) -> None:
+    """The lifted material arrives at its storage, or the hoisting assistance arrives."""
+    if request.kind == "material":
+        storage: StorageState = site.storages[request.storage]
+        lift = site.case.materials[storage.material].crane_lift_quantity
+        storage.stock = min(storage.capacity, storage.stock + lift)
+        storage.lift_pending = False
+        log.add(site.time_s, "crane_done", site.crews[request.crew].id, storage.id, "material")
+        for crew in site.crews:
+            if crew.status == CrewStatus.WAITING and crew.task < 0 and \
+                    crew.storage == storage.index:
+                events.set_status(site, log, crew, CrewStatus.FETCHING)
+    else:
+        task = site.tasks[request.task]
+        task.crane_assisted = True
+        crew = site.crews[request.crew]
+        log.add(site.time_s, "crane_done", crew.id, task.id, "task")
+        events.set_status(site, log, crew, CrewStatus.TASKING)

@@ -1,0 +1,393 @@
+"""Pi_cons: the construction-knowledge decision table (Table 1) held as data.
+
+Every step, for every crew still on the plane, the rows are tried in ``DECISION_TABLE``'s
+order and the first whose trigger holds fires. A row that changes the crew's state may be
+followed by another in the same step (at most ``MAX_ROWS_PER_STEP``), so that, e.g., a crew
+that completes a task (c9) acquires its next target scope (c10) at once instead of standing
+one second without one. c2 (execute) only marks the task as progressing: ``construct`` moves
+it on in the next step's P_cons.
+
+Where Table 1 is silent, this reading is used (docs/case-study.md lists them):
+- "Equipment" is always sufficient: the crews marked * in Table 3 carry their own.
+- "Material sufficient" means a load above zero; a crew that needs material and holds none
+  acquires the storages of its material as its target scope (c10), not tasks.
+- c7 also fires when a crew reaches a storage that is already empty.
+- c10 also re-acquires when the construction state changed since the crew's task scope was
+  set (a target vanished or appeared); a crew idle for want of targets waits for such a change.
+- A deregistered crew that reaches the outlet leaves the plane (``leave_through_outlet``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from . import construct, events, precedence
+from .state import (CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site,
+                    inside)
+from .world import World
+
+MAX_ROWS_PER_STEP = 3
+EPS = construct.EPS
+
+
+@dataclass
+class Context:
+    """What the rows read and change besides the crew: the site, the world, positions."""
+
+    site: Site
+    world: World
+    positions: list
+    rng: np.random.Generator
+    log: events.EventLog
+    reached: dict = field(default_factory=dict)  # crew index -> target index reached, or -1
+    reached_value: dict = field(default_factory=dict)  # crew index -> V_Tar of a reach
+
+
+@dataclass(frozen=True)
+class Rule:
+    code: str  # "c1" ... "c10", Table 1
+    name: str  # the paper's wording
+    trigger: Callable[[CrewState, Context], bool]
+    effect: Callable[[CrewState, Context], None]
+
+
+# -- what the triggers read -------------------------------------------------------------------
+
+def reached_target(crew: CrewState, ctx: Context) -> int:
+    """The target of the crew's scope whose region contains the crew's centre, or -1.
+
+    A component is reached inside its task area (the component grown by the task type's area
+    distance); a storage inside its area; the outlet within its radius.
+    """
+    if crew.index in ctx.reached:
+        return ctx.reached[crew.index]
+    site, hit = ctx.site, -1
+    x, y = ctx.positions[crew.index]
+    if crew.scope_kind in (ScopeKind.TASKS, ScopeKind.PAUSED):
+        for target, task in crew.scope.items():
+            if inside(x, y, site.tasks[task].area):
+                hit = target
+                break
+    elif crew.scope_kind == ScopeKind.STORAGES:
+        for target in crew.scope:
+            if inside(x, y, site.storages[target - len(site.components)].rect):
+                hit = target
+                break
+    elif crew.scope_kind == ScopeKind.OUTLET:
+        plane = site.case.plane
+        if math.hypot(x - plane.outlet_x_m, y - plane.outlet_y_m) <= plane.outlet_radius_m:
+            hit = site.outlet_target
+    ctx.reached[crew.index] = hit
+    return hit
+
+
+def _reached_storage(crew: CrewState, ctx: Context):
+    if crew.status != CrewStatus.REACHING or crew.scope_kind != ScopeKind.STORAGES:
+        return None
+    target = reached_target(crew, ctx)
+    return None if target < 0 else ctx.site.storages[target - len(ctx.site.components)]
+
+
+def _task(crew: CrewState, ctx: Context):
+    return ctx.site.tasks[crew.task]
+
+
+def _tasking(crew: CrewState, ctx: Context) -> bool:
+    return crew.status == CrewStatus.TASKING
+
+
+def _record_reach(crew: CrewState, ctx: Context, target: int) -> None:
+    ctx.reached_value[crew.index] = crew.values.get(target, 0.0)
+    crew.stats.reaches += 1
+    crew.steps_since_reach = 0
+    ctx.log.add(ctx.site.time_s, "reach", crew.id, target_id(ctx.site, target),
+                f"{crew.values.get(target, 0.0):.4f}")
+
+
+def target_id(site: Site, target: int) -> str:
+    n_comp = len(site.components)
+    if target < n_comp:
+        return site.components[target].id
+    if target < n_comp + len(site.storages):
+        return site.storages[target - n_comp].id
+    return "outlet"
+
+
+# -- c1 Initiate task -------------------------------------------------------------------------
+
+def reached_task_target_with_equipment(crew: CrewState, ctx: Context) -> bool:
+    if crew.status != CrewStatus.REACHING or crew.scope_kind != ScopeKind.TASKS \
+            or crew.scope_version != ctx.site.version:
+        return False
+    target = reached_target(crew, ctx)
+    if target < 0:
+        return False
+    task = ctx.site.tasks[crew.scope[target]]
+    return ctx.site.executable(task) and construct.material_sufficient(crew, task)
+
+
+def initiate_task(crew: CrewState, ctx: Context) -> None:
+    site, target = ctx.site, reached_target(crew, ctx)
+    task = site.tasks[crew.scope[target]]
+    _record_reach(crew, ctx, target)
+    precedence.start(site, task)
+    ctx.world.add_task_area(task.index, task.area)
+    task.crew = crew.index
+    task.pace = construct.draw_pace(ctx.rng, crew, task)
+    task.crane_assisted = site.stage == 1  # section 4.2: no crane wait in stage 1
+    crew.task = task.index
+    crew.clear_scope()
+    ctx.log.add(site.time_s, "task_start", crew.id, task.id)
+    events.set_status(site, ctx.log, crew, CrewStatus.TASKING)
+
+
+# -- c2 Execute task --------------------------------------------------------------------------
+
+def tasking_with_equipment_and_material(crew: CrewState, ctx: Context) -> bool:
+    if not _tasking(crew, ctx):
+        return False
+    task = _task(crew, ctx)
+    return (task.progress < task.work - EPS and construct.crane_ready(task)
+            and construct.material_sufficient(crew, task))
+
+
+def execute_task(crew: CrewState, ctx: Context) -> None:
+    """The task progresses in P_cons (``construct.advance``) at the crew's drawn pace."""
+
+
+# -- c3 Pause task ----------------------------------------------------------------------------
+
+def tasking_with_material_running_out(crew: CrewState, ctx: Context) -> bool:
+    if not _tasking(crew, ctx):
+        return False
+    task = _task(crew, ctx)
+    return task.progress < task.work - EPS and not construct.material_sufficient(crew, task)
+
+
+def pause_task(crew: CrewState, ctx: Context) -> None:
+    crew.paused = True
+    ctx.log.add(ctx.site.time_s, "task_pause", crew.id, _task(crew, ctx).id)
+    set_storage_scope(crew, ctx.site)
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+
+
+def set_storage_scope(crew: CrewState, site: Site) -> None:
+    crew.clear_scope()
+    crew.scope_kind = ScopeKind.STORAGES
+    crew.scope = {s.target: -1 for s in site.storages if s.material == crew.material}
+    crew.scope_version = site.version
+
+
+# -- c4 Resume task ---------------------------------------------------------------------------
+
+def reached_paused_task(crew: CrewState, ctx: Context) -> bool:
+    return (crew.status == CrewStatus.REACHING and crew.scope_kind == ScopeKind.PAUSED
+            and reached_target(crew, ctx) >= 0)
+
+
+def resume_task(crew: CrewState, ctx: Context) -> None:
+    _record_reach(crew, ctx, reached_target(crew, ctx))
+    crew.paused = False
+    crew.clear_scope()
+    ctx.log.add(ctx.site.time_s, "task_resume", crew.id, _task(crew, ctx).id)
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.TASKING)
+
+
+# -- c5 Fetch materials -----------------------------------------------------------------------
+
+def reached_storage_with_stock(crew: CrewState, ctx: Context) -> bool:
+    storage = _reached_storage(crew, ctx)
+    return storage is not None and storage.stock > EPS
+
+
+def fetch_materials(crew: CrewState, ctx: Context) -> None:
+    storage = _reached_storage(crew, ctx)
+    _record_reach(crew, ctx, storage.target)
+    crew.storage = storage.index
+    crew.stats.material_trips += 1
+    crew.clear_scope()
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.FETCHING)
+
+
+# -- c6 Fetching completed --------------------------------------------------------------------
+
+def fetching_at_full_load(crew: CrewState, ctx: Context) -> bool:
+    return crew.status == CrewStatus.FETCHING and crew.load >= crew.capacity - EPS
+
+
+def complete_fetching(crew: CrewState, ctx: Context) -> None:
+    crew.storage = -1
+    if crew.paused:
+        task = _task(crew, ctx)
+        crew.scope_kind = ScopeKind.PAUSED
+        crew.scope = {task.component: task.index}
+        crew.scope_version = ctx.site.version
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+
+
+# -- c7 Request crane for material ------------------------------------------------------------
+
+def storage_running_out(crew: CrewState, ctx: Context) -> bool:
+    if crew.status == CrewStatus.FETCHING:
+        return crew.load < crew.capacity - EPS and \
+            ctx.site.storages[crew.storage].stock <= EPS
+    storage = _reached_storage(crew, ctx)
+    return storage is not None and storage.stock <= EPS
+
+
+def request_crane_for_material(crew: CrewState, ctx: Context) -> None:
+    if crew.status == CrewStatus.REACHING:
+        storage = _reached_storage(crew, ctx)
+        _record_reach(crew, ctx, storage.target)
+        crew.storage = storage.index
+        crew.stats.material_trips += 1
+        crew.clear_scope()
+    storage = ctx.site.storages[crew.storage]
+    if not storage.lift_pending:  # one lift serves every crew waiting at this storage
+        storage.lift_pending = True
+        construct.request_crane(ctx.site, ctx.log, CraneRequest(
+            crew.index, "material", storage=storage.index))
+    crew.stats.crane_waits += 1
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.WAITING)
+
+
+# -- c8 Request crane for task ----------------------------------------------------------------
+
+def started_crane_task_with_material(crew: CrewState, ctx: Context) -> bool:
+    if not _tasking(crew, ctx):
+        return False
+    task = _task(crew, ctx)
+    return not construct.crane_ready(task) and construct.material_sufficient(crew, task)
+
+
+def request_crane_for_task(crew: CrewState, ctx: Context) -> None:
+    construct.request_crane(ctx.site, ctx.log, CraneRequest(crew.index, "task", task=crew.task))
+    crew.stats.crane_waits += 1
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.WAITING)
+
+
+# -- c9 Complete task -------------------------------------------------------------------------
+
+def tasking_with_progress_complete(crew: CrewState, ctx: Context) -> bool:
+    return _tasking(crew, ctx) and _task(crew, ctx).progress >= _task(crew, ctx).work - EPS
+
+
+def complete_task(crew: CrewState, ctx: Context) -> None:
+    task = _task(crew, ctx)
+    task.progress = task.work
+    precedence.finish(ctx.site, task)
+    ctx.world.remove_task_area(task.index)
+    crew.task = -1
+    crew.clear_scope()
+    ctx.log.add(ctx.site.time_s, "task_finish", crew.id, task.id)
+    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+
+
+# -- c10 Acquire target -----------------------------------------------------------------------
+
+def reaching_without_current_scope(crew: CrewState, ctx: Context) -> bool:
+    return (crew.status == CrewStatus.REACHING and not crew.paused
+            and crew.scope_kind in (ScopeKind.NONE, ScopeKind.TASKS)
+            and crew.scope_version != ctx.site.version)
+
+
+def acquire_target(crew: CrewState, ctx: Context) -> None:
+    """Scope: components with executable tasks of its type; storages if it holds no material;
+    the outlet (and deregistration) when no task of its type is queued or waiting."""
+    site = ctx.site
+    mine = [site.tasks[t] for t in site.tasks_of_crew_type[crew.type]]
+    remaining = [t for t in mine if t.pool in (Pool.QUEUE, Pool.WAIT)]
+    if not remaining:
+        crew.clear_scope()
+        crew.scope_kind = ScopeKind.OUTLET
+        crew.scope = {site.outlet_target: -1}
+        crew.scope_version = site.version
+        crew.idle_cause = IdleCause.NONE
+        events.set_status(site, ctx.log, crew, CrewStatus.DEREGISTERED)
+        return
+    if crew.material is not None and crew.load <= EPS:
+        set_storage_scope(crew, site)
+        crew.idle_cause = IdleCause.NONE
+        return
+    scope = {t.component: t.index for t in remaining if site.executable(t)}
+    if scope.keys() != crew.scope.keys() or crew.scope_kind != ScopeKind.TASKS:
+        crew.values = {}  # new targets: the evaluator values them this step
+    crew.scope_kind = ScopeKind.TASKS if scope else ScopeKind.NONE
+    crew.scope = scope
+    crew.scope_version = site.version
+    if scope:
+        crew.idle_cause = IdleCause.NONE
+    elif any(t.pool == Pool.QUEUE for t in remaining):
+        crew.idle_cause = IdleCause.AREA if any(
+            t.pool == Pool.QUEUE and not site.executable(t) for t in remaining) \
+            else IdleCause.NO_TARGET
+    else:
+        crew.idle_cause = IdleCause.PREDECESSOR
+
+
+DECISION_TABLE: tuple[Rule, ...] = (
+    Rule("c9", "Complete task", tasking_with_progress_complete, complete_task),
+    Rule("c3", "Pause task", tasking_with_material_running_out, pause_task),
+    Rule("c8", "Request crane for task", started_crane_task_with_material,
+         request_crane_for_task),
+    Rule("c2", "Execute task", tasking_with_equipment_and_material, execute_task),
+    Rule("c6", "Fetching completed", fetching_at_full_load, complete_fetching),
+    Rule("c7", "Request crane for material", storage_running_out, request_crane_for_material),
+    Rule("c5", "Fetch materials", reached_storage_with_stock, fetch_materials),
+    Rule("c4", "Resume task", reached_paused_task, resume_task),
+    Rule("c1", "Initiate task", reached_task_target_with_equipment, initiate_task),
+    Rule("c10", "Acquire target", reaching_without_current_scope, acquire_target),
+)
+TERMINAL_ROWS = {"c2", "c10"}  # rows after which no other row fires in the same step
+
+
+def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
+    for rule in DECISION_TABLE:
+        if rule.trigger(crew, ctx):
+            return rule
+    return None
+
+
+def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
+    """Fire the table for every crew on the plane; returns the codes fired per crew."""
+    fired: dict[int, list[str]] = {}
+    for crew in ctx.site.crews:
+        if crew.status == CrewStatus.LEFT:
+            continue
+        codes = []
+        for _ in range(MAX_ROWS_PER_STEP):
+            rule = first_rule(crew, ctx)
+            if rule is None:
+                break
+            rule.effect(crew, ctx)
+            ctx.reached.pop(crew.index, None)
+            codes.append(rule.code)
+            if rule.code in TERMINAL_ROWS:
+                break
+        if crew.status == CrewStatus.DEREGISTERED:
+            leave_through_outlet(crew, ctx)
+        fired[crew.index] = codes
+    return fired
+
+
+def leave_through_outlet(crew: CrewState, ctx: Context) -> None:
+    """The end of c10's deregistration: a crew at the outlet leaves the plane."""
+    if reached_target(crew, ctx) == ctx.site.outlet_target:
+        _record_reach(crew, ctx, ctx.site.outlet_target)
+        crew.clear_scope()
+        ctx.world.remove_crew(crew.index)
+        events.set_status(ctx.site, ctx.log, crew, CrewStatus.LEFT)
+    ctx.reached.pop(crew.index, None)
+
+
+def table_as_markdown() -> str:
+    """The docs' copy of Table 1, printed from the code."""
+    lines = ["| order | code | name | trigger | effect |", "|---|---|---|---|---|"]
+    for i, rule in enumerate(DECISION_TABLE, 1):
+        lines.append(f"| {i} | {rule.code} | {rule.name} | `{rule.trigger.__name__}` | "
+                     f"`{rule.effect.__name__}` |")
+    return "\n".join(lines)

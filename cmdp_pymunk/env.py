@@ -1,0 +1,244 @@
+"""The CMDP as a PettingZoo ``ParallelEnv``: one agent per crew, the tower crane shared.
+
+Agents
+    One per crew of the case (``"JCC-1"``, ``"HIC-1"``... in the built-in case). Crews stay in
+    ``agents`` until the episode ends; a crew that has left, or that tasks, fetches or waits,
+    gets a constant all-zero observation and ignores its action.
+
+Observation space (reaching policy, section 3.6.2)
+    ``Box(115,)`` for 12 frontal + 16 surrounding rays: 4 values a ray (relative length,
+    emission angle, type id, priority value after Eq. 3) and the crew's velocity (forward,
+    left, speed). See ``observe`` for the exact layout and what rays see of sensor areas.
+
+Action space
+    ``MultiDiscrete([4, 3, 3])``: forward {0, 0.3, 0.8, 1} x v_f, lateral {-1, 0, 1} x v_l,
+    turn {-1, 0, 1} x v_tu, each first reduced by Eq. 1 (``move``).
+
+Rewards
+    The reaching reward R_r of Eqs. 6-7 (collisions and congestion entries weighted by eta per
+    object kind, k x V_Tar on reaching a target, a small time penalty while holding a target).
+    The evaluation reward R_e of Eq. 5 is in ``infos[agent]["evaluation_reward"]`` with its
+    terms in ``infos[agent]["evaluation_terms"]``, for the high-level policy.
+
+Stages (section 4.2)
+    ``stage=1``: task durations zero, unlimited stock (crews start loaded and never run out),
+    no crane wait. ``stage=2``: the full CMDP.
+
+Arguments
+    ``case``: a ``Case``, a path to a case file, or ``None`` for the built-in case.
+    ``stage``: 1 or 2. ``seed``: seeds the episode generator (``reset(seed)`` re-seeds it,
+    ``reset()`` keeps it). ``evaluator``: fills V_Tar (default nearest-first; the priority
+    heuristic and the stage-2 model are injected the same way). ``render_mode``: ``None`` or
+    ``"rgb_array"``. ``jump_idle``: when no crew needs a movement decision (all tasking,
+    fetching, waiting or gone), one ``step`` call runs on to the next second at which one does;
+    ``infos[agent]["elapsed_s"]`` says how far. ``max_time_s`` overrides the case's time limit.
+
+One step, in the paper's order (section 3.2)
+    P_phy (move, physics), P_cons (construct), Pi_cons (the decision table), target
+    evaluation, observation, rewards.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from pathlib import Path
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+from . import construct, decide, events, move, observe, reward
+from .case import Case, as_case
+from .evaluate import NearestFirstEvaluator, TargetEvaluator, assign_target_values
+from .state import CrewStatus, Site
+from .world import World
+
+
+class CMDPEnv(ParallelEnv):
+    metadata = {"name": "cmdp_pymunk_v0", "render_modes": ["rgb_array"], "render_fps": 10,
+                "is_parallelizable": True}
+
+    def __init__(self, case: Case | str | Path | None = None, stage: int = 2,
+                 seed: int | None = None, evaluator: TargetEvaluator | None = None,
+                 render_mode: str | None = None, jump_idle: bool = True,
+                 max_time_s: float | None = None):
+        if stage not in (1, 2):
+            raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
+                             f"CMDP), not {stage!r}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
+        self.case = as_case(case)
+        self.stage = stage
+        self.render_mode = render_mode
+        self.jump_idle = jump_idle
+        self.evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
+        sim = self.case.simulation
+        self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
+        self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
+                                     sim.field_of_view_deg, sim.sight_distance_m,
+                                     sim.surrounding_distance_m)
+        self.eta = reward.eta_by_kind(self.case.reaching_reward)
+        self.possible_agents = [c.id for c in self.case.crews]
+        self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
+        self.agents: list[str] = []
+        self._observation_space = spaces.Box(-np.inf, np.inf, (self.rays.size,), np.float32)
+        self._action_space = spaces.MultiDiscrete(move.ACTION_NVEC)
+        self._idle_obs = np.zeros(self.rays.size, dtype=np.float32)
+        self.rng = np.random.default_rng(seed)
+        self.site: Site | None = None
+        self.world: World | None = None
+        self.log = events.EventLog()
+
+    @functools.lru_cache(maxsize=None)
+    def observation_space(self, agent: str) -> spaces.Space:
+        return self._observation_space
+
+    @functools.lru_cache(maxsize=None)
+    def action_space(self, agent: str) -> spaces.Space:
+        return self._action_space
+
+    # -- episode ------------------------------------------------------------------------------
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        self.site = Site(self.case, self.stage)
+        self.world = World(self.case, self.site)
+        self.log = events.EventLog()
+        if self.stage == 1:  # unlimited stock: every crew carries what it needs from the start
+            for crew in self.site.crews:
+                crew.load = crew.capacity
+        for crew in self.site.crews:
+            self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
+        self.agents = list(self.possible_agents)
+        self.positions = [tuple(b.position) for b in self.world.bodies]
+        self.steps = 0
+        ctx = self._context()
+        decide.apply_decision_table(ctx)
+        assign_target_values(self.site, self.evaluator, self.positions)
+        observations = self._observe()
+        infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
+        return observations, infos
+
+    def step(self, actions: dict):
+        if not self.agents:
+            raise RuntimeError("step() called on a finished episode; call reset() first")
+        site = self.site
+        action_list = [actions.get(a, move.STAND_STILL) for a in self.possible_agents]
+        rewards = [0.0] * len(self.possible_agents)
+        terms = dict.fromkeys(reward.EVALUATION_TERMS, 0.0)
+        elapsed = 0
+        while True:
+            step_rewards, step_terms = self._one_step(action_list)
+            elapsed += 1
+            for i, r in enumerate(step_rewards):
+                rewards[i] += r
+            for k, v in step_terms.items():
+                terms[k] += v
+            truncated = site.time_s >= self.max_time_s - 1e-9
+            if site.done or truncated or not self.jump_idle or \
+                    any(c.moving for c in site.crews):
+                break
+        terminated = site.done
+        agents = self.agents
+        observations = self._observe()
+        eval_reward = sum(terms.values())
+        rew = {a: rewards[self.agent_index[a]] for a in agents}
+        terms_out = {a: terminated for a in agents}
+        truncs = {a: truncated and not terminated for a in agents}
+        infos = {a: self._info(self.agent_index[a], terms, eval_reward, elapsed,
+                               truncated and not terminated) for a in agents}
+        if terminated or truncated:
+            self.agents = []
+        return observations, rew, terms_out, truncs, infos
+
+    def _one_step(self, actions) -> tuple[list[float], dict[str, float]]:
+        """One second of the CMDP in the paper's order (section 3.2)."""
+        site, world, sim = self.site, self.world, self.case.simulation
+        moving = [c.moving for c in site.crews]
+        had_target = [c.moving and bool(c.scope) for c in site.crews]
+        move.apply_reaching_actions(world, site, actions)                     # P_phy, Eq. 1
+        if any(moving):
+            world.step(sim.step_s, sim.physics_substeps)
+            self._update_positions(moving)
+        site.time_s += sim.step_s
+        self.steps += 1
+        construct.advance(site, self.positions, self.log, sim.step_s)         # P_cons, Eq. 2
+        ctx = self._context()
+        decide.apply_decision_table(ctx)                                      # Table 1
+        assign_target_values(site, self.evaluator, self.positions)            # Eq. 4 or Eq. 9
+        rewards = []
+        weights = self.case.reaching_reward
+        for crew in site.crews:                                               # Eqs. 6-7
+            contacts = world.take_contacts(crew.index)
+            rewards.append(reward.reaching_reward(
+                contacts, self.eta, ctx.reached_value.get(crew.index), had_target[crew.index],
+                weights) if moving[crew.index] else 0.0)
+            self._count(crew, moving[crew.index], had_target[crew.index], contacts)
+        return rewards, reward.evaluation_reward_terms(site, self.case.evaluation_reward)
+
+    def _update_positions(self, moving) -> None:
+        for i, body in enumerate(self.world.bodies):
+            if moving[i]:
+                x, y = body.position
+                px, py = self.positions[i]
+                self.site.crews[i].stats.distance_m += math.hypot(x - px, y - py)
+                self.positions[i] = (x, y)
+
+    def _count(self, crew, was_moving: bool, had_target: bool, contacts) -> None:
+        stats = crew.stats
+        if was_moving:
+            crew.steps_since_reach += 1
+            if had_target:
+                stats.reaching_steps += 1
+            elif crew.status == CrewStatus.REACHING and crew.idle_cause:
+                stats.idle_steps[crew.idle_cause] += 1
+            stats.collisions += contacts[1] + contacts[2] + contacts[3]
+            stats.congestion_entries += contacts[4] + contacts[5]
+        elif crew.status == CrewStatus.WAITING:
+            stats.crane_wait_steps += 1
+
+    def _context(self) -> decide.Context:
+        return decide.Context(self.site, self.world, self.positions, self.rng, self.log)
+
+    def _observe(self) -> dict[str, np.ndarray]:
+        """Rays are cast only for crews that need a movement decision."""
+        out = {}
+        for agent in self.agents:
+            crew = self.site.crews[self.agent_index[agent]]
+            out[agent] = observe.observe_crew(self.world, self.rays, crew) if crew.moving \
+                else self._idle_obs.copy()
+        return out
+
+    def _info(self, i: int, terms: dict, eval_reward: float, elapsed: int,
+              time_limit: bool) -> dict:
+        crew = self.site.crews[i]
+        return {"status": crew.status.name.lower(), "time_s": self.site.time_s,
+                "elapsed_s": elapsed, "needs_action": crew.moving,
+                "evaluation_reward": eval_reward, "evaluation_terms": dict(terms),
+                "TimeLimit.truncated": time_limit}
+
+    # -- for the high level, the scripted policies and the media ------------------------------
+
+    def evaluation_observation(self, agent: str) -> np.ndarray:
+        """O^e of the crew (section 3.6.1), for the stage-2 target-evaluation policy."""
+        i = self.agent_index[agent]
+        body = self.world.bodies[i]
+        return observe.evaluation_observation(self.site, self.site.crews[i], self.positions[i],
+                                              body.angle)
+
+    @property
+    def makespan_s(self) -> float | None:
+        """Simulated seconds until the last task ended, once every task has."""
+        return self.site.time_s if self.site is not None and self.site.done else None
+
+    def render(self):
+        if self.render_mode is None:
+            return None
+        from media.render import draw_frame  # the simulation core never imports pygame
+
+        return draw_frame(self)
+
+    def close(self) -> None:
+        pass

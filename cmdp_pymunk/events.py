@@ -1,0 +1,70 @@
+"""The append-only event log: task starts, pauses, resumes, finishes, crew state changes.
+
+Gantt charts, trajectories and summaries are drawn from it (and from its CSV) alone.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+import tempfile
+from pathlib import Path
+from typing import NamedTuple
+
+
+class Event(NamedTuple):
+    time_s: float
+    kind: str  # task_start, task_pause, task_resume, task_finish, crew_state, reach, crane_*
+    crew: str
+    subject: str  # a task, storage or target id, or the new crew state
+    detail: str = ""
+
+
+FIELDS = Event._fields
+
+
+class EventLog:
+    def __init__(self) -> None:
+        self.events: list[Event] = []
+
+    def add(self, time_s: float, kind: str, crew: str, subject: str, detail: str = "") -> None:
+        self.events.append(Event(float(time_s), kind, crew, subject, detail))
+
+    def to_csv(self) -> str:
+        buf = io.StringIO()
+        writer = csv.writer(buf, lineterminator="\n")
+        writer.writerow(FIELDS)
+        writer.writerows(self.events)
+        return buf.getvalue()
+
+    def write_csv(self, path: str | Path) -> None:
+        """Written to a temporary file, then renamed: never half a log on disk."""
+        write_atomic(Path(path), self.to_csv())
+
+
+def read_csv(path: str | Path) -> list[Event]:
+    with open(path, newline="", encoding="utf-8") as f:
+        reader = csv.DictReader(f)
+        return [Event(float(r["time_s"]), r["kind"], r["crew"], r["subject"], r["detail"])
+                for r in reader]
+
+
+def write_atomic(path: Path, text: str | bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(text.encode("utf-8") if isinstance(text, str) else text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def set_status(site, log: EventLog, crew, status) -> None:
+    """Change a crew's status, logging the change."""
+    if crew.status != status:
+        crew.status = status
+        log.add(site.time_s, "crew_state", crew.id, status.name.lower())

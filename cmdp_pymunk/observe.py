@@ -1,0 +1,162 @@
+"""Observations: the reaching policy's rays with Eq. 3, and the evaluation policy's O^e.
+
+Reaching observation (section 3.6.2), ``(n + m) * 4 + 3`` floats (115 for 12 + 16 rays):
+for each ray, in order (frontal rays left to right, then surrounding rays anticlockwise from
+straight ahead):
+
+- relative length: hit distance over the ray's length (1 when the ray hits nothing);
+- emission angle relative to the heading, over pi (in [-1, 1]);
+- type id of the object hit over 6: 0 nothing, 1 wall, 2 component, 3 crew, 4 task area,
+  5 storage, 6 outlet;
+- priority value after Eq. 3: V_Tar if the object is in the crew's target scope, else 0.
+
+then the crew's velocity in its own frame (forward, left) and its speed, each over its nominal
+forward velocity.
+
+What rays see of sensor areas: frontal rays (to the sight distance, within the field of view)
+look through task areas, so that targets stay visible behind the congestion in front of them;
+they stop at storages and the outlet, which are targets themselves. Surrounding rays (short,
+all around) stop at every area, task areas included, so they report the congestion around
+the crew (a ray that starts inside an area hits it at length 0). A crew's rays never hit the
+crew itself (shared ``ShapeFilter`` group).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .state import CrewState, Pool, Site
+from .world import N_KINDS, World
+
+VELOCITY_FEATURES = 3
+VALUES_PER_RAY = 4
+TYPE_SCALE = 1.0 / (N_KINDS - 1)
+
+
+def modified_priority(target: int, scope, values) -> float:
+    """A ray's priority value after Eq. (3): V_j = V_ray if ray_j in {Tar}, else 0.
+
+    Args:
+        target: the target index of the object the ray hit (-1: not a target at all).
+        scope: the crew's target scope {Tar} (a container of target indices).
+        values: V_Tar per target, from the target evaluator.
+    """
+    if target >= 0 and target in scope:
+        return values.get(target, 0.0)
+    return 0.0
+
+
+class RayModel:
+    """The ray layout of Fig. 3, computed once per env."""
+
+    def __init__(self, n_frontal: int, n_surrounding: int, fov_deg: float, sight_m: float,
+                 surrounding_m: float):
+        half = math.radians(fov_deg) / 2.0
+        frontal = [(-half + 2 * half * k / (n_frontal - 1)) if n_frontal > 1 else 0.0
+                   for k in range(n_frontal)]
+        surrounding = [2 * math.pi * k / n_surrounding for k in range(n_surrounding)]
+        # (unit x, unit y, length, frontal?) in the crew's frame
+        self.rays = [(math.cos(a), math.sin(a), sight_m, True) for a in frontal] + \
+                    [(math.cos(a), math.sin(a), surrounding_m, False) for a in surrounding]
+        self.n_rays = len(self.rays)
+        self.size = self.n_rays * VALUES_PER_RAY + VELOCITY_FEATURES
+        angles = frontal + [math.atan2(math.sin(a), math.cos(a)) for a in surrounding]
+        self.template = np.zeros(self.size, dtype=np.float32)
+        self.template[1:self.n_rays * VALUES_PER_RAY:VALUES_PER_RAY] = np.array(angles) / math.pi
+        self.template[0:self.n_rays * VALUES_PER_RAY:VALUES_PER_RAY] = 1.0
+        # where each ray's three cast values go: relative length, type id, priority
+        self.slots = np.array([[VALUES_PER_RAY * j, VALUES_PER_RAY * j + 2,
+                                VALUES_PER_RAY * j + 3] for j in range(self.n_rays)]).ravel()
+
+    def endpoints(self, x: float, y: float, angle: float):
+        c, s = math.cos(angle), math.sin(angle)
+        return [(x + (c * ux - s * uy) * length, y + (s * ux + c * uy) * length, frontal)
+                for ux, uy, length, frontal in self.rays]
+
+
+def observe_crew(world: World, rays: RayModel, crew: CrewState) -> np.ndarray:
+    """Cast the crew's rays and return its reaching observation (see the module doc)."""
+    body = world.bodies[crew.index]
+    x, y = body.position
+    start = (x, y)
+    query = world.space.segment_query_first
+    frontal_filter = world.frontal_filters[crew.index]
+    surrounding_filter = world.surrounding_filters[crew.index]
+    scope, values = crew.scope, crew.values
+    cast: list[float] = []
+    for ex, ey, frontal in rays.endpoints(x, y, body.angle):
+        hit = query(start, (ex, ey), 0.0, frontal_filter if frontal else surrounding_filter)
+        if hit is None:
+            cast += (1.0, 0.0, 0.0)
+        else:
+            shape = hit.shape
+            cast += (hit.alpha, shape.kind * TYPE_SCALE, modified_priority(shape.target, scope,
+                                                                           values))
+    obs = rays.template.copy()
+    obs[rays.slots] = cast
+    vx, vy = body.velocity
+    c, s = math.cos(body.angle), math.sin(body.angle)
+    v_nominal = crew.spec.velocity_m_s
+    obs[-3] = (c * vx + s * vy) / v_nominal
+    obs[-2] = (-s * vx + c * vy) / v_nominal
+    obs[-1] = math.hypot(vx, vy) / v_nominal
+    return obs
+
+
+# -- the evaluation policy's observation O^e (section 3.6.1) -----------------------------------
+
+CREW_FEATURES = 5  # x/x_max, y/y_max, cos(heading), sin(heading), load / capacity
+TARGET_FEATURES = 12
+EXPECTED_TIME_SCALE_S = 3600.0
+
+
+def evaluation_size(site: Site) -> int:
+    return CREW_FEATURES + TARGET_FEATURES * site.n_targets
+
+
+def evaluation_observation(site: Site, crew: CrewState, position, heading: float) -> np.ndarray:
+    """O^e0..O^e4 for every potential target of the episode (fixed size), from the crew's view.
+
+    The crew's own 5 floats (x/x_max, y/y_max, cos and sin of its heading, load share), then
+    per target (components, then storages, then the outlet) 12 floats:
+
+    - O^e0 (0-7): kind one-hot (component, storage, outlet); pool of the crew's task there
+      (wait 0, queue 1/3, on 2/3, end 1; -1 if it has none there); x/x_max, y/y_max;
+      congestion-area scale (area distance / 3 m); expected remaining action time / 3600 s;
+    - O^e1 (8): 1 if the target is in the crew's current target scope;
+    - O^e2 (9): distance to the crew over the plane's diagonal;
+    - O^e3 (10): all successors of the crew's task there, over the number of tasks;
+    - O^e4 (11): tasks in queue or wait whose areas conflict with it, over the number of tasks.
+    """
+    half_w, half_h = site.case.plane.half_extents
+    diag = 2.0 * math.hypot(half_w, half_h)
+    n_tasks = len(site.tasks)
+    out = np.zeros(evaluation_size(site), dtype=np.float32)
+    out[:CREW_FEATURES] = (position[0] / half_w, position[1] / half_h, math.cos(heading),
+                           math.sin(heading), crew.load / crew.capacity if crew.capacity else 0.0)
+    mine = {site.tasks[t].component: site.tasks[t] for t in site.tasks_of_crew_type[crew.type]}
+    spec = crew.spec
+    rows = out[CREW_FEATURES:].reshape(site.n_targets, TARGET_FEATURES)
+    n_comp = len(site.components)
+    for target in range(site.n_targets):
+        row = rows[target]
+        tx, ty = site.target_xy[target]
+        kind = 0 if target < n_comp else (1 if target < site.outlet_target else 2)
+        row[kind] = 1.0
+        row[3] = -1.0
+        row[4], row[5] = tx / half_w, ty / half_h
+        task = mine.get(target) if kind == 0 else None
+        if task is not None:
+            row[3] = int(task.pool) / 3.0
+            row[6] = site.case.task_types[task.type].area_distance_m / 3.0
+            mean_s = spec.duration_mean_min * 60.0 if spec.by_duration else \
+                task.work / spec.efficiency_mean_per_min * 60.0
+            row[7] = mean_s * (1.0 - task.progress / task.work) / EXPECTED_TIME_SCALE_S
+            row[10] = task.all_successors / n_tasks
+            row[11] = sum(site.tasks[o].pool in (Pool.QUEUE, Pool.WAIT)
+                          for o in task.conflicts) / n_tasks
+        row[8] = 1.0 if target in crew.scope else 0.0
+        row[9] = math.hypot(tx - position[0], ty - position[1]) / diag
+    return out

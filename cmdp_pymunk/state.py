@@ -1,0 +1,278 @@
+"""Construction state S_cons and the crews' status: task pools, stocks, loads, the crane queue.
+
+The site is plain data; the stages (``decide``, ``construct``, ``move``...) change it. Everything
+here is indexed by integers fixed at construction: tasks, components, storages, crews, and the
+*targets* (every component, then every storage, then the outlet), which are what rays can see
+and what the target evaluator values.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+from .case import Case, CrewType
+
+Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
+
+
+class Pool(IntEnum):
+    """The four task pools of section 3.5."""
+
+    WAIT = 0
+    QUEUE = 1
+    ON = 2
+    END = 3
+
+
+class CrewStatus(IntEnum):
+    REACHING = 0  # target reaching, with or without a target scope
+    TASKING = 1
+    FETCHING = 2  # fetching materials at a storage
+    WAITING = 3  # waiting for the crane
+    DEREGISTERED = 4  # no work of its type remains: heading for the outlet
+    LEFT = 5  # gone through the outlet
+
+
+class IdleCause(IntEnum):
+    """Why a reaching crew holds no target (section 5.3, Fig. 14)."""
+
+    NONE = 0
+    PREDECESSOR = 1  # its remaining tasks wait for predecessors
+    AREA = 2  # its queued tasks are blocked by other crews' task areas
+    NO_TARGET = 3  # anything else (e.g. its queued tasks are being worked by its peers)
+
+
+class ScopeKind(IntEnum):
+    NONE = 0
+    TASKS = 1  # components with executable tasks of its type
+    STORAGES = 2  # storages of its material
+    PAUSED = 3  # its paused task
+    OUTLET = 4
+
+
+MOVING = (CrewStatus.REACHING, CrewStatus.DEREGISTERED)
+
+
+def expand(rect: Rect, by: float) -> Rect:
+    return (rect[0] - by, rect[1] - by, rect[2] + by, rect[3] + by)
+
+
+def rect_of(x: float, y: float, w: float, h: float) -> Rect:
+    return (x - w / 2, y - h / 2, x + w / 2, y + h / 2)
+
+
+def inside(x: float, y: float, r: Rect) -> bool:
+    return r[0] <= x <= r[2] and r[1] <= y <= r[3]
+
+
+def overlap(a: Rect, b: Rect) -> bool:
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+@dataclass(eq=False)
+class TaskState:
+    index: int
+    id: str
+    type: str
+    component: int
+    crew_type: str
+    work: float
+    material: str | None
+    material_per_work: float  # material consumed per unit of work
+    needs_crane: bool
+    area: Rect  # the task area: the component grown by Table 2's area distance
+    congestion_index: float  # Table 2, I_area inside the task area
+    predecessors: tuple[int, ...]
+    successors: tuple[int, ...] = ()
+    all_successors: int = 0  # transitive successors, O^e3 and Eq. 9's Suc
+    conflicts: tuple[int, ...] = ()  # tasks whose areas overlap this one's (space conflicts)
+    pool: Pool = Pool.WAIT
+    progress: float = 0.0
+    pace: float = 0.0  # work per second, drawn from Table 3 when the task is initiated
+    crew: int = -1
+    crane_assisted: bool = False
+    started_s: float = -1.0
+    ended_s: float = -1.0
+
+
+@dataclass(eq=False)
+class StorageState:
+    index: int
+    id: str
+    material: str
+    rect: Rect
+    capacity: float
+    congestion_index_full: float
+    target: int
+    stock: float = 0.0
+    lift_pending: bool = False
+
+
+@dataclass(eq=False)
+class ComponentState:
+    index: int
+    id: str
+    kind: str
+    rect: Rect
+    tasks: tuple[int, ...]  # its tasks in precedence order
+
+
+@dataclass
+class CraneRequest:
+    crew: int
+    kind: str  # "material" or "task"
+    storage: int = -1
+    task: int = -1
+
+
+@dataclass(eq=False)
+class CraneState:
+    queue: deque = field(default_factory=deque)
+    current: CraneRequest | None = None
+    remaining_s: float = 0.0
+
+
+@dataclass(eq=False)
+class CrewStats:
+    """Per-crew counters for summaries and the evaluation reward (section 5.3)."""
+
+    reaching_steps: int = 0
+    idle_steps: dict = field(default_factory=lambda: {c: 0 for c in IdleCause if c})
+    distance_m: float = 0.0
+    material_trips: int = 0
+    crane_waits: int = 0
+    crane_wait_steps: int = 0
+    reaches: int = 0
+    collisions: int = 0
+    congestion_entries: int = 0
+
+
+@dataclass(eq=False)
+class CrewState:
+    index: int
+    id: str
+    type: str
+    spec: CrewType
+    material: str | None
+    capacity: float
+    status: CrewStatus = CrewStatus.REACHING
+    load: float = 0.0
+    task: int = -1  # the task it performs, waits on, or has paused
+    paused: bool = False
+    storage: int = -1  # the storage it fetches at
+    scope_kind: ScopeKind = ScopeKind.NONE
+    scope: dict = field(default_factory=dict)  # target index -> task index (or -1)
+    values: dict = field(default_factory=dict)  # target index -> V_Tar
+    scope_version: int = -1
+    steps_since_reach: int = 0
+    idle_cause: IdleCause = IdleCause.NONE
+    stats: CrewStats = field(default_factory=CrewStats)
+
+    @property
+    def moving(self) -> bool:
+        return self.status in MOVING
+
+    def clear_scope(self) -> None:
+        self.scope_kind = ScopeKind.NONE
+        self.scope = {}
+        self.values = {}
+
+
+class Site:
+    """The whole construction state of one episode."""
+
+    def __init__(self, case: Case, stage: int):
+        self.case = case
+        self.stage = stage
+        self.time_s = 0.0
+        self.version = 0  # bumped whenever pools or task areas change: scopes go stale
+        comp_index = {c.id: i for i, c in enumerate(case.components)}
+        task_index = {t.id: i for i, t in enumerate(case.tasks)}
+        self.tasks: list[TaskState] = []
+        for i, t in enumerate(case.tasks):
+            tt = case.task_types[t.type]
+            comp = case.components[comp_index[t.component]]
+            rect = rect_of(comp.x_m, comp.y_m, comp.width_m, comp.height_m)
+            self.tasks.append(TaskState(
+                index=i, id=t.id, type=t.type, component=comp_index[t.component],
+                crew_type=tt.crew_type, work=t.work, material=tt.material,
+                material_per_work=t.material_quantity / t.work if tt.material else 0.0,
+                needs_crane=tt.needs_crane, area=expand(rect, tt.area_distance_m),
+                congestion_index=tt.congestion_index,
+                predecessors=tuple(task_index[p] for p in t.predecessors)))
+        succ: list[list[int]] = [[] for _ in self.tasks]
+        for t in self.tasks:
+            for p in t.predecessors:
+                succ[p].append(t.index)
+        for t in self.tasks:
+            t.successors = tuple(succ[t.index])
+            t.conflicts = tuple(o.index for o in self.tasks
+                                if o.index != t.index and overlap(t.area, o.area))
+        for t in self.tasks:
+            t.all_successors = len(_descendants(t.index, succ))
+        self.components = [
+            ComponentState(i, c.id, c.kind, rect_of(c.x_m, c.y_m, c.width_m, c.height_m),
+                           tuple(t.index for t in self.tasks if t.component == i))
+            for i, c in enumerate(case.components)]
+        n_comp = len(self.components)
+        self.storages = [
+            StorageState(i, s.id, s.material, rect_of(s.x_m, s.y_m, s.width_m, s.height_m),
+                         s.capacity, s.congestion_index_full, target=n_comp + i)
+            for i, s in enumerate(case.storages)]
+        self.outlet_target = n_comp + len(self.storages)
+        self.n_targets = self.outlet_target + 1
+        pos = [(c.x_m, c.y_m) for c in case.components]
+        pos += [(s.x_m, s.y_m) for s in case.storages]
+        pos.append((case.plane.outlet_x_m, case.plane.outlet_y_m))
+        self.target_xy = np.array(pos, dtype=np.float64)
+        self.crane = CraneState()
+        self.crews: list[CrewState] = []
+        for i, c in enumerate(case.crews):
+            spec = case.crew_types[c.type]
+            materials = {tt.material for tt in case.task_types.values()
+                         if tt.crew_type == c.type and tt.material}
+            material = sorted(materials)[0] if materials else None
+            self.crews.append(CrewState(i, c.id, c.type, spec, material,
+                                        spec.carry_capacity if material else 0.0))
+        # Each crew type's tasks, for the decision table's target acquisition.
+        self.tasks_of_crew_type: dict[str, tuple[int, ...]] = {
+            ct: tuple(t.index for t in self.tasks if t.crew_type == ct) for ct in case.crew_types}
+        self.active_areas: list[int] = []  # tasks whose areas are on the plane (pool ON)
+        self.tasks_ended = 0
+        self.reset_pools()
+
+    # -- queries the stages share ------------------------------------------------------------
+
+    def executable(self, task: TaskState) -> bool:
+        """Queued, and no space conflict with a task area already on the plane."""
+        return task.pool == Pool.QUEUE and not any(
+            self.tasks[o].pool == Pool.ON for o in task.conflicts)
+
+    def storage_congestion(self, storage: StorageState) -> float:
+        """I_area of a storage (Eq. 1): 1 when empty, falling to its full index with the stock."""
+        fill = min(1.0, storage.stock / storage.capacity)
+        return 1.0 - (1.0 - storage.congestion_index_full) * fill
+
+    @property
+    def done(self) -> bool:
+        return self.tasks_ended == len(self.tasks)
+
+    def reset_pools(self) -> None:
+        from .precedence import initial_pools
+
+        initial_pools(self)
+
+
+def _descendants(start: int, succ: list[list[int]]) -> set[int]:
+    seen: set[int] = set()
+    stack = list(succ[start])
+    while stack:
+        n = stack.pop()
+        if n not in seen:
+            seen.add(n)
+            stack.extend(succ[n])
+    return seen

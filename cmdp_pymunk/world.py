@@ -1,0 +1,157 @@
+"""The pymunk space: walls, components, sensor areas, the outlet and the crews' bodies.
+
+Physics only: nothing here knows about tasks or rewards, and nothing imports a renderer.
+Crews are dynamic discs whose velocity is set inside their ``velocity_func`` every substep
+(pymunk issue #186: assigning ``body.velocity`` before a step lets bodies sink into walls).
+Task areas and storage areas are sensor shapes: they slow crews (Eq. 1, see ``move``) and
+surrounding rays report them, but they never block movement.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pymunk
+
+from .case import Case
+from .state import Rect, Site
+
+# Object kinds: ray type ids (observation), collision types and reward eta keys share them.
+NOTHING, WALL, COMPONENT, CREW, TASK_AREA, STORAGE, OUTLET = range(7)
+KIND_NAMES = ("nothing", "wall", "component", "crew", "task_area", "storage", "outlet")
+N_KINDS = len(KIND_NAMES)
+CATEGORY = {kind: 1 << kind for kind in range(1, N_KINDS)}
+ALL = pymunk.ShapeFilter.ALL_CATEGORIES()
+
+# Frontal rays look through congestion areas to the targets beyond them; surrounding rays
+# stop at every area, so they report the congestion around the crew.
+FRONTAL_MASK = CATEGORY[WALL] | CATEGORY[COMPONENT] | CATEGORY[CREW] | CATEGORY[STORAGE] \
+    | CATEGORY[OUTLET]
+SURROUNDING_MASK = FRONTAL_MASK | CATEGORY[TASK_AREA]
+
+CREW_DENSITY_KG_M2 = 80.0  # only the ratio between crews matters when they push each other
+WALL_RADIUS_M = 0.1
+
+
+def _box(body: pymunk.Body, rect: Rect) -> pymunk.Poly:
+    x0, y0, x1, y1 = rect
+    return pymunk.Poly(body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+
+
+def _tag(shape: pymunk.Shape, kind: int, target: int = -1, crew: int = -1) -> pymunk.Shape:
+    """Attributes that rays and collision callbacks read off a shape."""
+    shape.kind = kind
+    shape.target = target
+    shape.crew = crew
+    shape.collision_type = kind
+    return shape
+
+
+class World:
+    """The physical state S_phy of one episode."""
+
+    def __init__(self, case: Case, site: Site):
+        self.space = pymunk.Space()
+        self.space.iterations = 10
+        static = self.space.static_body
+        half_w, half_h = case.plane.half_extents
+        corners = [(-half_w, -half_h), (half_w, -half_h), (half_w, half_h), (-half_w, half_h)]
+        for a, b in zip(corners, corners[1:] + corners[:1]):
+            self._add_static(_tag(pymunk.Segment(static, a, b, WALL_RADIUS_M), WALL),
+                             CATEGORY[WALL])
+        for comp in site.components:
+            self._add_static(_tag(_box(static, comp.rect), COMPONENT, target=comp.index),
+                             CATEGORY[COMPONENT])
+        for st in site.storages:
+            self._add_static(_tag(_box(static, st.rect), STORAGE, target=st.target),
+                             CATEGORY[STORAGE], sensor=True)
+        outlet = pymunk.Circle(static, case.plane.outlet_radius_m,
+                               (case.plane.outlet_x_m, case.plane.outlet_y_m))
+        self._add_static(_tag(outlet, OUTLET, target=site.outlet_target), CATEGORY[OUTLET],
+                         sensor=True)
+        self.area_shapes: dict[int, pymunk.Shape] = {}
+        self._static_body = static
+
+        n = len(site.crews)
+        # desired world-frame (vx, vy, omega) per crew, read by the velocity functions
+        self.desired = [[0.0, 0.0, 0.0] for _ in range(n)]
+        self.bodies: list[pymunk.Body] = []
+        self.frontal_filters, self.surrounding_filters = [], []
+        for crew, spec in zip(site.crews, case.crews):
+            r = crew.spec.radius_m
+            mass = CREW_DENSITY_KG_M2 * crew.spec.occupation_area_m2
+            body = pymunk.Body(mass, pymunk.moment_for_circle(mass, 0, r))
+            body.position = (spec.start_x_m, spec.start_y_m)
+            body.angle = math.radians(spec.start_heading_deg)
+            body.velocity_func = self._velocity_func(crew.index)
+            shape = _tag(pymunk.Circle(body, r), CREW, crew=crew.index)
+            shape.friction = 0.0  # no torque from contacts: turning is the policy's alone
+            shape.elasticity = 0.0
+            group = crew.index + 1  # a crew's rays never hit the crew itself
+            shape.filter = pymunk.ShapeFilter(group=group, categories=CATEGORY[CREW])
+            self.space.add(body, shape)
+            self.bodies.append(body)
+            self.frontal_filters.append(pymunk.ShapeFilter(group=group, mask=FRONTAL_MASK))
+            self.surrounding_filters.append(
+                pymunk.ShapeFilter(group=group, mask=SURROUNDING_MASK))
+
+        # collision and congestion-entry counts per crew and object kind since the last read
+        self.contacts = [[0] * N_KINDS for _ in range(n)]
+        for kind in (WALL, COMPONENT, TASK_AREA, STORAGE):
+            self.space.on_collision(CREW, kind, begin=self._count_contact)
+        self.space.on_collision(CREW, CREW, begin=self._count_crew_contact)
+
+    def _add_static(self, shape: pymunk.Shape, category: int, sensor: bool = False) -> None:
+        shape.sensor = sensor
+        shape.filter = pymunk.ShapeFilter(categories=category)
+        self.space.add(shape)
+
+    def _velocity_func(self, i: int):
+        desired = self.desired
+
+        def set_velocity(body, gravity, damping, dt):
+            d = desired[i]
+            body.velocity = (d[0], d[1])
+            body.angular_velocity = d[2]
+
+        return set_velocity
+
+    def _count_contact(self, arbiter, space, data) -> None:
+        crew_shape, other = arbiter.shapes
+        self.contacts[crew_shape.crew][other.kind] += 1
+
+    def _count_crew_contact(self, arbiter, space, data) -> None:
+        a, b = arbiter.shapes
+        self.contacts[a.crew][CREW] += 1
+        self.contacts[b.crew][CREW] += 1
+
+    # -- changes the construction stages make -----------------------------------------------
+
+    def add_task_area(self, task: int, rect: Rect) -> None:
+        """a^c1: the task area appears on the plane as a sensor."""
+        shape = _tag(_box(self._static_body, rect), TASK_AREA)
+        shape.task = task
+        self._add_static(shape, CATEGORY[TASK_AREA], sensor=True)
+        self.area_shapes[task] = shape
+
+    def remove_task_area(self, task: int) -> None:
+        """a^c9: the task area is deregistered."""
+        self.space.remove(self.area_shapes.pop(task))
+
+    def remove_crew(self, i: int) -> None:
+        """A crew that went through the outlet leaves the plane."""
+        body = self.bodies[i]
+        self.space.remove(body, *list(body.shapes))
+
+    # -- physics ------------------------------------------------------------------------------
+
+    def step(self, dt: float, substeps: int) -> None:
+        h = dt / substeps
+        for _ in range(substeps):
+            self.space.step(h)
+
+    def take_contacts(self, i: int) -> list[int]:
+        """The crew's collision counts by kind since the last call, then zeroed."""
+        counts = self.contacts[i]
+        self.contacts[i] = [0] * N_KINDS
+        return counts
