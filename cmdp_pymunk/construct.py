@@ -122,8 +122,8 @@ def _complete(site: Site, log: events.EventLog, request: CraneRequest) -> None:
         storage.lift_pending = False
         log.add(site.time_s, "crane_done", site.crews[request.crew].id, storage.id, "material")
         for crew in site.crews:
-            if crew.status == CrewStatus.WAITING and crew.task < 0 and \
-                    crew.storage == storage.index:
+            # a crew waiting for a lift holds its storage; one waiting for hoisting holds none
+            if crew.status == CrewStatus.WAITING and crew.storage == storage.index:
                 events.set_status(site, log, crew, CrewStatus.FETCHING)
     else:
         task = site.tasks[request.task]

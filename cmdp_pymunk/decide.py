@@ -261,7 +261,8 @@ def started_crane_task_with_material(crew: CrewState, ctx: Context) -> bool:
     if not _tasking(crew, ctx):
         return False
     task = _task(crew, ctx)
-    return not construct.crane_ready(task) and construct.material_sufficient(crew, task)
+    return (task.progress < task.work - EPS and not construct.crane_ready(task)
+            and construct.material_sufficient(crew, task))
 
 
 def request_crane_for_task(crew: CrewState, ctx: Context) -> None:

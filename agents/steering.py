@@ -1,0 +1,41 @@
+"""Greedy steering: head straight for the crew's highest-value target.
+
+A stand-in low level for tests and the first demo: it turns toward the target and walks when
+roughly facing it, with no path planning (the navigator of the simulation issue replaces it).
+It reads the env's state, not the rays, and is a pure function of that state, so two runs of
+the same seed take the same actions.
+"""
+
+from __future__ import annotations
+
+import math
+
+from cmdp_pymunk.move import STAND_STILL
+
+
+def best_target(crew) -> int:
+    """The target of highest V_Tar in the crew's scope (lowest index on ties), or -1."""
+    if not crew.values:
+        return -1
+    return max(crew.values, key=lambda t: (crew.values[t], -t))
+
+
+def steer(env, agent: str):
+    """The MultiDiscrete([4, 3, 3]) action for one crew."""
+    i = env.agent_index[agent]
+    crew = env.site.crews[i]
+    target = best_target(crew)
+    if not crew.moving or target < 0:
+        return STAND_STILL
+    body = env.world.bodies[i]
+    x, y = body.position
+    tx, ty = env.site.target_xy[target]
+    error = math.atan2(ty - y, tx - x) - body.angle
+    error = math.atan2(math.sin(error), math.cos(error))
+    turn = 1 if abs(error) < math.radians(5) else (2 if error > 0 else 0)
+    forward = 3 if abs(error) < math.radians(30) else (1 if abs(error) < math.radians(60) else 0)
+    return (forward, 1, turn)
+
+
+def steer_all(env) -> dict:
+    return {agent: steer(env, agent) for agent in env.agents}

@@ -1,0 +1,305 @@
+"""One frame of the site as an RGB array, drawn with pygame off screen (``CMDPEnv.render``).
+
+What a frame shows, back to front: the work plane and its walls; active task areas as
+translucent orange rectangles; storages with a bar for their stock; components coloured by the
+state of their tasks (grey: waiting for predecessors or blocked, blue: an executable task,
+red: a task being performed, green: every task ended); the outlet; the tower crane with its
+queue length; the crews (a disc of the crew's occupation area in its crew type's colour, a
+tick for its heading, its id above and its status below) with a thin line to the target it
+values most while it moves; and a clock line above the plane.
+
+Coordinates: the plane's origin is its centre and y points up (``cmdp_pymunk.case``); on screen
+y points down, so ``world_to_pixel`` flips it. ``Viewport`` is the one transform, and tests use
+it to find where a crew is drawn.
+
+The simulation core never imports this module except lazily in ``render()``; everything here
+only reads the env's state.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import weakref
+from dataclasses import dataclass
+
+import numpy as np
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+import pygame  # noqa: E402  (the environment variables above must be set first)
+
+from cmdp_pymunk.precedence import component_attributes  # noqa: E402
+from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
+
+TARGET_WIDTH_PX = 900  # the default scale fits the plane into about this width
+MARGIN_PX = 18
+HEADER_PX = 24  # the clock line above the plane
+
+Colour = tuple[int, int, int]
+BACKGROUND: Colour = (250, 250, 247)
+PLANE: Colour = (236, 236, 230)
+WALL: Colour = (40, 40, 40)
+GRID: Colour = (224, 224, 218)
+TEXT: Colour = (25, 25, 25)
+COMPONENT_WAITING: Colour = (170, 170, 170)
+COMPONENT_EXECUTABLE: Colour = (66, 120, 220)
+COMPONENT_PERFORMING: Colour = (215, 50, 45)
+COMPONENT_DONE: Colour = (70, 170, 85)
+TASK_AREA = (255, 150, 30, 70)  # RGBA: translucent
+STORAGE_EDGE: Colour = (120, 95, 60)
+STORAGE_FILL: Colour = (205, 170, 110)
+OUTLET: Colour = (20, 130, 60)
+CRANE: Colour = (235, 180, 0)
+RAY: Colour = (200, 205, 215)
+# Crew type colours, in the case's crew-type order; none of them is a component state colour.
+CREW_PALETTE: tuple[Colour, ...] = (
+    (140, 40, 170),   # purple
+    (0, 150, 150),    # teal
+    (225, 0, 140),    # magenta
+    (140, 85, 30),    # brown
+    (110, 130, 0),    # olive
+    (20, 40, 110),    # navy
+    (240, 120, 160),  # pink
+    (90, 90, 90),     # dark grey
+)
+
+
+@dataclass(frozen=True)
+class Viewport:
+    """The map from plane metres (origin at the centre, y up) to image pixels (y down)."""
+
+    width_m: float
+    height_m: float
+    px_per_m: float
+
+    @classmethod
+    def of(cls, plane, px_per_m: float | None = None) -> "Viewport":
+        """The plane's viewport; ``px_per_m=None`` fits it into ``TARGET_WIDTH_PX``."""
+        if px_per_m is None:
+            px_per_m = (TARGET_WIDTH_PX - 2 * MARGIN_PX) / plane.width_m
+        if px_per_m <= 0:
+            raise ValueError(f"px_per_m must be positive, not {px_per_m!r}")
+        return cls(plane.width_m, plane.height_m, float(px_per_m))
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) of the image in pixels."""
+        return (round(self.width_m * self.px_per_m) + 2 * MARGIN_PX,
+                round(self.height_m * self.px_per_m) + 2 * MARGIN_PX + HEADER_PX)
+
+    def to_px(self, x: float, y: float) -> tuple[int, int]:
+        """Pixel (column, row) of the plane point (x, y) in metres."""
+        s = self.px_per_m
+        return (MARGIN_PX + round((x + self.width_m / 2) * s),
+                HEADER_PX + MARGIN_PX + round((self.height_m / 2 - y) * s))
+
+    def rect_px(self, rect) -> pygame.Rect:
+        """The screen rectangle of a plane rectangle (x0, y0, x1, y1) in metres."""
+        left, top = self.to_px(rect[0], rect[3])
+        right, bottom = self.to_px(rect[2], rect[1])
+        return pygame.Rect(left, top, max(1, right - left), max(1, bottom - top))
+
+
+def world_to_pixel(env, x: float, y: float, px_per_m: float | None = None) -> tuple[int, int]:
+    """Where ``draw_frame(env, px_per_m)`` draws the plane point (x, y): (column, row)."""
+    return Viewport.of(env.case.plane, px_per_m).to_px(x, y)
+
+
+def crew_colour(env, crew: int) -> Colour:
+    """The colour of the crew's disc: one per crew type, in the case's crew-type order."""
+    types = list(env.case.crew_types)
+    return CREW_PALETTE[types.index(env.site.crews[crew].type) % len(CREW_PALETTE)]
+
+
+def component_colour(site, component: int) -> Colour:
+    """Grey waiting, blue with an executable task, red being performed, green all ended."""
+    executable, performing = component_attributes(site, component)
+    if performing is not None:
+        return COMPONENT_PERFORMING
+    if executable and any(site.executable(site.tasks[t])
+                          for t in site.components[component].tasks):
+        return COMPONENT_EXECUTABLE
+    if all(site.tasks[t].pool == Pool.END for t in site.components[component].tasks):
+        return COMPONENT_DONE
+    return COMPONENT_WAITING
+
+
+def format_clock(time_s: float) -> str:
+    """Simulated time as h:mm:ss."""
+    s = int(time_s)
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+class _Fonts:
+    """pygame's fonts, made once: a font per frame would dominate the cost of a GIF."""
+
+    _made = False
+
+    @classmethod
+    def get(cls) -> "_Fonts":
+        if not cls._made:
+            pygame.font.init()
+            cls.small = pygame.font.Font(None, 14)
+            cls.label = pygame.font.Font(None, 16)
+            cls.header = pygame.font.Font(None, 22)
+            cls._made = True
+        return cls
+
+
+class _Renderer:
+    """Per-env caches: the static background and rendered text (labels repeat every frame)."""
+
+    MAX_TEXTS = 1024
+
+    def __init__(self, case, viewport: Viewport):
+        self.case = case
+        self.viewport = viewport
+        self.fonts = _Fonts.get()
+        self.texts: dict = {}
+        self.surface = pygame.Surface(viewport.size)
+        self.background = self._draw_background()
+
+    def text(self, font, string: str, colour: Colour = TEXT) -> pygame.Surface:
+        key = (id(font), string, colour)
+        surf = self.texts.get(key)
+        if surf is None:
+            if len(self.texts) >= self.MAX_TEXTS:  # e.g. stock numbers over a long episode
+                self.texts.clear()
+            surf = self.texts[key] = font.render(string, True, colour)
+        return surf
+
+    def blit_centred(self, surf: pygame.Surface, centre: tuple[int, int]) -> None:
+        self.surface.blit(surf, surf.get_rect(center=centre))
+
+    def _draw_background(self) -> pygame.Surface:
+        """What never changes: plane, grid every 5 m, walls, outlet."""
+        vp, plane = self.viewport, self.case.plane
+        bg = pygame.Surface(vp.size)
+        bg.fill(BACKGROUND)
+        half_w, half_h = plane.half_extents
+        plane_rect = vp.rect_px((-half_w, -half_h, half_w, half_h))
+        bg.fill(PLANE, plane_rect)
+        for k in range(-int(half_w // 5), int(half_w // 5) + 1):
+            x, _ = vp.to_px(5.0 * k, 0.0)
+            pygame.draw.line(bg, GRID, (x, plane_rect.top), (x, plane_rect.bottom - 1))
+        for k in range(-int(half_h // 5), int(half_h // 5) + 1):
+            _, y = vp.to_px(0.0, 5.0 * k)
+            pygame.draw.line(bg, GRID, (plane_rect.left, y), (plane_rect.right - 1, y))
+        pygame.draw.rect(bg, WALL, plane_rect, width=3)
+        centre = vp.to_px(plane.outlet_x_m, plane.outlet_y_m)
+        radius = max(2, round(plane.outlet_radius_m * vp.px_per_m))
+        pygame.draw.circle(bg, (205, 235, 210), centre, radius)
+        pygame.draw.circle(bg, OUTLET, centre, radius, width=2)
+        label = self.fonts.small.render("outlet", True, OUTLET)
+        bg.blit(label, label.get_rect(midtop=(centre[0], centre[1] + radius + 2)))
+        return bg
+
+    def draw(self, env, show_rays: bool) -> np.ndarray:
+        site, vp, fonts = env.site, self.viewport, self.fonts
+        surface = self.surface
+        surface.blit(self.background, (0, 0))
+        if site is None:  # before reset(): the empty plane
+            return _to_array(surface)
+
+        for t in site.active_areas:
+            r = vp.rect_px(site.tasks[t].area)
+            patch = pygame.Surface(r.size, pygame.SRCALPHA)
+            patch.fill(TASK_AREA)
+            surface.blit(patch, r.topleft)
+            pygame.draw.rect(surface, (235, 130, 20), r, width=1)
+
+        for st in site.storages:
+            r = vp.rect_px(st.rect)
+            fill = min(1.0, st.stock / st.capacity) if st.capacity > 0 else 0.0
+            surface.fill((245, 238, 222), r)
+            bar = pygame.Rect(r.left, r.bottom - round(r.height * fill), r.width,
+                              round(r.height * fill))
+            if bar.height > 0:
+                surface.fill(STORAGE_FILL, bar)
+            pygame.draw.rect(surface, STORAGE_EDGE, r, width=2)
+            self.blit_centred(self.text(fonts.label, st.material), (r.centerx, r.centery - 7))
+            self.blit_centred(self.text(fonts.small, f"{st.stock:g}/{st.capacity:g}"),
+                              (r.centerx, r.centery + 7))
+
+        for comp in site.components:
+            r = vp.rect_px(comp.rect)
+            surface.fill(component_colour(site, comp.index), r)
+            pygame.draw.rect(surface, WALL, r, width=1)
+            self.blit_centred(self.text(fonts.small, comp.id, (255, 255, 255)), r.center)
+
+        crane = env.case.crane
+        cx, cy = vp.to_px(crane.x_m, crane.y_m)
+        pygame.draw.polygon(surface, CRANE, [(cx, cy - 9), (cx - 8, cy + 6), (cx + 8, cy + 6)])
+        pygame.draw.polygon(surface, WALL, [(cx, cy - 9), (cx - 8, cy + 6), (cx + 8, cy + 6)],
+                            width=1)
+        queue = len(site.crane.queue) + (1 if site.crane.current is not None else 0)
+        label = self.text(fonts.label, f"crane q={queue}")
+        surface.blit(label, label.get_rect(midleft=(cx + 11, cy)))
+
+        self._draw_crews(env, show_rays)
+
+        header = (f"t {format_clock(site.time_s)}   tasks {site.tasks_ended}/{len(site.tasks)}"
+                  f"   stage {env.stage}   {env.case.case.name}")
+        surface.blit(fonts.header.render(header, True, TEXT), (MARGIN_PX, 6))
+        return _to_array(surface)
+
+    def _draw_crews(self, env, show_rays: bool) -> None:
+        site, world, vp, fonts = env.site, env.world, self.viewport, self.fonts
+        surface = self.surface
+        crews = [c for c in site.crews if c.status != CrewStatus.LEFT]
+        positions = {}
+        for crew in crews:
+            body = world.bodies[crew.index]
+            x, y = body.position
+            positions[crew.index] = (x, y, body.angle)
+            if show_rays and crew.moving:
+                start = vp.to_px(x, y)
+                for ex, ey, _frontal in env.rays.endpoints(x, y, body.angle):
+                    pygame.draw.line(surface, RAY, start, vp.to_px(ex, ey))
+        for crew in crews:  # target lines under every disc
+            if crew.moving and crew.values:
+                x, y, _ = positions[crew.index]
+                target = max(crew.values, key=crew.values.get)
+                tx, ty = site.target_xy[target]
+                pygame.draw.line(surface, crew_colour(env, crew.index), vp.to_px(x, y),
+                                 vp.to_px(tx, ty), 1)
+        for crew in crews:
+            x, y, angle = positions[crew.index]
+            centre = vp.to_px(x, y)
+            radius = max(3, round(crew.spec.radius_m * vp.px_per_m))
+            colour = crew_colour(env, crew.index)
+            pygame.draw.circle(surface, colour, centre, radius)
+            pygame.draw.circle(surface, WALL, centre, radius, width=1)
+            # the heading tick: screen y is flipped, so the screen angle is -angle
+            tip = (centre[0] + round(radius * math.cos(angle)),
+                   centre[1] - round(radius * math.sin(angle)))
+            pygame.draw.line(surface, (255, 255, 255), centre, tip, 3)
+            label = self.text(fonts.label, crew.id, colour)
+            surface.blit(label, label.get_rect(midbottom=(centre[0], centre[1] - radius - 1)))
+            status = self.text(fonts.small, crew.status.name.lower())
+            surface.blit(status, status.get_rect(midtop=(centre[0], centre[1] + radius + 1)))
+
+
+def _to_array(surface: pygame.Surface) -> np.ndarray:
+    # surfarray is (W, H, 3); images are (H, W, 3)
+    return np.ascontiguousarray(pygame.surfarray.array3d(surface).transpose(1, 0, 2))
+
+
+_renderers: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def draw_frame(env, px_per_m: float | None = None, show_rays: bool = False) -> np.ndarray:
+    """The env's current state as an (H, W, 3) uint8 image.
+
+    Args:
+        env: a ``CMDPEnv`` (only read).
+        px_per_m: pixels per metre; ``None`` fits the plane into about ``TARGET_WIDTH_PX``
+            (16 px/m for the built-in 54 m plane).
+        show_rays: also draw the rays of every moving crew, faintly.
+    """
+    viewport = Viewport.of(env.case.plane, px_per_m)
+    renderer = _renderers.get(env)
+    if renderer is None or renderer.case is not env.case or renderer.viewport != viewport:
+        renderer = _renderers[env] = _Renderer(env.case, viewport)
+    return renderer.draw(env, show_rays)
