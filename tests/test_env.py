@@ -1,0 +1,126 @@
+"""The PettingZoo env: API, determinism over whole episodes, the idle jump, stages, time-outs."""
+
+import numpy as np
+import pytest
+from conftest import run_episode, tiny_dict
+
+from agents.steering import steer_all
+from cmdp_pymunk import parallel_env
+from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.state import CrewStatus
+
+
+def tiny_env(**kwargs):
+    return parallel_env(case=case_from_dict(tiny_dict()), **kwargs)
+
+
+def schedule(env):
+    return [e for e in env.log.events if e.kind != "reach"]
+
+
+def test_parallel_api_test():
+    from pettingzoo.test import parallel_api_test
+
+    parallel_api_test(tiny_env(seed=0), num_cycles=200)
+
+
+def test_builtin_case_spaces_and_agents():
+    env = parallel_env(seed=0)
+    obs, infos = env.reset(seed=0)
+    assert env.agents == ["JCC-1", "HIC-1", "GC-1", "RC-1", "RC-2", "FC-1", "FC-2"]
+    assert env.observation_space("RC-1").shape == (115,)
+    assert list(env.action_space("RC-1").nvec) == [4, 3, 3]
+    assert env.observation_space("RC-1") is env.observation_space("RC-1")
+    assert all(o.shape == (115,) and o.dtype == np.float32 for o in obs.values())
+    assert len(env.evaluation_observation("RC-1")) == 5 + 12 * (36 + 3 + 1)
+
+
+def test_whole_episode_is_deterministic_and_finishes():
+    env_a, env_b = tiny_env(stage=2), tiny_env(stage=2)
+    trace_a = run_episode(env_a, 3, steer_all)
+    trace_b = run_episode(env_b, 3, steer_all)
+    assert env_a.site.done
+    assert trace_a == trace_b
+    assert env_a.log.events == env_b.log.events
+    # another seed draws other durations (X tasks have a spread): another schedule
+    env_c = tiny_env(stage=2)
+    run_episode(env_c, 4, steer_all)
+    assert schedule(env_c) != schedule(env_a)
+
+
+def test_reset_without_seed_keeps_the_generator():
+    env = tiny_env()
+    env.reset(seed=5)
+    first = env.rng.random()
+    env.reset(seed=5)
+    assert env.rng.random() == first
+    env.reset()
+    assert env.rng.random() != first
+
+
+def test_idle_jump_gives_the_same_schedule_as_stepping():
+    jumping, stepping = tiny_env(jump_idle=True), tiny_env(jump_idle=False)
+    trace_jump = run_episode(jumping, 1, steer_all)
+    trace_step = run_episode(stepping, 1, steer_all)
+    assert jumping.site.done and stepping.site.done
+    assert schedule(jumping) == schedule(stepping)
+    assert jumping.site.time_s == stepping.site.time_s
+    assert len(trace_jump) < len(trace_step)  # the jump skipped seconds in single calls
+    assert max(e for _, _, _, el in trace_jump for e in el.values()) > 1
+
+
+def test_stage_1_has_no_durations_stock_or_crane_wait():
+    env = tiny_env(stage=1)
+    run_episode(env, 0, steer_all)
+    assert env.site.done
+    kinds = {e.kind for e in env.log.events}
+    assert "crane_request" not in kinds and "task_pause" not in kinds
+    for task in env.site.tasks:
+        assert task.ended_s - task.started_s == 1.0  # done the step after it was initiated
+    assert all(c.stats.material_trips == 0 for c in env.site.crews)
+
+
+def test_time_limit_truncates_with_the_sb3_flag():
+    env = tiny_env(max_time_s=20)
+    env.reset(seed=0)
+    while env.agents:
+        obs, rew, terms, truncs, infos = env.step({a: (0, 1, 1) for a in env.agents})
+    assert all(truncs.values()) and not any(terms.values())
+    assert all(i["TimeLimit.truncated"] for i in infos.values())
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step({})
+
+
+def test_crews_that_do_not_move_get_a_constant_observation_and_no_reward():
+    env = tiny_env()
+    env.reset(seed=0)
+    still = (CrewStatus.TASKING, CrewStatus.WAITING, CrewStatus.LEFT)
+    checked = 0
+    while env.agents:
+        before = {a: env.site.crews[env.agent_index[a]].status for a in env.agents}
+        obs, rew, *_ = env.step(steer_all(env))
+        for agent in obs:
+            crew = env.site.crews[env.agent_index[agent]]
+            if crew.status in still:
+                assert not obs[agent].any()
+            if before[agent] in still:  # it stood still the whole step: nothing to reward
+                assert rew[agent] == 0.0
+                checked += 1
+    assert checked > 10
+
+
+def test_evaluation_reward_terms_are_reported():
+    env = tiny_env()
+    env.reset(seed=0)
+    _, _, _, _, infos = env.step({a: (0, 1, 1) for a in env.agents})
+    terms = infos["K-1"]["evaluation_terms"]
+    assert set(terms) == {"idle_pre", "idle_area", "efficiency", "episode", "path"}
+    assert terms["idle_pre"] < 0  # K-1 and both M crews wait for predecessors at the start
+    assert infos["K-1"]["evaluation_reward"] == pytest.approx(sum(terms.values()))
+
+
+def test_bad_arguments_are_refused():
+    with pytest.raises(ValueError, match="stage"):
+        tiny_env(stage=3)
+    with pytest.raises(ValueError, match="render_mode"):
+        tiny_env(render_mode="human")

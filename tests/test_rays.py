@@ -1,0 +1,86 @@
+"""Ray geometry on a hand-built scene, with hand-computed alphas (Eq. 3 on top)."""
+
+import math
+
+import pytest
+from conftest import place, tiny_dict
+
+from cmdp_pymunk import parallel_env
+from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.observe import observe_crew
+from cmdp_pymunk.world import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
+
+SCALE = 1 / 6  # type ids are scaled by 1/6
+
+
+def scene():
+    """One crew at the origin facing +x; component B at x 4..6; 3 frontal rays (-60, 0, 60 deg)
+    of 10 m and 4 surrounding rays (0, 90, 180, 270 deg) of 3 m."""
+    data = tiny_dict()
+    data["simulation"].update(frontal_rays=3, surrounding_rays=4, field_of_view_deg=120.0,
+                              sight_distance_m=10.0, surrounding_distance_m=3.0)
+    data["components"] = [
+        {"id": "B", "x_m": 5.0, "y_m": 0.0, "width_m": 2.0, "height_m": 2.0},
+        {"id": "A", "x_m": -8.0, "y_m": 4.0, "width_m": 1.0, "height_m": 1.0},
+        {"id": "C", "x_m": -8.0, "y_m": -2.0, "width_m": 1.0, "height_m": 1.0},
+    ]
+    env = parallel_env(case=case_from_dict(data), seed=0)
+    env.reset(seed=0)
+    for i, (x, y) in enumerate([(0.0, 0.0), (-9.0, 5.0), (0.0, -2.5), (-9.0, -5.0)]):
+        place(env, i, x, y)
+    return env
+
+
+def ray(obs, j):
+    return tuple(float(v) for v in obs[4 * j: 4 * j + 4])
+
+
+def test_frontal_and_surrounding_rays_hit_what_they_should():
+    env = scene()
+    crew = env.site.crews[0]
+    crew.scope, crew.values = {0: -1}, {0: 0.7}  # component B is a target worth 0.7
+    obs = observe_crew(env.world, env.rays, crew)
+    assert obs.shape == (4 * 7 + 3,)
+    # frontal ray at 0 deg: B's face at x = 4 of 10 m -> 0.4; B is in scope -> V = 0.7
+    assert ray(obs, 1) == pytest.approx((0.4, 0.0, COMPONENT * SCALE, 0.7), abs=1e-6)
+    # frontal ray at +60 deg reaches y = 10 * sin 60 = 8.66 > 6 - 0.1: the top wall (radius
+    # 0.1) at y = 5.9 -> length 5.9 / sin 60 = 6.8127 of 10
+    assert ray(obs, 2) == pytest.approx((5.9 / math.sin(math.pi / 3) / 10, 1 / 3,
+                                         WALL * SCALE, 0.0), abs=1e-5)
+    # surrounding ray at 270 deg: crew M-1 (r = sqrt(1/pi) = 0.5642) at y = -2.5 -> its edge
+    # at 2.5 - 0.5642 = 1.9358 of 3 m
+    r = math.sqrt(1.0 / math.pi)
+    assert ray(obs, 6) == pytest.approx(((2.5 - r) / 3, -0.5, CREW * SCALE, 0.0), abs=1e-5)
+    # surrounding ray at 0 deg: 3 m, B starts at 4 m -> nothing (length 1, type 0)
+    assert ray(obs, 3) == pytest.approx((1.0, 0.0, 0.0, 0.0))
+    # the crew never sees itself: no ray reads length 0
+    assert all(obs[4 * j] > 0 for j in range(7))
+
+
+def test_out_of_scope_target_reads_zero_and_heading_rotates_rays():
+    env = scene()
+    crew = env.site.crews[0]
+    crew.scope, crew.values = {}, {}
+    place(env, 0, 0.0, 0.0, angle=math.pi / 2)  # facing +y
+    obs = observe_crew(env.world, env.rays, crew)
+    # frontal ray at 0 deg now points up: the top wall at 5.9 m -> 0.59
+    assert ray(obs, 1) == pytest.approx((0.59, 0.0, WALL * SCALE, 0.0), abs=1e-6)
+    # the surrounding ray at -90 deg (index 3 + 3) now points along +x: nothing within 3 m
+    assert ray(obs, 6)[2] == 0.0
+    # facing +y, the frontal ray at -60 deg points 30 deg above +x: it passes over B (y = 2.31
+    # at x = 4) and meets the storage's lower edge y = 3.5 at 3.5 / sin 30 = 7 m -> 0.7;
+    # the storage is not in scope -> V = 0
+    assert ray(obs, 0) == pytest.approx((0.7, -1 / 3, STORAGE * SCALE, 0.0), abs=1e-6)
+
+
+def test_frontal_rays_look_through_task_areas_surrounding_rays_stop_there():
+    env = scene()
+    crew = env.site.crews[0]
+    crew.scope, crew.values = {0: -1}, {0: 0.9}
+    env.world.add_task_area(99, (2.0, -1.5, 3.5, 1.5))  # an area between the crew and B
+    env.world.add_task_area(98, (-4.0, -1.0, -1.5, 1.0))  # an area behind the crew
+    obs = observe_crew(env.world, env.rays, crew)
+    assert ray(obs, 1) == pytest.approx((0.4, 0.0, COMPONENT * SCALE, 0.9), abs=1e-6)
+    # surrounding 0 deg: the area at x = 2 of 3 m; 180 deg: the area's edge at x = -1.5 -> 0.5
+    assert ray(obs, 3) == pytest.approx((2 / 3, 0.0, TASK_AREA * SCALE, 0.0), abs=1e-6)
+    assert ray(obs, 5) == pytest.approx((0.5, 1.0, TASK_AREA * SCALE, 0.0), abs=1e-6)
