@@ -17,18 +17,23 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, get_args, get_origin
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
 
-Positive = Annotated[float, Field(gt=0)]
-NonNegative = Annotated[float, Field(ge=0)]
-UnitIndex = Annotated[float, Field(ge=0, le=1)]
+# Scalars are strict: a quoted "0.4" in a case file is a mistake to report, not to guess at.
+# (Strict floats still accept whole numbers, so ``width_m = 54`` is fine.)
+Number = Annotated[float, Strict()]
+Positive = Annotated[float, Strict(), Field(gt=0)]
+NonNegative = Annotated[float, Strict(), Field(ge=0)]
+UnitIndex = Annotated[float, Strict(), Field(ge=0, le=1)]
+Flag = Annotated[bool, Strict()]
 
 
 class _Model(BaseModel):
@@ -45,8 +50,8 @@ class Plane(_Model):
 
     width_m: Positive
     height_m: Positive
-    outlet_x_m: float
-    outlet_y_m: float
+    outlet_x_m: Number
+    outlet_y_m: Number
     outlet_radius_m: Positive = 1.5
 
     @property
@@ -59,16 +64,16 @@ class Simulation(_Model):
     """Section 5.1's settings and the ray perception model (Fig. 3)."""
 
     step_s: Positive = 1.0
-    physics_substeps: Annotated[int, Field(ge=1, le=20)] = 2
+    physics_substeps: Annotated[int, Strict(), Field(ge=1, le=20)] = 2
     max_time_s: Positive = 60000.0
-    frontal_rays: Annotated[int, Field(ge=1)] = 12
-    surrounding_rays: Annotated[int, Field(ge=1)] = 16
-    field_of_view_deg: Annotated[float, Field(gt=0, le=360)] = 120.0
+    frontal_rays: Annotated[int, Strict(), Field(ge=1)] = 12
+    surrounding_rays: Annotated[int, Strict(), Field(ge=1)] = 16
+    field_of_view_deg: Annotated[float, Strict(), Field(gt=0, le=360)] = 120.0
     sight_distance_m: Positive = 30.0
     surrounding_distance_m: Positive = 3.0
     turning_rate_deg_s: Positive = 30.0
     lateral_velocity_m_s: Positive = 0.1
-    reevaluate_after_steps: Annotated[int, Field(ge=1)] = 300
+    reevaluate_after_steps: Annotated[int, Strict(), Field(ge=1)] = 300
 
 
 class ReachingReward(_Model):
@@ -86,12 +91,12 @@ class ReachingReward(_Model):
 class EvaluationReward(_Model):
     """Eq. 5 weights: each term of R_e is one weight times one measured quantity per step."""
 
-    idle_predecessor: float = -0.01  # per crew-step idle for want of a finished predecessor
-    idle_area: float = -0.01  # per crew-step idle because task areas block its tasks
-    efficiency: float = 0.01  # times the share of crews that are working (not idle)
-    episode: float = -0.001  # per step of the episode's duration
-    path: float = -0.001  # per crew-step of movement
-    completion: float = 1.0  # once, when the last task ends
+    idle_predecessor: Number = -0.01  # per crew-step idle for want of a finished predecessor
+    idle_area: Number = -0.01  # per crew-step idle because task areas block its tasks
+    efficiency: Number = 0.01  # times the share of crews that are working (not idle)
+    episode: Number = -0.001  # per step of the episode's duration
+    path: Number = -0.001  # per crew-step of movement
+    completion: Number = 1.0  # once, when the last task ends
 
 
 class TaskType(_Model):
@@ -101,7 +106,7 @@ class TaskType(_Model):
     crew_type: str
     area_distance_m: NonNegative
     congestion_index: UnitIndex
-    needs_crane: bool = False
+    needs_crane: Flag = False
     material: str | None = None
 
 
@@ -126,13 +131,21 @@ class CrewType(_Model):
     carry_capacity: NonNegative = 0.0
 
     @model_validator(mode="after")
-    def _one_pace(self) -> "CrewType":
+    def _one_pace(self) -> CrewType:
         by_duration = self.duration_mean_min is not None
         by_efficiency = self.efficiency_mean_per_min is not None
         if by_duration == by_efficiency:
             raise ValueError(
-                "give either duration_mean_min (with duration_sd_min) or "
-                "efficiency_mean_per_min (with efficiency_sd_per_min), exactly one of them"
+                "a crew type needs exactly one pace, a duration or an efficiency; fix: give "
+                "either duration_mean_min (with duration_sd_min) or efficiency_mean_per_min "
+                "(with efficiency_sd_per_min), not both or neither"
+            )
+        stray = "efficiency_sd_per_min" if by_duration else "duration_sd_min"
+        if getattr(self, stray) is not None:
+            mean = "duration_mean_min" if by_duration else "efficiency_mean_per_min"
+            raise ValueError(
+                f"{stray} does not go with {mean}; fix: give the spread in the same kind as "
+                f"the mean ({mean.replace('mean', 'sd')})"
             )
         return self
 
@@ -157,8 +170,8 @@ class Material(_Model):
 class Crane(_Model):
     """The tower crane: a shared resource serving requests first come, first served."""
 
-    x_m: float
-    y_m: float
+    x_m: Number
+    y_m: Number
     lift_time_s: NonNegative = 240.0  # one lift of material to a storage
     assist_time_s: NonNegative = 180.0  # hoisting assistance for a task that needs the crane
 
@@ -166,9 +179,9 @@ class Crane(_Model):
 class Crew(_Model):
     id: str
     type: str
-    start_x_m: float
-    start_y_m: float
-    start_heading_deg: float = 0.0
+    start_x_m: Number
+    start_y_m: Number
+    start_heading_deg: Number = 0.0
 
 
 class Component(_Model):
@@ -176,8 +189,8 @@ class Component(_Model):
 
     id: str
     kind: str = ""
-    x_m: float
-    y_m: float
+    x_m: Number
+    y_m: Number
     width_m: Positive
     height_m: Positive
 
@@ -187,8 +200,8 @@ class Storage(_Model):
 
     id: str
     material: str
-    x_m: float
-    y_m: float
+    x_m: Number
+    y_m: Number
     width_m: Positive
     height_m: Positive
     capacity: Positive
@@ -218,10 +231,10 @@ class Case(_Model):
     task_types: dict[str, TaskType]
     crew_types: dict[str, CrewType]
     materials: dict[str, Material] = {}
-    crews: tuple[Crew, ...]
+    crews: Annotated[tuple[Crew, ...], Field(min_length=1)]
     components: tuple[Component, ...]
     storages: tuple[Storage, ...] = ()
-    tasks: tuple[Task, ...]
+    tasks: Annotated[tuple[Task, ...], Field(min_length=1)]
 
 
 @dataclass
@@ -237,54 +250,233 @@ class CaseError(ValueError):
         return "\n".join(lines)
 
 
+_MAPPINGS = ("task_types", "crew_types", "materials")  # named tables: [task_types.R]
+_LISTS = ("crews", "components", "storages", "tasks")  # arrays of tables: [[tasks]]
+_ENTRY_MODELS = {"task_types": TaskType, "crew_types": CrewType, "materials": Material,
+                 "crews": Crew, "components": Component, "storages": Storage, "tasks": Task}
+_ABSENT = object()
+
+# -- field by field: pydantic's errors, reworded ----------------------------------------------
+
 _FIXES = {
-    "missing": "add it",
-    "extra_forbidden": "remove it or check its spelling",
-    "greater_than": "use a positive value",
-    "greater_than_equal": "use a value of at least the bound",
-    "less_than_equal": "use a value of at most the bound",
     "float_parsing": "write a number",
-    "float_type": "write a number",
-    "int_type": "write a whole number",
+    "float_type": "write a number (without quotes)",
+    "int_type": "write a whole number (without quotes or a decimal point)",
     "int_parsing": "write a whole number",
+    "int_from_float": "write a whole number",
     "string_type": 'write text in quotes, e.g. "A-01"',
-    "bool_type": "write true or false",
-    "tuple_type": "write a list, e.g. [1, 2]",
+    "bool_type": "write true or false (without quotes)",
+    "tuple_type": 'write a list, e.g. ["A", "B"], or for a section [[section]] entries',
     "dict_type": "write a table",
+    "model_type": "write a table",
+    "too_short": "add at least one entry",
 }
 
 
+def _toml_value(value: object) -> str:
+    """A value as it would look in the file, for "got ..." in a message."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    return repr(value)
+
+
 def _entry_label(data: object, loc: tuple) -> str:
-    """``tasks[12] "R-07": work`` from a pydantic location, naming entries by their id."""
+    """``tasks[12] "R-07": work`` or ``crew_types.RC: velocity_m_s`` from a pydantic location,
+    naming list entries by their id and named tables the way the TOML file heads them."""
     parts: list[str] = []
     node = data
     for key in loc:
-        if isinstance(key, int):
-            parts[-1] = f"{parts[-1]}[{key}]"
-            node = node[key] if isinstance(node, (list, tuple)) and key < len(node) else None
-            if isinstance(node, dict) and "id" in node:
+        if isinstance(key, int) and parts:
+            node = node[key] if isinstance(node, (list, tuple)) and 0 <= key < len(node) else None
+            parts[-1] += f"[{key}]"
+            if isinstance(node, dict) and isinstance(node.get("id"), str):
                 parts[-1] += f' "{node["id"]}"'
+            continue
+        if len(parts) == 1 and parts[0] in _MAPPINGS:
+            parts[0] += f".{key}"
         else:
             parts.append(str(key))
-            node = node.get(key) if isinstance(node, dict) else None
+        node = node.get(key) if isinstance(node, dict) else None
     return ": ".join(parts) if parts else "(top level)"
+
+
+def _model_at(loc: tuple) -> type[BaseModel] | None:
+    """The model class that holds the fields at a pydantic location (``()``: the case)."""
+    model: object = Case
+    skip = False
+    for key in loc:
+        if skip:  # a named table's key or a list index
+            skip = False
+            continue
+        if not (isinstance(model, type) and issubclass(model, BaseModel)):
+            return None
+        field = model.model_fields.get(str(key))
+        if field is None:
+            return None
+        model = field.annotation
+        if get_origin(model) in (dict, tuple):
+            model = get_args(model)[1 if get_origin(model) is dict else 0]
+            skip = True
+    if skip or not (isinstance(model, type) and issubclass(model, BaseModel)):
+        return None
+    return model
+
+
+def _is_index(loc: tuple) -> bool:
+    """Whether the field at ``loc`` is an index in [0, 1] (congestion, invasion, deceleration)."""
+    model = _model_at(loc[:-1])
+    field = model.model_fields.get(str(loc[-1])) if model and loc else None
+    if field is None:
+        return False
+    return (any(getattr(m, "ge", None) == 0 for m in field.metadata)
+            and any(getattr(m, "le", None) == 1 for m in field.metadata))
+
+
+def _fix(err: dict, loc: tuple) -> str:
+    kind, ctx = err["type"], err.get("ctx", {})
+    name = str(loc[-1]) if loc else ""
+    if kind == "missing":
+        if len(loc) == 1:
+            return f"add [[{name}]] entries" if name in _LISTS else f"add a [{name}] section"
+        return f"add {name} = ... to this entry"
+    if kind == "extra_forbidden":
+        model = _model_at(loc[:-1])
+        known = list(model.model_fields) if model else []
+        close = _closest(name, known)
+        if close:
+            return f'did you mean "{close}"?'
+        return "remove it" + (f"; the fields here are {', '.join(known)}" if known else "")
+    if kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
+        if _is_index(loc):
+            return "an index lies in [0, 1]; use a value from 0 to 1"
+        words = {"gt": "above", "ge": "of at least", "lt": "below", "le": "of at most"}
+        bound = next(iter(ctx.items()), None)
+        if bound and bound[0] == "gt" and bound[1] == 0:
+            return "use a positive value"
+        return f"use a value {words[bound[0]]} {bound[1]:g}" if bound else "use another value"
+    return _FIXES.get(kind, "see docs/case-study.md for the field's meaning")
 
 
 def _pydantic_problems(data: dict, error: ValidationError) -> list[str]:
     problems = []
     for err in error.errors():
-        loc = tuple(k for k in err["loc"] if k not in ("function-after",))
+        loc = tuple(k for k in err["loc"] if k != "function-after")
         # Union members add their type name to the location; it tells the user nothing.
         loc = tuple(k for k in loc if not (isinstance(k, str) and k in {"float", "none"}))
-        fix = _FIXES.get(err["type"], "see docs/case-study.md for the field's meaning")
         msg = err["msg"].removeprefix("Value error, ")
-        problems.append(f"{_entry_label(data, loc)}: {msg}; fix: {fix}")
-    return sorted(set(problems), key=problems.index)
+        msg = {"missing": "required field missing", "extra_forbidden": "unknown field",
+               "tuple_type": "Input should be a list", "dict_type": "Input should be a table",
+               "model_type": "Input should be a table",
+               "too_short": "needs at least one entry"}.get(err["type"], msg)
+        quiet = ("missing", "extra_forbidden", "value_error", "too_short")
+        if err["type"] not in quiet and "input" in err:
+            msg += f" (got {_toml_value(err['input'])})"
+        fix = "" if "; fix: " in msg else f"; fix: {_fix(err, loc)}"  # a validator's own
+        problems.append(f"{_entry_label(data, loc)}: {msg}{fix}")
+    return list(dict.fromkeys(problems))
 
 
-def _did_you_mean(name: str, known) -> str:
-    close = difflib.get_close_matches(name, list(known), n=1)
-    return f'; did you mean "{close[0]}"?' if close else f"; known: {', '.join(sorted(known))}"
+# -- across entries: references, geometry, precedence ----------------------------------------
+
+def _closest(name: str, known: list[str]) -> str | None:
+    """The known name most like ``name`` (the first in file order among equals), or None."""
+    for k in known:
+        if k.casefold() == name.casefold():
+            return k
+    best, score = None, 0.6
+    for k in known:
+        ratio = difflib.SequenceMatcher(None, name, k).ratio()
+        if ratio > score:
+            best, score = k, ratio
+    return best
+
+
+def _did_you_mean(name: str, known: list[str]) -> str:
+    close = _closest(name, known)
+    if close is not None:
+        return f'; did you mean "{close}"?'
+    unique = list(dict.fromkeys(known))
+    if not unique:
+        return "; fix: define it first"
+    if len(unique) <= 12:
+        return "; fix: use one of " + ", ".join(f'"{k}"' for k in unique)
+    return "; fix: use the id of an existing entry"
+
+
+@dataclass
+class _Parts:
+    """What validated, with each list entry's index in the file, and every name the file
+    defines whether its entry validated or not (None: the section is missing or unusable),
+    so that an entry with a field error does not also show up as an unknown reference."""
+
+    plane: Plane | None
+    task_types: dict[str, TaskType]
+    crew_types: dict[str, CrewType]
+    materials: dict[str, Material]
+    crews: list[tuple[int, Crew]]
+    components: list[tuple[int, Component]]
+    storages: list[tuple[int, Storage]]
+    tasks: list[tuple[int, Task]]
+    names: dict[str, list[str] | None]
+    crew_types_on_crews: list[str] | None
+    storage_materials: list[str] | None
+
+
+def _valid(model: type[BaseModel], raw: object) -> BaseModel | None:
+    try:
+        return model.model_validate(raw)
+    except ValidationError:
+        return None
+
+
+def _raw_field(data: dict, section: str, key: str) -> list[str] | None:
+    """``key`` of every entry of a list section, as written (None: no usable list)."""
+    raw = data.get(section, _ABSENT)
+    if raw is _ABSENT and not Case.model_fields[section].is_required():
+        return []
+    if not isinstance(raw, (list, tuple)):  # tuples: a case built in Python
+        return None
+    return [e[key] for e in raw if isinstance(e, dict) and isinstance(e.get(key), str)]
+
+
+def _parts(data: dict, case: Case | None) -> _Parts:
+    """The validated case cut into parts, or, when it did not validate, the parts that did."""
+    names: dict[str, list[str] | None] = {}
+    for section in _MAPPINGS:
+        raw = data.get(section, _ABSENT)
+        if raw is _ABSENT and not Case.model_fields[section].is_required():
+            names[section] = []
+        else:
+            names[section] = list(raw) if isinstance(raw, dict) else None
+    for section in _LISTS:
+        names[section] = _raw_field(data, section, "id")
+    if case is not None:
+        mappings = {s: dict(getattr(case, s)) for s in _MAPPINGS}
+        lists = {s: list(enumerate(getattr(case, s))) for s in _LISTS}
+        plane = case.plane
+    else:
+        mappings, lists = {}, {}
+        for section in _MAPPINGS:
+            raw = data.get(section)
+            raw = raw if isinstance(raw, dict) else {}
+            mappings[section] = {k: m for k, v in raw.items()
+                                 if (m := _valid(_ENTRY_MODELS[section], v)) is not None}
+        for section in _LISTS:
+            raw = data.get(section)
+            raw = raw if isinstance(raw, (list, tuple)) else []
+            lists[section] = [(i, m) for i, v in enumerate(raw)
+                              if (m := _valid(_ENTRY_MODELS[section], v)) is not None]
+        plane = _valid(Plane, data.get("plane"))
+    return _Parts(plane=plane, names=names,
+                  crew_types_on_crews=_raw_field(data, "crews", "type"),
+                  storage_materials=_raw_field(data, "storages", "material"),
+                  **mappings, **lists)
 
 
 def _rect(item) -> tuple[float, float, float, float]:
@@ -300,119 +492,135 @@ def _overlap(a, b) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
-def _semantic_problems(case: Case) -> list[str]:
-    """Cross-references and geometry that field-by-field validation cannot see."""
+def _semantic_problems(parts: _Parts) -> list[str]:
+    """Cross-references, geometry and precedence: what field-by-field validation cannot see."""
     problems: list[str] = []
-    half_w, half_h = case.plane.half_extents
+    names = parts.names
 
-    def outside(x0, y0, x1, y1) -> bool:
-        return x0 < -half_w or x1 > half_w or y0 < -half_h or y1 > half_h
+    def unknown(section: str, name: str) -> bool:
+        return names[section] is not None and name not in names[section]
 
-    for name, tt in case.task_types.items():
-        if tt.crew_type not in case.crew_types:
-            problems.append(
-                f'task_types: {name}: crew_type names unknown crew type "{tt.crew_type}"'
-                f"{_did_you_mean(tt.crew_type, case.crew_types)}"
-            )
-        if tt.material is not None and tt.material not in case.materials:
-            problems.append(
-                f'task_types: {name}: material "{tt.material}" is not in [materials]'
-                f"{_did_you_mean(tt.material, case.materials)}"
-            )
-        elif tt.material is not None and not any(s.material == tt.material for s in case.storages):
-            problems.append(
-                f'task_types: {name}: material "{tt.material}" has no storage that supplies it; '
-                "fix: add a [[storages]] entry with this material"
-            )
-        if tt.material is not None and tt.crew_type in case.crew_types:
-            if case.crew_types[tt.crew_type].carry_capacity <= 0:
-                problems.append(
-                    f"crew_types: {tt.crew_type}: carry_capacity must be positive because its "
-                    f'task type {name} needs material "{tt.material}"; fix: set carry_capacity'
-                )
-    crews_of_type = {c.type for c in case.crews}
-    for i, crew in enumerate(case.crews):
-        if crew.type not in case.crew_types:
-            problems.append(
-                f'crews[{i}] "{crew.id}": type names unknown crew type "{crew.type}"'
-                f"{_did_you_mean(crew.type, case.crew_types)}"
-            )
-        elif not (abs(crew.start_x_m) < half_w and abs(crew.start_y_m) < half_h):
-            problems.append(
-                f'crews[{i}] "{crew.id}": start ({crew.start_x_m}, {crew.start_y_m}) is outside '
-                f"the plane [-{half_w}, {half_w}] x [-{half_h}, {half_h}]; fix: move it inside"
-            )
-    for label, items in (("crews", case.crews), ("components", case.components),
-                         ("storages", case.storages), ("tasks", case.tasks)):
+    for name, tt in parts.task_types.items():
+        where = f"task_types.{name}"
+        if unknown("crew_types", tt.crew_type):
+            problems.append(f'{where}: crew_type names unknown crew type "{tt.crew_type}"'
+                            f"{_did_you_mean(tt.crew_type, names['crew_types'])}")
+        if tt.material is None:
+            continue
+        if unknown("materials", tt.material):
+            problems.append(f'{where}: material "{tt.material}" is not in [materials]'
+                            f"{_did_you_mean(tt.material, names['materials'])}")
+        elif parts.storage_materials is not None and tt.material not in parts.storage_materials:
+            problems.append(f'{where}: material "{tt.material}" has no storage that supplies it; '
+                            f'fix: add a [[storages]] entry with material = "{tt.material}"')
+        crew_type = parts.crew_types.get(tt.crew_type)
+        if crew_type is not None and crew_type.carry_capacity <= 0:
+            problems.append(f"crew_types.{tt.crew_type}: carry_capacity must be positive because "
+                            f'its task type {name} needs material "{tt.material}"; '
+                            "fix: set carry_capacity")
+    materials_of: dict[str, dict[str, str]] = {}
+    for name, tt in parts.task_types.items():
+        if tt.material is not None:
+            materials_of.setdefault(tt.crew_type, {}).setdefault(tt.material, name)
+    for crew_type, mats in materials_of.items():
+        if len(mats) > 1:  # a crew holds one material (state.CrewState.material)
+            listed = ", ".join(f'{t} needs "{m}"' for m, t in mats.items())
+            problems.append(f"crew_types.{crew_type}: its task types need different materials "
+                            f"({listed}) but a crew carries one; "
+                            "fix: give these task types to different crew types")
+
+    plane = parts.plane
+    if plane is not None:
+        half_w, half_h = plane.half_extents
+        bounds = f"[-{half_w:g}, {half_w:g}] x [-{half_h:g}, {half_h:g}]"
+
+        def outside(x0: float, y0: float, x1: float, y1: float) -> bool:
+            return x0 < -half_w or x1 > half_w or y0 < -half_h or y1 > half_h
+
+        if not (abs(plane.outlet_x_m) <= half_w and abs(plane.outlet_y_m) <= half_h):
+            problems.append(f"plane: the outlet ({plane.outlet_x_m:g}, {plane.outlet_y_m:g}) "
+                            f"lies outside the plane {bounds}; fix: move it onto the plane")
+
+    for i, crew in parts.crews:
+        where = f'crews[{i}] "{crew.id}"'
+        if unknown("crew_types", crew.type):
+            problems.append(f'{where}: type names unknown crew type "{crew.type}"'
+                            f"{_did_you_mean(crew.type, names['crew_types'])}")
+        if plane is not None and not (abs(crew.start_x_m) < half_w
+                                      and abs(crew.start_y_m) < half_h):
+            problems.append(f"{where}: start ({crew.start_x_m:g}, {crew.start_y_m:g}) is outside "
+                            f"the plane {bounds}; fix: move it inside")
+    for section in _LISTS:
         seen: set[str] = set()
-        for i, item in enumerate(items):
-            if item.id in seen:
-                problems.append(f'{label}[{i}] "{item.id}": id used twice; fix: rename one')
-            seen.add(item.id)
-    rects = []
-    for i, comp in enumerate(case.components):
-        r = _rect(comp)
-        if outside(*r):
-            problems.append(
-                f'components[{i}] "{comp.id}": rectangle {tuple(round(v, 3) for v in r)} lies '
-                f"outside the plane [-{half_w}, {half_w}] x [-{half_h}, {half_h}]; "
-                "fix: move or shrink it"
-            )
-        for j, (other, ro) in enumerate(rects):
-            if _overlap(r, ro):
-                problems.append(
-                    f'components[{i}] "{comp.id}": overlaps components[{j}] "{other.id}"; '
-                    "fix: move one of them"
-                )
-        rects.append((comp, r))
-    for i, st in enumerate(case.storages):
-        if st.material not in case.materials:
-            problems.append(
-                f'storages[{i}] "{st.id}": material "{st.material}" is not in [materials]'
-                f"{_did_you_mean(st.material, case.materials)}"
-            )
-        if outside(*_rect(st)):
-            problems.append(f'storages[{i}] "{st.id}": lies outside the plane; fix: move it inside')
-    if not (abs(case.plane.outlet_x_m) <= half_w and abs(case.plane.outlet_y_m) <= half_h):
-        problems.append("plane: the outlet lies outside the plane; fix: move it onto the plane")
+        for item_id in names[section] or ():
+            if item_id in seen:
+                problems.append(f'{section}: id "{item_id}" is used twice; fix: rename one')
+            seen.add(item_id)
 
-    component_ids = {c.id for c in case.components}
-    task_ids = {t.id for t in case.tasks}
-    for i, task in enumerate(case.tasks):
+    placed: list[tuple[int, Component, tuple]] = []
+    for i, comp in parts.components:
+        r = _rect(comp)
+        where = f'components[{i}] "{comp.id}"'
+        if plane is not None and outside(*r):
+            problems.append(f"{where}: rectangle x {r[0]:g}..{r[2]:g}, y {r[1]:g}..{r[3]:g} "
+                            f"lies outside the plane {bounds}; fix: move or shrink it")
+        for j, other, ro in placed:
+            if _overlap(r, ro):
+                problems.append(f'{where}: overlaps components[{j}] "{other.id}"; '
+                                "fix: move one of them")
+        placed.append((i, comp, r))
+    for i, st in parts.storages:
+        where = f'storages[{i}] "{st.id}"'
+        if unknown("materials", st.material):
+            problems.append(f'{where}: material "{st.material}" is not in [materials]'
+                            f"{_did_you_mean(st.material, names['materials'])}")
+        if plane is not None and outside(*_rect(st)):
+            problems.append(f"{where}: lies outside the plane {bounds}; fix: move it inside")
+
+    tasks_of_type: dict[str, list[str]] = {}
+    for i, task in parts.tasks:
         where = f'tasks[{i}] "{task.id}"'
-        if task.type not in case.task_types:
-            problems.append(
-                f'{where}: type names unknown task type "{task.type}"'
-                f"{_did_you_mean(task.type, case.task_types)}"
-            )
-        elif case.task_types[task.type].crew_type not in crews_of_type:
-            problems.append(
-                f'{where}: no crew performs task type "{task.type}" (it needs a '
-                f'"{case.task_types[task.type].crew_type}" crew); fix: add one to [[crews]]'
-            )
-        if task.component not in component_ids:
-            problems.append(
-                f'{where}: names component "{task.component}" which does not exist'
-                f"{_did_you_mean(task.component, component_ids)}"
-            )
+        if unknown("task_types", task.type):
+            problems.append(f'{where}: type names unknown task type "{task.type}"'
+                            f"{_did_you_mean(task.type, names['task_types'])}")
+        else:
+            tasks_of_type.setdefault(task.type, []).append(where)
+            tt = parts.task_types.get(task.type)
+            if tt is not None and tt.material is None and task.material_quantity > 0:
+                problems.append(f"{where}: material_quantity is {task.material_quantity:g} but "
+                                f"task type {task.type} needs no material; fix: remove "
+                                "material_quantity or give the task type a material")
+        if unknown("components", task.component):
+            problems.append(f'{where}: names component "{task.component}" which does not exist'
+                            f"{_did_you_mean(task.component, names['components'])}")
         for pred in task.predecessors:
-            if pred not in task_ids:
-                problems.append(
-                    f'{where}: precedence names unknown task "{pred}"'
-                    f"{_did_you_mean(pred, task_ids)}"
-                )
-            elif pred == task.id:
+            if pred == task.id:
                 problems.append(f"{where}: precedes itself; fix: remove it from predecessors")
-    cycle = _find_cycle(case.tasks)
+            elif unknown("tasks", pred):
+                problems.append(f'{where}: precedence names unknown task "{pred}"'
+                                f"{_did_you_mean(pred, names['tasks'])}")
+    for type_name, users in tasks_of_type.items():
+        tt = parts.task_types.get(type_name)
+        crew_types_on_crews = parts.crew_types_on_crews
+        if (tt is None or not crew_types_on_crews  # no crews at all: reported already
+                or unknown("crew_types", tt.crew_type) or tt.crew_type in crew_types_on_crews):
+            continue
+        problems.append(f"task_types.{type_name}: no crew performs this task type (it needs a "
+                        f'"{tt.crew_type}" crew), yet {len(users)} task(s) have it, e.g. '
+                        f'{users[0]}; fix: add a [[crews]] entry with type = "{tt.crew_type}"')
+    cycle = _find_cycle([task for _, task in parts.tasks])
     if cycle:
-        problems.append(
-            "tasks: precedence cycle " + " -> ".join(cycle) + "; fix: remove one of these links"
-        )
+        first = next(i for i, t in parts.tasks if t.id == cycle[0])
+        problems.append(f'tasks[{first}] "{cycle[0]}": precedence cycle '
+                        + " -> ".join(cycle)
+                        + " (each must end before the next starts); "
+                        "fix: remove one of these predecessors")
     return problems
 
 
 def _find_cycle(tasks) -> list[str] | None:
-    """A precedence cycle as a list of task ids (first repeated last), or None."""
+    """A precedence cycle in precedence order (predecessor first; the first id repeated last),
+    or None."""
     preds = {t.id: [p for p in t.predecessors if p != t.id] for t in tasks}
     colour: dict[str, int] = {}
     for start in preds:
@@ -430,7 +638,8 @@ def _find_cycle(tasks) -> list[str] | None:
                 path.pop()
             elif nxt in preds:
                 if colour.get(nxt) == 1:
-                    return path[path.index(nxt):] + [nxt]
+                    # path runs from a task to its predecessors: reverse it to read forwards
+                    return list(reversed(path[path.index(nxt):] + [nxt]))
                 if not colour.get(nxt):
                     colour[nxt] = 1
                     stack.append((nxt, iter(preds[nxt])))
@@ -439,31 +648,60 @@ def _find_cycle(tasks) -> list[str] | None:
 
 
 def case_from_dict(data: dict, source: str = "<case>") -> Case:
-    """Validate raw case data; raise :class:`CaseError` listing every problem."""
+    """Validate raw case data; raise :class:`CaseError` listing every problem.
+
+    Field errors and cross-reference problems are reported together: when some entries do not
+    validate, the cross-reference checks run on those that do.
+    """
     if not isinstance(data, dict):
-        raise CaseError(source, ["the case must be a table of sections"])
+        raise CaseError(source, ["the case must be a table of sections; fix: start the file "
+                                 "with [plane], [crane], [task_types.*], ... sections"])
     try:
-        case = Case.model_validate(data)
+        case: Case | None = Case.model_validate(data)
+        problems: list[str] = []
     except ValidationError as err:
-        raise CaseError(source, _pydantic_problems(data, err)) from None
-    problems = _semantic_problems(case)
+        case, problems = None, _pydantic_problems(data, err)
+    problems += [p for p in _semantic_problems(_parts(data, case)) if p not in problems]
     if problems:
         raise CaseError(source, problems)
+    assert case is not None
     return case
 
 
+def _toml_problem(err: tomllib.TOMLDecodeError, text: str) -> str:
+    """``line 12: malformed TOML: ... in 'width_m = = 2'``, from tomllib's message."""
+    msg = str(err)
+    where = re.search(r"\s*\(at line (\d+), column (\d+)\)", msg)
+    if where is None:
+        return f"malformed TOML: {msg}; fix: correct the syntax"
+    line_no, column = int(where[1]), int(where[2])
+    lines = text.splitlines()
+    line = lines[line_no - 1].strip() if 0 < line_no <= len(lines) else ""
+    return (f"line {line_no}: malformed TOML: {msg[:where.start()]} (column {column} of "
+            f"{line!r}); fix: correct the syntax on that line")
+
+
 def load_case(path: str | Path | None = None) -> Case:
-    """Load and validate a case file (TOML); ``None`` loads the built-in case."""
+    """Load and validate a case file (TOML); ``None`` loads the built-in case.
+
+    Raises :class:`CaseError` (never another exception) for a file that cannot be read, is not
+    TOML, or describes a case that cannot be simulated.
+    """
     path = Path(path) if path is not None else BUILTIN_CASE
-    source = path.name
+    source = path.name or str(path)
     try:
         text = path.read_text(encoding="utf-8")
     except OSError as err:
-        raise CaseError(str(path), [f"cannot read the file ({err.strerror}); fix: check the path"])
+        reason = err.strerror or type(err).__name__
+        raise CaseError(str(path), [f"cannot read the file ({reason}); fix: check the path "
+                                    "and that it names a readable file"]) from None
+    except UnicodeDecodeError as err:
+        raise CaseError(source, [f"is not UTF-8 text (byte {err.start}); "
+                                 "fix: save the file as UTF-8"]) from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise CaseError(source, [f"malformed TOML: {err}; fix: correct the syntax there"]) from None
+        raise CaseError(source, [_toml_problem(err, text)]) from None
     return case_from_dict(data, source)
 
 

@@ -20,14 +20,13 @@ Where Table 1 is silent, this reading is used (docs/case-study.md lists them):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 
 from . import construct, events, precedence
-from .state import (CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site,
-                    inside)
+from .state import CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site, inside
 from .world import World
 
 MAX_ROWS_PER_STEP = 3

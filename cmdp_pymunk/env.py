@@ -40,7 +40,6 @@ One step, in the paper's order (section 3.2)
 
 from __future__ import annotations
 
-import functools
 import math
 from pathlib import Path
 
@@ -90,11 +89,10 @@ class CMDPEnv(ParallelEnv):
         self.world: World | None = None
         self.log = events.EventLog()
 
-    @functools.lru_cache(maxsize=None)
     def observation_space(self, agent: str) -> spaces.Space:
+        # one object, built in __init__, for every agent and every call (PettingZoo needs it)
         return self._observation_space
 
-    @functools.lru_cache(maxsize=None)
     def action_space(self, agent: str) -> spaces.Space:
         return self._action_space
 

@@ -34,7 +34,8 @@ def finish(site: Site, task: TaskState) -> list[TaskState]:
     released = []
     for s in task.successors:
         succ = site.tasks[s]
-        if succ.pool == Pool.WAIT and all(site.tasks[p].pool == Pool.END for p in succ.predecessors):
+        if succ.pool == Pool.WAIT and all(
+                site.tasks[p].pool == Pool.END for p in succ.predecessors):
             succ.pool = Pool.QUEUE
             released.append(succ)
     site.version += 1

@@ -1,4 +1,4 @@
-"""Rewards: the reaching reward R_r (Eqs. 6-7) and the terms of the evaluation reward R_e (Eq. 5)."""
+"""Rewards: the reaching reward R_r (Eqs. 6-7) and the evaluation reward R_e (Eq. 5)."""
 
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ def reaching_reward(contacts, eta, reached_value: float | None, has_target: bool
         reached_value: V_Tar of the target reached this step, or None.
         has_target: the time penalty applies only while the crew holds a target.
     """
-    collision = -sum(e * n for e, n in zip(eta, contacts) if n)
+    collision = -sum(e * n for e, n in zip(eta, contacts, strict=True) if n)
     reach = reach_reward(weights.priority_scale_k, reached_value) if reached_value is not None \
         else 0.0
     time = -weights.time_penalty if has_target else 0.0

@@ -56,7 +56,7 @@ class World:
         static = self.space.static_body
         half_w, half_h = case.plane.half_extents
         corners = [(-half_w, -half_h), (half_w, -half_h), (half_w, half_h), (-half_w, half_h)]
-        for a, b in zip(corners, corners[1:] + corners[:1]):
+        for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
             self._add_static(_tag(pymunk.Segment(static, a, b, WALL_RADIUS_M), WALL),
                              CATEGORY[WALL])
         for comp in site.components:
@@ -77,7 +77,7 @@ class World:
         self.desired = [[0.0, 0.0, 0.0] for _ in range(n)]
         self.bodies: list[pymunk.Body] = []
         self.frontal_filters, self.surrounding_filters = [], []
-        for crew, spec in zip(site.crews, case.crews):
+        for crew, spec in zip(site.crews, case.crews, strict=True):
             r = crew.spec.radius_m
             mass = CREW_DENSITY_KG_M2 * crew.spec.occupation_area_m2
             body = pymunk.Body(mass, pymunk.moment_for_circle(mass, 0, r))

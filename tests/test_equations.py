@@ -4,12 +4,12 @@ import math
 
 import pytest
 
+from cmdp_pymunk.case import ReachingReward
 from cmdp_pymunk.construct import invaded_efficiency
 from cmdp_pymunk.evaluate import desired_position_value
 from cmdp_pymunk.move import congested_velocity
 from cmdp_pymunk.observe import modified_priority
 from cmdp_pymunk.reward import reach_reward, reaching_reward
-from cmdp_pymunk.case import ReachingReward
 from cmdp_pymunk.world import COMPONENT, CREW, N_KINDS, TASK_AREA, WALL
 
 

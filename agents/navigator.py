@@ -1,0 +1,351 @@
+"""The scripted navigator: drives each crew to its highest-value target with reaching actions.
+
+It is the low level until a trained one exists, and afterwards the yardstick the trained one is
+measured against. It reads the env's state (not the rays) and answers with the same
+``MultiDiscrete([4, 3, 3])`` actions the learned policy uses.
+
+How it plans: the plane is a grid (``cell_m``); for each crew size, cells closer to a component
+or wall than the crew's radius plus ``clearance_m`` are blocked. The default clearance is
+negative (-0.2 m) so that every lane a crew fits through keeps at least one row of free cells at
+this resolution; the contact solver keeps the crew off the component, and crews slide along
+it (no friction). A cost-to-go field to the target's reach region
+(the task area, the storage, the outlet) is computed with Dijkstra over the free cells, with
+active task areas and stocked storages costing more to cross (they slow a crew, Eq. 1, and
+entering them is penalised, Eq. 6). Fields are cached per target and re-planned whenever task
+areas appear or vanish. A crew follows the field's steepest descent a few cells ahead.
+
+How it moves: turn toward that point, walk when roughly facing it, side-step for small
+offsets; swerve from crews ahead (keeping right); a crew that makes no progress for a while
+re-plans around the other crews' current positions, and if that fails too, backs off sideways.
+A crew without a target stands still, unless it stands in an active task area or a storage,
+which it leaves.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from cmdp_pymunk.move import STAND_STILL
+from cmdp_pymunk.state import CrewStatus, ScopeKind
+
+from .steering import best_target
+
+AREA_COST = 4.0  # crossing an active task area costs this much more than open floor
+STORAGE_COST = 1.5
+LOOKAHEAD_CELLS = 4
+APPROACH_BAND_M = 0.6  # component targets: plan to within this of the task area
+STUCK_STEPS = 12  # no progress for this many steps: re-plan around the crews
+STUCK_PROGRESS_M = 0.3
+DETOUR_STEPS = 40
+NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+
+
+class _Grid:
+    """Free cells and their 8-connected edges for one crew radius."""
+
+    def __init__(self, nav: Navigator, radius: float):
+        self.radius = radius
+        clearance = radius + nav.clearance_m
+        cx, cy = nav.cx, nav.cy
+        blocked = (np.abs(cx) > nav.half_w - clearance - 0.1) | \
+            (np.abs(cy) > nav.half_h - clearance - 0.1)
+        for comp in nav.site.components:
+            x0, y0, x1, y1 = comp.rect
+            dx = np.maximum(np.maximum(x0 - cx, 0.0), cx - x1)
+            dy = np.maximum(np.maximum(y0 - cy, 0.0), cy - y1)
+            blocked |= dx * dx + dy * dy < clearance * clearance
+        self.blocked = blocked
+        free = ~blocked
+        n = nav.nx * nav.ny
+        idx = np.arange(n).reshape(nav.ny, nav.nx)
+        src, dst, length = [], [], []
+        for dx_, dy_ in NEIGHBOURS:
+            a = idx[max(0, -dy_):nav.ny - max(0, dy_), max(0, -dx_):nav.nx - max(0, dx_)]
+            b = idx[max(0, dy_):nav.ny - max(0, -dy_) or None,
+                    max(0, dx_):nav.nx - max(0, -dx_) or None]
+            ok = free.ravel()[a.ravel()] & free.ravel()[b.ravel()]
+            if dx_ and dy_:  # no corner cutting past a blocked cell
+                side1 = free.ravel()[(a + dx_).ravel()]
+                side2 = free.ravel()[(a + dy_ * nav.nx).ravel()]
+                ok &= side1 & side2
+            src.append(a.ravel()[ok])
+            dst.append(b.ravel()[ok])
+            length.append(np.full(ok.sum(), math.hypot(dx_, dy_) * nav.cell_m))
+        self.src = np.concatenate(src)
+        self.dst = np.concatenate(dst)
+        self.length = np.concatenate(length)
+        self.n = n
+        self.graphs: dict = {}
+
+    def graph(self, cost: np.ndarray, key) -> csr_matrix:
+        g = self.graphs.get(key)
+        if g is None:
+            c = cost.ravel()
+            w = self.length * 0.5 * (c[self.src] + c[self.dst])
+            g = csr_matrix((w, (self.src, self.dst)), shape=(self.n, self.n))
+            self.graphs = {key: g}  # one area state at a time
+        return g
+
+
+class Navigator:
+    """Scripted low level for a ``CMDPEnv``; call ``actions(env)`` every step."""
+
+    def __init__(self, env, cell_m: float = 0.5, clearance_m: float = -0.2):
+        self.env = env
+        self.cell_m = cell_m
+        self.clearance_m = clearance_m
+        self._episode = None
+
+    # -- set-up per episode -------------------------------------------------------------------
+
+    def _setup(self) -> None:
+        env = self.env
+        self.site = env.site
+        self._episode = env.site
+        self.half_w, self.half_h = env.case.plane.half_extents
+        self.nx = int(math.ceil(2 * self.half_w / self.cell_m))
+        self.ny = int(math.ceil(2 * self.half_h / self.cell_m))
+        xs = -self.half_w + (np.arange(self.nx) + 0.5) * self.cell_m
+        ys = -self.half_h + (np.arange(self.ny) + 0.5) * self.cell_m
+        self.cx, self.cy = np.meshgrid(xs, ys)
+        self.grids: dict[float, _Grid] = {}
+        self.crew_grid = []
+        for crew in self.site.crews:
+            r = round(crew.spec.radius_m, 3)
+            if r not in self.grids:
+                self.grids[r] = _Grid(self, r)
+            self.crew_grid.append(self.grids[r])
+        self.fields: dict = {}
+        self.area_key = None
+        n = len(self.site.crews)
+        self.best = [math.inf] * n
+        self.since_progress = [0] * n
+        self.detour = [None] * n  # (field, target, steps left)
+        self.goal = [None] * n
+        self.plans = 0
+
+    def _cost(self) -> np.ndarray:
+        cost = np.ones((self.ny, self.nx))
+        for t in self.site.active_areas:
+            cost[self._rect_mask(self.site.tasks[t].area)] = AREA_COST
+        for st in self.site.storages:
+            if st.stock > 0:
+                cost[self._rect_mask(st.rect)] = np.maximum(cost[self._rect_mask(st.rect)],
+                                                            STORAGE_COST)
+        return cost
+
+    def _rect_mask(self, rect, shrink: float = 0.0) -> np.ndarray:
+        x0, y0, x1, y1 = rect
+        return (self.cx >= x0 + shrink) & (self.cx <= x1 - shrink) & \
+            (self.cy >= y0 + shrink) & (self.cy <= y1 - shrink)
+
+    def _goal_mask(self, crew, target: int) -> np.ndarray:
+        site = self.site
+        if target == site.outlet_target:
+            plane = self.env.case.plane
+            return np.hypot(self.cx - plane.outlet_x_m, self.cy - plane.outlet_y_m) \
+                <= plane.outlet_radius_m - 0.1
+        n_comp = len(site.components)
+        if target >= n_comp:
+            return self._rect_mask(site.storages[target - n_comp].rect, 0.1)
+        # A task area can be thinner than the crew is wide (JC: 1.2 m for a 1.13 m radius):
+        # plan to a band around it, then close in on the component (``act``).
+        return self._rect_mask(site.tasks[crew.scope[target]].area, -APPROACH_BAND_M)
+
+    def _field(self, crew, target: int, extra_blocked: np.ndarray | None = None) -> np.ndarray:
+        grid = self.crew_grid[crew.index]
+        key = (grid.radius, target, crew.scope.get(target, -1))
+        if extra_blocked is None and key in self.fields:
+            return self.fields[key]
+        self.plans += 1
+        cost = self._cost()
+        if extra_blocked is not None:
+            cost = cost.copy()
+            cost[extra_blocked] = 1e4  # passable at a price: never trapped by a crowd
+        graph = grid.graph(cost, (self.area_key, extra_blocked is not None, id(extra_blocked)))
+        goal = self._goal_mask(crew, target) & ~grid.blocked
+        goals = np.flatnonzero(goal.ravel())
+        if goals.size == 0:
+            field = None
+        else:
+            field = dijkstra(graph, directed=False, indices=goals, min_only=True)
+            field = field.reshape(self.ny, self.nx)
+        if extra_blocked is None:
+            self.fields[key] = field
+        return field
+
+    # -- acting -------------------------------------------------------------------------------
+
+    def actions(self, env) -> dict:
+        if self._episode is not env.site:
+            self._setup()
+        key = tuple(sorted(self.site.active_areas)) + tuple(
+            s.stock > 0 for s in self.site.storages)
+        if key != self.area_key:  # task areas appeared or vanished: re-plan everything
+            self.area_key = key
+            self.fields = {}
+        return {agent: self.act(env.site.crews[env.agent_index[agent]]) for agent in env.agents}
+
+    def _cell(self, x: float, y: float) -> tuple[int, int]:
+        i = min(self.nx - 1, max(0, int((x + self.half_w) / self.cell_m)))
+        j = min(self.ny - 1, max(0, int((y + self.half_h) / self.cell_m)))
+        return i, j
+
+    def act(self, crew):
+        if not crew.moving:
+            return STAND_STILL
+        body = self.env.world.bodies[crew.index]
+        x, y = body.position
+        target = best_target(crew)
+        if target < 0:
+            return self._idle(crew, body, x, y)
+        if self.goal[crew.index] != target:
+            self.goal[crew.index] = target
+            self.best[crew.index] = math.inf
+            self.since_progress[crew.index] = 0
+            self.detour[crew.index] = None
+        field = self._field(crew, target)
+        detour = self.detour[crew.index]
+        if detour is not None:
+            field = detour[0]
+            self.detour[crew.index] = (detour[0], detour[1] - 1) if detour[1] > 1 else None
+        if field is None:
+            tx, ty = self.site.target_xy[target]
+            return self._drive(crew, body, x, y, tx, ty)
+        here = self._value(field, x, y)
+        if here < self.best[crew.index] - STUCK_PROGRESS_M:
+            self.best[crew.index] = here
+            self.since_progress[crew.index] = 0
+        else:
+            self.since_progress[crew.index] += 1
+            if self.since_progress[crew.index] >= STUCK_STEPS:
+                self._replan_around_crews(crew, target)
+                self.since_progress[crew.index] = 0
+                self.best[crew.index] = math.inf
+        if here == 0.0 and target < len(self.site.components):
+            # in the approach band: close in on the component's nearest point
+            x0, y0, x1, y1 = self.site.components[target].rect
+            px, py = min(max(x, x0), x1), min(max(y, y0), y1)
+        else:
+            carrot = self._carrot(field, x, y)
+            px, py = carrot if carrot is not None else self.site.target_xy[target]
+        return self._drive(crew, body, x, y, px, py)
+
+    def _value(self, field, x, y) -> float:
+        i, j = self._cell(x, y)
+        return field[j, i]
+
+    def _carrot(self, field, x: float, y: float) -> tuple[float, float]:
+        """A point a few cells down the field's steepest descent from the crew."""
+        i, j = self._cell(x, y)
+        if not math.isfinite(field[j, i]):  # pushed into a blocked cell: head for a free one
+            best = None
+            for r in range(1, 6):
+                for dj in range(-r, r + 1):
+                    for di in range(-r, r + 1):
+                        ii, jj = i + di, j + dj
+                        if 0 <= ii < self.nx and 0 <= jj < self.ny and \
+                                math.isfinite(field[jj, ii]):
+                            d = di * di + dj * dj
+                            if best is None or d < best[0]:
+                                best = (d, ii, jj)
+                if best:
+                    return self.cx[0, best[1]], self.cy[best[2], 0]
+            return None
+        for _ in range(LOOKAHEAD_CELLS):
+            best_v, best_ij = field[j, i], None
+            for di, dj in NEIGHBOURS:
+                ii, jj = i + di, j + dj
+                if 0 <= ii < self.nx and 0 <= jj < self.ny and field[jj, ii] < best_v:
+                    best_v, best_ij = field[jj, ii], (ii, jj)
+            if best_ij is None:
+                break
+            i, j = best_ij
+        return self.cx[0, i], self.cy[j, 0]
+
+    def _replan_around_crews(self, crew, target: int) -> None:
+        """A personal field that treats the other crews' discs as (costly) obstacles."""
+        mask = np.zeros((self.ny, self.nx), dtype=bool)
+        r_self = crew.spec.radius_m
+        for other in self.site.crews:
+            if other is crew or other.status == CrewStatus.LEFT:
+                continue
+            ox, oy = self.env.world.bodies[other.index].position
+            mask |= np.hypot(self.cx - ox, self.cy - oy) < other.spec.radius_m + r_self + 0.2
+        field = self._field(crew, target, extra_blocked=mask)
+        if field is not None:
+            self.detour[crew.index] = (field, DETOUR_STEPS)
+
+    def _idle(self, crew, body, x, y):
+        """No target: stand aside, out of active task areas and storages."""
+        site = self.site
+        in_area = any(_inside(x, y, site.tasks[t].area) for t in site.active_areas) or \
+            any(_inside(x, y, s.rect) for s in site.storages)
+        if not in_area:
+            return STAND_STILL
+        key = ("clear", self.crew_grid[crew.index].radius)
+        field = self.fields.get(key)
+        if field is None:
+            grid = self.crew_grid[crew.index]
+            busy = np.zeros((self.ny, self.nx), dtype=bool)
+            for t in site.active_areas:
+                busy |= self._rect_mask(site.tasks[t].area)
+            for s in site.storages:
+                busy |= self._rect_mask(s.rect)
+            goals = np.flatnonzero((~busy & ~grid.blocked).ravel())
+            graph = grid.graph(self._cost(), (self.area_key, False, 0))
+            field = dijkstra(graph, directed=False, indices=goals, min_only=True)
+            field = field.reshape(self.ny, self.nx)
+            self.fields[key] = field
+        px, py = self._carrot(field, x, y)
+        return self._drive(crew, body, x, y, px, py)
+
+    def _drive(self, crew, body, x, y, px, py):
+        """Turn toward (px, py), walk when facing it; swerve right from a crew ahead."""
+        heading = math.atan2(py - y, px - x)
+        dist = math.hypot(px - x, py - y)
+        forward_cap = 3
+        for other in self.site.crews:
+            if other is crew or other.status == CrewStatus.LEFT:
+                continue
+            ox, oy = self.env.world.bodies[other.index].position
+            gap = math.hypot(ox - x, oy - y) - crew.spec.radius_m - other.spec.radius_m
+            if gap > 1.5:
+                continue
+            bearing = _wrap(math.atan2(oy - y, ox - x) - heading)
+            if abs(bearing) < math.radians(50):
+                # keep right: swerve to the right of a crew ahead, or left if it is on the right
+                heading += math.radians(-50 if bearing >= 0 else 50)
+                forward_cap = 1 if gap < 0.5 else 2
+        error = _wrap(heading - body.angle)
+        if abs(error) < math.radians(15):
+            turn = 1
+        else:
+            turn = 2 if error > 0 else 0
+        if abs(error) < math.radians(25):
+            forward = 3
+        elif abs(error) < math.radians(50):
+            forward = 2
+        elif abs(error) < math.radians(80):
+            forward = 1
+        else:
+            forward = 0
+        if dist < 0.3 and crew.scope_kind != ScopeKind.NONE:
+            forward = min(forward, 1)
+        forward = min(forward, forward_cap)
+        lateral = 1
+        if forward > 0 and abs(error) > math.radians(5):
+            lateral = 2 if error > 0 else 0
+        return (forward, lateral, turn)
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def _inside(x, y, r) -> bool:
+    return r[0] <= x <= r[2] and r[1] <= y <= r[3]

@@ -1,0 +1,157 @@
+"""The rendered frame (media/render.py) and the demo script (training/demo.py)."""
+
+from __future__ import annotations
+
+import math
+import os
+
+os.environ["SDL_VIDEODRIVER"] = "dummy"
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from cmdp_pymunk import parallel_env  # noqa: E402
+from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
+from media import render  # noqa: E402
+from training import demo  # noqa: E402
+
+
+@pytest.fixture
+def rendered_env(tiny_case):
+    """The tiny case (a non-square 20 x 12 m plane) a few steps in, every crew driving."""
+    env = parallel_env(case=tiny_case, seed=0, render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(4):
+        env.step({a: (3, 1, 1) for a in env.agents})
+    return env
+
+
+def _has_colour(frame, col: int, row: int, half: int, colour) -> bool:
+    window = frame[max(row - half, 0):row + half + 1, max(col - half, 0):col + half + 1]
+    return bool(np.all(window == np.array(colour, dtype=np.uint8), axis=-1).any())
+
+
+def _lone_crew(env) -> int:
+    """A crew whose mirror image across y = 0 is far from every crew of its type, so that a
+    frame drawn with y not flipped would put its colour where no such crew is."""
+    site = env.site
+    for crew in site.crews:
+        x, y = env.world.bodies[crew.index].position
+        if abs(y) < 2.0:
+            continue
+        if all(math.dist((x, -y), env.world.bodies[o.index].position) > 2.0
+               for o in site.crews if o.type == crew.type):
+            return crew.index
+    raise AssertionError("the tiny case has no crew away from the x axis")
+
+
+def test_frame_shape_dtype_and_not_uniform(rendered_env):
+    frame = rendered_env.render()
+    width, height = render.Viewport.of(rendered_env.case.plane).size
+    assert frame.shape == (height, width, 3)
+    assert frame.dtype == np.uint8
+    assert frame.flags.writeable and frame.flags.c_contiguous
+    assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 10
+
+
+def test_default_scale_is_about_900_px_wide(rendered_env):
+    assert 880 <= rendered_env.render().shape[1] <= 920
+
+
+@pytest.mark.parametrize("px_per_m", [None, 10.0])
+def test_crew_colour_is_drawn_where_the_crew_is(rendered_env, px_per_m):
+    env = rendered_env
+    i = _lone_crew(env)
+    frame = render.draw_frame(env, px_per_m=px_per_m)
+    x, y = env.world.bodies[i].position
+    scale = render.Viewport.of(env.case.plane, px_per_m).px_per_m
+    half = max(1, int(env.site.crews[i].spec.radius_m * scale * 0.6))  # inside the disc
+    colour = render.crew_colour(env, i)
+    col, row = render.world_to_pixel(env, x, y, px_per_m)
+    assert _has_colour(frame, col, row, half, colour)
+    # y is flipped: nothing of that colour at the crew's mirror image across the x axis
+    mcol, mrow = render.world_to_pixel(env, x, -y, px_per_m)
+    assert not _has_colour(frame, mcol, mrow, half, colour)
+
+
+def test_world_to_pixel_flips_y_and_centres_the_origin(rendered_env):
+    env = rendered_env
+    vp = render.Viewport.of(env.case.plane, 10.0)
+    cx, cy = vp.to_px(0.0, 0.0)
+    # the tiny plane is 20 x 12 m: its top-left corner (-10, 6) is 100 px left, 60 px up
+    assert vp.to_px(-10.0, 6.0) == (cx - 100, cy - 60)
+    assert vp.to_px(10.0, -6.0) == (cx + 100, cy + 60)
+    assert render.world_to_pixel(env, 1.0, 2.0, 10.0) == (cx + 10, cy - 20)
+
+
+def test_left_crews_are_not_drawn(rendered_env):
+    env = rendered_env
+    i = _lone_crew(env)
+    env.site.crews[i].status = CrewStatus.LEFT  # hand-made state: the crew has gone
+    frame = env.render()
+    col, row = render.world_to_pixel(env, *env.world.bodies[i].position)
+    assert not _has_colour(frame, col, row, 3, render.crew_colour(env, i))
+
+
+def test_component_colours_follow_the_task_pools(tiny_env):
+    site = tiny_env.site
+    ids = {c.id: c.index for c in site.components}
+    # conftest: A and B start with a queued task, C's task waits for K-A
+    assert render.component_colour(site, ids["A"]) == render.COMPONENT_EXECUTABLE
+    assert render.component_colour(site, ids["C"]) == render.COMPONENT_WAITING
+    for t in site.components[ids["B"]].tasks:
+        site.tasks[t].pool = Pool.END
+    assert render.component_colour(site, ids["B"]) == render.COMPONENT_DONE
+    site.tasks[site.components[ids["A"]].tasks[0]].pool = Pool.ON
+    assert render.component_colour(site, ids["A"]) == render.COMPONENT_PERFORMING
+
+
+def test_rays_are_drawn_only_on_request(rendered_env):
+    plain = render.draw_frame(rendered_env)
+    assert np.array_equal(plain, render.draw_frame(rendered_env, show_rays=False))
+    assert not np.array_equal(plain, render.draw_frame(rendered_env, show_rays=True))
+
+
+def test_clock_format():
+    assert render.format_clock(0) == "0:00:00"
+    assert render.format_clock(3725.9) == "1:02:05"  # 1 h, 2 min, 5 s
+
+
+def test_render_before_reset_draws_the_empty_plane(tiny_case):
+    env = parallel_env(case=tiny_case, render_mode="rgb_array")
+    width, height = render.Viewport.of(tiny_case.plane).size
+    assert env.render().shape == (height, width, 3)
+
+
+def test_render_without_render_mode_returns_none(tiny_env):
+    assert tiny_env.render() is None
+
+
+# -- the demo script --------------------------------------------------------------------------
+
+def test_demo_writes_a_frame(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    assert demo.main(["--out", str(tmp_path), "--max-time-s", "300"]) == 0
+    frame = iio.imread(tmp_path / "frame.png")
+    assert frame.ndim == 3 and frame.shape[2] == 3
+    assert [p.name for p in tmp_path.iterdir()] == ["frame.png"]  # no temp file left
+    out = capsys.readouterr().out
+    assert "tasks ended" in out and str(tmp_path / "frame.png") in out
+
+
+def test_demo_missing_case_file_returns_2(tmp_path, capsys):
+    missing = tmp_path / "nope.toml"
+    assert demo.main(["--out", str(tmp_path / "out"), "--case", str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert "nope.toml" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_demo_invalid_case_file_returns_2(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[plane]\nwidth_m = -3\n", encoding="utf-8")
+    assert demo.main(["--out", str(tmp_path / "out"), "--case", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "width_m" in err and "Traceback" not in err
