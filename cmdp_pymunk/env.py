@@ -32,6 +32,8 @@ Arguments
     ``"rgb_array"``. ``jump_idle``: when no crew needs a movement decision (all tasking,
     fetching, waiting or gone), one ``step`` call runs on to the next second at which one does;
     ``infos[agent]["elapsed_s"]`` says how far. ``max_time_s`` overrides the case's time limit.
+    ``position_log_every_s``: log moving crews' positions to the event log this often (for
+    trajectory charts); ``None`` logs none.
 
 One step, in the paper's order (section 3.2)
     P_phy (move, physics), P_cons (construct), Pi_cons (the decision table), target
@@ -50,7 +52,7 @@ from pettingzoo import ParallelEnv
 from . import construct, decide, events, move, observe, reward
 from .case import Case, as_case
 from .evaluate import NearestFirstEvaluator, TargetEvaluator, assign_target_values
-from .state import CrewStatus, Site
+from .state import CrewStatus, Site, activity
 from .world import World
 
 
@@ -61,7 +63,7 @@ class CMDPEnv(ParallelEnv):
     def __init__(self, case: Case | str | Path | None = None, stage: int = 2,
                  seed: int | None = None, evaluator: TargetEvaluator | None = None,
                  render_mode: str | None = None, jump_idle: bool = True,
-                 max_time_s: float | None = None):
+                 max_time_s: float | None = None, position_log_every_s: float | None = None):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -71,6 +73,7 @@ class CMDPEnv(ParallelEnv):
         self.stage = stage
         self.render_mode = render_mode
         self.jump_idle = jump_idle
+        self.position_log_every_s = position_log_every_s
         self.evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
         sim = self.case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
@@ -109,12 +112,15 @@ class CMDPEnv(ParallelEnv):
                 crew.load = crew.capacity
         for crew in self.site.crews:
             self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
+        self.activities = [""] * len(self.site.crews)
         self.agents = list(self.possible_agents)
         self.positions = [tuple(b.position) for b in self.world.bodies]
         self.steps = 0
         ctx = self._context()
         decide.apply_decision_table(ctx)
         assign_target_values(self.site, self.evaluator, self.positions)
+        self._log_activities()
+        self._log_positions()
         observations = self._observe()
         infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
         return observations, infos
@@ -166,6 +172,9 @@ class CMDPEnv(ParallelEnv):
         ctx = self._context()
         decide.apply_decision_table(ctx)                                      # Table 1
         assign_target_values(site, self.evaluator, self.positions)            # Eq. 4 or Eq. 9
+        self._log_activities()
+        if any(moving):
+            self._log_positions()
         rewards = []
         weights = self.case.reaching_reward
         for crew in site.crews:                                               # Eqs. 6-7
@@ -183,6 +192,26 @@ class CMDPEnv(ParallelEnv):
                 px, py = self.positions[i]
                 self.site.crews[i].stats.distance_m += math.hypot(x - px, y - py)
                 self.positions[i] = (x, y)
+
+    def _log_activities(self) -> None:
+        """An ``activity`` event whenever a crew's Gantt category (Fig. 9) changes."""
+        for crew in self.site.crews:
+            now = activity(crew)
+            if now != self.activities[crew.index]:
+                self.activities[crew.index] = now
+                self.log.add(self.site.time_s, "activity", crew.id, now)
+
+    def _log_positions(self) -> None:
+        """``position`` events (subject "x,y,heading_deg") of moving crews, for trajectories."""
+        every = self.position_log_every_s
+        if every is None or self.site.time_s % every:
+            return
+        for crew in self.site.crews:
+            if crew.moving:
+                body = self.world.bodies[crew.index]
+                x, y = body.position
+                self.log.add(self.site.time_s, "position", crew.id,
+                             f"{x:.2f},{y:.2f},{math.degrees(body.angle) % 360:.0f}")
 
     def _count(self, crew, was_moving: bool, had_target: bool, contacts) -> None:
         stats = crew.stats

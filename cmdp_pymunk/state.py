@@ -276,3 +276,16 @@ def _descendants(start: int, succ: list[list[int]]) -> set[int]:
             seen.add(n)
             stack.extend(succ[n])
     return seen
+
+
+def activity(crew: CrewState) -> str:
+    """What the crew is doing, in the categories of the agents' Gantt chart (Fig. 9)."""
+    if crew.status == CrewStatus.REACHING:
+        if crew.scope:
+            return "navigating"
+        return "idle_" + (crew.idle_cause.name.lower() if crew.idle_cause else "no_target")
+    return crew.status.name.lower()
+
+
+ACTIVITIES = ("navigating", "idle_predecessor", "idle_area", "idle_no_target", "tasking",
+              "fetching", "waiting", "deregistered", "left")
