@@ -18,7 +18,7 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 	touch $@
 
 demo: $(VENV)/.installed
-	$(PY) -m training.demo --out out/demo
+	$(VENV)/bin/cmdp-simulate --gif --out out/demo
 
 test: $(VENV)/.installed
 	$(PY) -m pytest -q -m "not slow"

@@ -180,7 +180,8 @@ class Navigator:
 
     # -- acting -------------------------------------------------------------------------------
 
-    def actions(self, env) -> dict:
+    def actions(self, env, observations=None) -> dict:
+        """Actions for every agent (the observations are not needed: it reads the state)."""
         if self._episode is not env.site:
             self._setup()
         key = tuple(sorted(self.site.active_areas)) + tuple(

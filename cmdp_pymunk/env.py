@@ -88,6 +88,7 @@ class CMDPEnv(ParallelEnv):
         self._action_space = spaces.MultiDiscrete(move.ACTION_NVEC)
         self._idle_obs = np.zeros(self.rays.size, dtype=np.float32)
         self.rng = np.random.default_rng(seed)
+        self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
         self.site: Site | None = None
         self.world: World | None = None
         self.log = events.EventLog()
@@ -113,6 +114,7 @@ class CMDPEnv(ParallelEnv):
         for crew in self.site.crews:
             self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
         self.activities = [""] * len(self.site.crews)
+        self._obs_cache = [None] * len(self.site.crews)
         self.agents = list(self.possible_agents)
         self.positions = [tuple(b.position) for b in self.world.bodies]
         self.steps = 0
@@ -159,7 +161,9 @@ class CMDPEnv(ParallelEnv):
 
     def _one_step(self, actions) -> tuple[list[float], dict[str, float]]:
         """One second of the CMDP in the paper's order (section 3.2)."""
-        site, world, sim = self.site, self.world, self.case.simulation
+        site, world, sim, clock = self.site, self.world, self.case.simulation, self.clock
+        if clock:
+            clock.start()
         moving = [c.moving for c in site.crews]
         had_target = [c.moving and bool(c.scope) for c in site.crews]
         move.apply_reaching_actions(world, site, actions)                     # P_phy, Eq. 1
@@ -168,6 +172,8 @@ class CMDPEnv(ParallelEnv):
             self._update_positions(moving)
         site.time_s += sim.step_s
         self.steps += 1
+        if clock:
+            clock.lap("physics")
         construct.advance(site, self.positions, self.log, sim.step_s)         # P_cons, Eq. 2
         ctx = self._context()
         decide.apply_decision_table(ctx)                                      # Table 1
@@ -175,6 +181,8 @@ class CMDPEnv(ParallelEnv):
         self._log_activities()
         if any(moving):
             self._log_positions()
+        if clock:
+            clock.lap("decisions")
         rewards = []
         weights = self.case.reaching_reward
         for crew in site.crews:                                               # Eqs. 6-7
@@ -183,7 +191,10 @@ class CMDPEnv(ParallelEnv):
                 contacts, self.eta, ctx.reached_value.get(crew.index), had_target[crew.index],
                 weights) if moving[crew.index] else 0.0)
             self._count(crew, moving[crew.index], had_target[crew.index], contacts)
-        return rewards, reward.evaluation_reward_terms(site, self.case.evaluation_reward)
+        terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)
+        if clock:
+            clock.lap("rewards")
+        return rewards, terms
 
     def _update_positions(self, moving) -> None:
         for i, body in enumerate(self.world.bodies):
@@ -231,11 +242,26 @@ class CMDPEnv(ParallelEnv):
 
     def _observe(self) -> dict[str, np.ndarray]:
         """Rays are cast only for crews that need a movement decision."""
+        if self.clock:
+            self.clock.start()
         out = {}
+        version = self.world.motion_version
         for agent in self.agents:
-            crew = self.site.crews[self.agent_index[agent]]
-            out[agent] = observe.observe_crew(self.world, self.rays, crew) if crew.moving \
-                else self._idle_obs.copy()
+            i = self.agent_index[agent]
+            crew = self.site.crews[i]
+            if not crew.moving:
+                out[agent] = self._idle_obs.copy()
+                continue
+            # Nothing moved and its scope and values are the same objects: the same rays.
+            cached = self._obs_cache[i]
+            if cached is None or cached[0] != version or cached[1] is not crew.scope \
+                    or cached[2] is not crew.values:
+                cached = (version, crew.scope, crew.values,
+                          observe.observe_crew(self.world, self.rays, crew))
+                self._obs_cache[i] = cached
+            out[agent] = cached[3].copy()
+        if self.clock:
+            self.clock.lap("rays")
         return out
 
     def _info(self, i: int, terms: dict, eval_reward: float, elapsed: int,

@@ -81,19 +81,18 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState) -> np.ndarray:
     body = world.bodies[crew.index]
     x, y = body.position
     start = (x, y)
-    query = world.space.segment_query_first
+    query = world.rays.cast
     frontal_filter = world.frontal_filters[crew.index]
     surrounding_filter = world.surrounding_filters[crew.index]
     scope, values = crew.scope, crew.values
     cast: list[float] = []
     for ex, ey, frontal in rays.endpoints(x, y, body.angle):
-        hit = query(start, (ex, ey), 0.0, frontal_filter if frontal else surrounding_filter)
+        hit = query(start, (ex, ey), frontal_filter if frontal else surrounding_filter)
         if hit is None:
             cast += (1.0, 0.0, 0.0)
         else:
-            shape = hit.shape
-            cast += (hit.alpha, shape.kind * TYPE_SCALE, modified_priority(shape.target, scope,
-                                                                           values))
+            alpha, kind, target = hit
+            cast += (alpha, kind * TYPE_SCALE, modified_priority(target, scope, values))
     obs = rays.template.copy()
     obs[rays.slots] = cast
     vx, vy = body.velocity

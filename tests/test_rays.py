@@ -84,3 +84,21 @@ def test_frontal_rays_look_through_task_areas_surrounding_rays_stop_there():
     # surrounding 0 deg: the area at x = 2 of 3 m; 180 deg: the area's edge at x = -1.5 -> 0.5
     assert ray(obs, 3) == pytest.approx((2 / 3, 0.0, TASK_AREA * SCALE, 0.0), abs=1e-6)
     assert ray(obs, 5) == pytest.approx((0.5, 1.0, TASK_AREA * SCALE, 0.0), abs=1e-6)
+
+
+def test_fast_rays_answer_like_the_public_api():
+    from cmdp_pymunk.world import RayCaster
+
+    env = scene()
+    env.world.add_task_area(99, (2.0, -1.5, 3.5, 1.5))
+    fast, public = env.world.rays, RayCaster(env.world.space, public=True)
+    assert fast.fast and not public.fast
+    for crew in env.site.crews:
+        x, y = env.positions[crew.index]
+        for ex, ey, frontal in env.rays.endpoints(x, y, 0.3 * crew.index):
+            flt = env.world.frontal_filters[crew.index] if frontal else \
+                env.world.surrounding_filters[crew.index]
+            a, b = fast.cast((x, y), (ex, ey), flt), public.cast((x, y), (ex, ey), flt)
+            assert (a is None and b is None) or (a[1:] == b[1:] and a[0] == pytest.approx(b[0]))
+    env.world.remove_task_area(99)
+    assert all(k != 99 for k in env.world.area_shapes)

@@ -1,4 +1,4 @@
-"""The rendered frame (media/render.py) and the demo script (training/demo.py)."""
+"""The rendered frame (media/render.py)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ import pytest  # noqa: E402
 from cmdp_pymunk import parallel_env  # noqa: E402
 from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
 from media import render  # noqa: E402
-from training import demo  # noqa: E402
 
 
 @pytest.fixture
@@ -126,32 +125,3 @@ def test_render_before_reset_draws_the_empty_plane(tiny_case):
 
 def test_render_without_render_mode_returns_none(tiny_env):
     assert tiny_env.render() is None
-
-
-# -- the demo script --------------------------------------------------------------------------
-
-def test_demo_writes_a_frame(tmp_path, capsys):
-    import imageio.v3 as iio
-
-    assert demo.main(["--out", str(tmp_path), "--max-time-s", "300"]) == 0
-    frame = iio.imread(tmp_path / "frame.png")
-    assert frame.ndim == 3 and frame.shape[2] == 3
-    assert [p.name for p in tmp_path.iterdir()] == ["frame.png"]  # no temp file left
-    out = capsys.readouterr().out
-    assert "tasks ended" in out and str(tmp_path / "frame.png") in out
-
-
-def test_demo_missing_case_file_returns_2(tmp_path, capsys):
-    missing = tmp_path / "nope.toml"
-    assert demo.main(["--out", str(tmp_path / "out"), "--case", str(missing)]) == 2
-    err = capsys.readouterr().err
-    assert "nope.toml" in err and "Traceback" not in err
-    assert not (tmp_path / "out").exists()
-
-
-def test_demo_invalid_case_file_returns_2(tmp_path, capsys):
-    bad = tmp_path / "bad.toml"
-    bad.write_text("[plane]\nwidth_m = -3\n", encoding="utf-8")
-    assert demo.main(["--out", str(tmp_path / "out"), "--case", str(bad)]) == 2
-    err = capsys.readouterr().err
-    assert "bad.toml" in err and "width_m" in err and "Traceback" not in err

@@ -1,0 +1,558 @@
+"""Charts of a finished run, drawn from its event log alone (section 5.2, Figs. 9, 10 and 11).
+
+- :func:`gantt_agents`, Fig. 9: one row per crew, a bar per ``activity`` interval: idle grey
+  (a lighter grey per cause: predecessor, task area, no target), navigating and deregistered
+  (walking to the outlet) yellow, tasking red, fetching and waiting for the crane green.
+- :func:`gantt_tasks`, Fig. 10: one bar per task from its start to its finish, pauses drawn as
+  lighter segments, tasks sorted by start time from the top, coloured by task type.
+- :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
+  as time goes on, with the components it worked on numbered in the order it started them;
+  (b) every crew's path.
+- :func:`draw_run` draws all three into a run folder; :func:`write_gif` writes frames as a GIF.
+
+Times in the log are simulated seconds; the charts' time axes are in hours. Coordinates are the
+case's: metres, the plane's origin at its centre, y up.
+
+Figures are made with ``matplotlib.figure.Figure`` and rendered by its own Agg canvas, never
+through ``pyplot``: no global backend is switched and no figure is registered anywhere, so
+nothing needs closing and nothing leaks. Every file is rendered into memory first and then
+written atomically (``cmdp_pymunk.events.write_atomic``).
+
+Command line: ``python -m media.charts RUN_DIR [--case PATH]`` redraws a saved run's charts.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import sys
+from collections.abc import Iterable, Sequence
+from itertools import pairwise
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+from matplotlib.collections import LineCollection
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Circle, Patch, Rectangle
+
+from cmdp_pymunk.case import Case
+from cmdp_pymunk.events import Event, read_csv, write_atomic
+
+HOUR_S = 3600.0
+DPI = 110
+MAX_LABELLED_TASKS = 40  # above this many tasks, Fig. 10 shows no task ids (as in the paper)
+
+# Fig. 9's colours: idle grey, navigating yellow, tasking red, materials or crane green.
+ACTIVITY_STYLE: dict[str, dict] = {
+    "idle_predecessor": {"color": "#7f7f7f", "label": "idle: waiting for predecessors"},
+    "idle_area": {"color": "#a8a8a8", "label": "idle: blocked by task areas"},
+    "idle_no_target": {"color": "#d0d0d0", "label": "idle: no target"},
+    "navigating": {"color": "#f2c200", "label": "navigating"},
+    "deregistered": {"color": "#f2c200", "hatch": "////", "edge": "#8a6d00",
+                     "label": "leaving (no work left)"},
+    "tasking": {"color": "#d62728", "label": "tasking"},
+    "fetching": {"color": "#2ca02c", "label": "fetching materials"},
+    "waiting": {"color": "#98df8a", "label": "waiting for the crane"},
+}
+OTHER_ACTIVITY = {"color": "#1f77b4", "label": "other"}  # a category this module does not know
+LEFT = "left"
+
+PRECAST_FILL = "#f5d742"
+PATH_COLOUR = "#d95f02"  # panel (a): orange reads on both the yellow and the grey components
+
+
+class ActivityInterval(NamedTuple):
+    """A crew doing one thing (a Fig. 9 category) from ``start_s`` to ``end_s``."""
+
+    start_s: float
+    end_s: float
+    category: str
+
+
+class TaskBar(NamedTuple):
+    """One task's bar in Fig. 10: the intervals it was being worked on, pauses between them.
+
+    ``finished`` is False when the log ends before the task's ``task_finish``; its last segment
+    then ends at the log's end.
+    """
+
+    task: str
+    crew: str
+    segments: tuple[tuple[float, float], ...]
+    finished: bool
+
+    @property
+    def start_s(self) -> float:
+        return self.segments[0][0]
+
+    @property
+    def end_s(self) -> float:
+        return self.segments[-1][1]
+
+    @property
+    def pauses(self) -> tuple[tuple[float, float], ...]:
+        return tuple((a[1], b[0]) for a, b in pairwise(self.segments))
+
+
+# ------------------------------------------------------------------------------------------
+# Pure helpers: the event log turned into intervals, bars and paths.
+
+
+def log_end_s(events: Sequence[Event]) -> float:
+    """The time of the log's last event (0 for an empty log)."""
+    return max((e.time_s for e in events), default=0.0)
+
+
+def makespan_s(events: Sequence[Event]) -> float | None:
+    """The time of the last ``task_finish``, or None when no task finished."""
+    return max((e.time_s for e in events if e.kind == "task_finish"), default=None)
+
+
+def activity_intervals(events: Sequence[Event],
+                       end_s: float | None = None) -> dict[str, list[ActivityInterval]]:
+    """Per crew, in the order crews first appear in ``activity`` events, what it did when.
+
+    Each ``activity`` event opens an interval that the crew's next one closes; ``left`` closes
+    the last one and opens none. A crew still present at the end of the log has its last
+    interval closed at ``end_s`` (default: the log's last event). Zero-length intervals are
+    dropped.
+    """
+    end = log_end_s(events) if end_s is None else end_s
+    open_: dict[str, tuple[float, str] | None] = {}
+    out: dict[str, list[ActivityInterval]] = {}
+    for e in events:
+        if e.kind != "activity":
+            continue
+        out.setdefault(e.crew, [])
+        current = open_.get(e.crew)
+        if current is not None and e.time_s > current[0]:
+            out[e.crew].append(ActivityInterval(current[0], e.time_s, current[1]))
+        open_[e.crew] = None if e.subject == LEFT else (e.time_s, e.subject)
+    for crew, current in open_.items():
+        if current is not None and end > current[0]:
+            out[crew].append(ActivityInterval(current[0], end, current[1]))
+    return out
+
+
+def task_bars(events: Sequence[Event], end_s: float | None = None) -> list[TaskBar]:
+    """Every started task's worked segments, sorted by start time (ties: log order).
+
+    ``task_start`` and ``task_resume`` open a segment; ``task_pause`` and ``task_finish`` close
+    it. A task unfinished when the log ends has its open segment closed at ``end_s`` (default:
+    the log's last event).
+    """
+    end = log_end_s(events) if end_s is None else end_s
+    crews: dict[str, str] = {}
+    segments: dict[str, list[tuple[float, float]]] = {}
+    open_since: dict[str, float | None] = {}
+    finished: set[str] = set()
+    for e in events:
+        if e.kind in ("task_start", "task_resume"):
+            crews.setdefault(e.subject, e.crew)
+            segments.setdefault(e.subject, [])
+            if open_since.get(e.subject) is None:
+                open_since[e.subject] = e.time_s
+        elif e.kind in ("task_pause", "task_finish") and e.subject in segments:
+            since = open_since.get(e.subject)
+            if since is not None:
+                segments[e.subject].append((since, e.time_s))
+                open_since[e.subject] = None
+            if e.kind == "task_finish":
+                finished.add(e.subject)
+    for task, since in open_since.items():
+        if since is not None:
+            segments[task].append((since, max(end, since)))
+    bars = [TaskBar(t, crews[t], tuple(s), t in finished) for t, s in segments.items() if s]
+    return sorted(bars, key=lambda b: b.start_s)  # stable: ties keep the log's order
+
+
+def crew_paths(events: Sequence[Event]) -> dict[str, np.ndarray]:
+    """Per crew, its ``position`` events as an array of rows ``(time_s, x_m, y_m)``."""
+    rows: dict[str, list[tuple[float, float, float]]] = {}
+    for e in events:
+        if e.kind == "position":
+            x, y = e.subject.split(",")[:2]
+            rows.setdefault(e.crew, []).append((e.time_s, float(x), float(y)))
+    return {crew: np.asarray(r, dtype=float) for crew, r in rows.items()}
+
+
+def task_components(case: Case) -> dict[str, str]:
+    """Task id -> the id of the component it is performed on."""
+    return {t.id: t.component for t in case.tasks}
+
+
+def task_types(case: Case | None, tasks: Iterable[str]) -> dict[str, str]:
+    """Task id -> task type: from the case when given, else the id's prefix before '-'."""
+    known = {t.id: t.type for t in case.tasks} if case is not None else {}
+    return {t: known.get(t, t.split("-", 1)[0]) for t in tasks}
+
+
+def execution_order(events: Sequence[Event], case: Case, crew: str) -> list[str]:
+    """The components on which ``crew`` started tasks, in the order it first started them."""
+    component_of = task_components(case)
+    order: list[str] = []
+    for e in events:
+        if e.kind == "task_start" and e.crew == crew:
+            component = component_of.get(e.subject)
+            if component is not None and component not in order:
+                order.append(component)
+    return order
+
+
+def default_crew(case: Case) -> str:
+    """Fig. 11's crew: the first hoisting crew (type HIC) if the case has one, else its first."""
+    return next((c.id for c in case.crews if c.type == "HIC"), case.crews[0].id)
+
+
+def widths_by_time(times: np.ndarray, narrow: float = 0.6, wide: float = 4.0) -> np.ndarray:
+    """Line widths for the segments between consecutive ``times``: narrow early, wide late."""
+    if len(times) < 2:
+        return np.zeros(0)
+    mid = (times[:-1] + times[1:]) / 2.0
+    span = times[-1] - times[0]
+    frac = (mid - times[0]) / span if span > 0 else np.zeros_like(mid)
+    return narrow + (wide - narrow) * frac
+
+
+def unknown_tasks(events: Sequence[Event], case: Case) -> list[str]:
+    """Task ids in the log's task events that the case does not define (log order)."""
+    known = task_components(case)
+    seen: list[str] = []
+    for e in events:
+        if e.kind.startswith("task_") and e.subject not in known and e.subject not in seen:
+            seen.append(e.subject)
+    return seen
+
+
+# ------------------------------------------------------------------------------------------
+# Figures.
+
+
+def _save(fig: Figure, path: str | Path) -> Path:
+    """Render the figure to PNG in memory, then write it atomically."""
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=DPI)
+    path = Path(path)
+    write_atomic(path, buf.getvalue())
+    return path
+
+
+def _mark_makespan(ax, events: Sequence[Event]) -> Line2D | None:
+    span = makespan_s(events)
+    if span is None:
+        return None
+    return ax.axvline(span / HOUR_S, color="black", linestyle="--", linewidth=1.2,
+                      label=f"makespan {span / HOUR_S:.2f} h ({span:.0f} s)")
+
+
+def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = None) -> Path:
+    """Fig. 9, the agents' Gantt chart: one row per crew, a bar per activity interval.
+
+    Rows in the order crews first appear in ``activity`` events, the first on top. Nothing is
+    drawn after a crew's ``left``. The dashed line is the makespan (the last ``task_finish``).
+    Writes a PNG to ``path`` and returns it.
+    """
+    intervals = activity_intervals(events)
+    crews = list(intervals)
+    fig = Figure(figsize=(11, 1.6 + 0.45 * max(len(crews), 1)), layout="constrained")
+    ax = fig.add_subplot()
+    seen: list[str] = []
+    for row, crew in enumerate(crews):
+        by_category: dict[str, list[tuple[float, float]]] = {}
+        for iv in intervals[crew]:
+            by_category.setdefault(iv.category, []).append(
+                (iv.start_s / HOUR_S, (iv.end_s - iv.start_s) / HOUR_S))
+        for category, spans in by_category.items():
+            style = ACTIVITY_STYLE.get(category, OTHER_ACTIVITY)
+            ax.broken_barh(spans, (row - 0.38, 0.76), facecolors=style["color"],
+                           hatch=style.get("hatch"), edgecolor=style.get("edge", "none"),
+                           linewidth=0)
+            if category not in seen:
+                seen.append(category)
+    ax.set_yticks(range(len(crews)), crews)
+    ax.set_ylim(len(crews) - 0.5, -0.5)
+    ax.set_xlim(0, max(log_end_s(events), 1.0) / HOUR_S * 1.01)
+    ax.set_xlabel("simulated time (h)")
+    ax.set_ylabel("crew")
+    ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
+    ax.set_axisbelow(True)
+    order = [c for c in ACTIVITY_STYLE if c in seen] + [c for c in seen if c not in ACTIVITY_STYLE]
+    handles: list = []
+    for c in order:
+        style = ACTIVITY_STYLE.get(c, {**OTHER_ACTIVITY, "label": c})
+        handles.append(Patch(facecolor=style["color"], hatch=style.get("hatch"),
+                             edgecolor=style.get("edge", style["color"]), linewidth=0,
+                             label=style["label"]))
+    line = _mark_makespan(ax, events)
+    if line is not None:
+        handles.append(line)
+    if handles:
+        fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5),
+                   fontsize=8, frameon=False)
+    ax.set_title(title or "Crews' activities (Fig. 9)")
+    return _save(fig, path)
+
+
+def _type_colours(types: Sequence[str]) -> dict[str, str]:
+    palette = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+               "#17becf", "#bcbd22", "#7f7f7f"]
+    return {t: palette[i % len(palette)] for i, t in enumerate(types)}
+
+
+def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = None,
+                title: str | None = None) -> Path:
+    """Fig. 10, the tasks' Gantt chart: a bar per task from its start to its finish.
+
+    Tasks sorted by start time, the first on top; pauses drawn as lighter segments; colours by
+    task type (from ``case`` when given, else the task id's prefix before '-'). Task ids label
+    the rows only when there are at most ``MAX_LABELLED_TASKS`` tasks. Writes a PNG to
+    ``path`` and returns it.
+    """
+    bars = task_bars(events)
+    type_of = task_types(case, (b.task for b in bars))
+    present = list(dict.fromkeys(type_of[b.task] for b in bars))
+    if case is not None:  # the case's order, so colours are the same from run to run
+        present = [t for t in case.task_types if t in present] + \
+                  [t for t in present if t not in case.task_types]
+    colours = _type_colours(present)
+    n = len(bars)
+    fig = Figure(figsize=(11, min(2.2 + 0.14 * max(n, 1), 30)), layout="constrained")
+    ax = fig.add_subplot()
+    for row, bar in enumerate(bars):
+        colour = colours[type_of[bar.task]]
+        if bar.pauses:
+            ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.pauses],
+                           (row - 0.4, 0.8), facecolors=colour, alpha=0.25, edgecolor="none")
+        ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.segments],
+                       (row - 0.4, 0.8), facecolors=colour, edgecolor="none")
+    if n <= MAX_LABELLED_TASKS:
+        ax.set_yticks(range(n), [b.task for b in bars], fontsize=7)
+    else:
+        ax.set_yticks([])
+    ax.set_ylim(max(n, 1) - 0.5, -0.5)
+    ax.set_xlim(0, max(log_end_s(events), 1.0) / HOUR_S * 1.01)
+    ax.set_xlabel("simulated time (h)")
+    ax.set_ylabel(f"{n} tasks, by start time")
+    ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
+    ax.set_axisbelow(True)
+
+    def type_label(t: str) -> str:
+        if case is not None and t in case.task_types:
+            return f"{t}: {case.task_types[t].name}"
+        return t
+
+    handles: list = [Patch(facecolor=colours[t], label=type_label(t)) for t in present]
+    if any(b.pauses for b in bars):
+        handles.append(Patch(facecolor="#777777", alpha=0.25, label="paused"))
+    line = _mark_makespan(ax, events)
+    if line is not None:
+        handles.append(line)
+    if handles:
+        ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
+    ax.set_title(title or "Tasks (Fig. 10)")
+    return _save(fig, path)
+
+
+def _draw_layout(ax, case: Case, faint: bool = False) -> None:
+    """The plane's outline, storages, components, the outlet and the crane, equal aspect."""
+    plane = case.plane
+    hw, hh = plane.half_extents
+    ax.add_patch(Rectangle((-hw, -hh), plane.width_m, plane.height_m, fill=False,
+                           edgecolor="black", linewidth=1.5))
+    alpha = 0.5 if faint else 1.0
+    for s in case.storages:
+        ax.add_patch(Rectangle((s.x_m - s.width_m / 2, s.y_m - s.height_m / 2), s.width_m,
+                               s.height_m, facecolor="#dbe9f6", edgecolor="#4a7bb7",
+                               linewidth=0.8, alpha=alpha))
+        ax.text(s.x_m, s.y_m, s.id, ha="center", va="center", fontsize=6, color="#2b4f7e",
+                alpha=alpha)
+    for c in case.components:
+        xy = (c.x_m - c.width_m / 2, c.y_m - c.height_m / 2)
+        if c.kind == "precast":
+            patch = Rectangle(xy, c.width_m, c.height_m, facecolor=PRECAST_FILL,
+                              edgecolor="#8a7000", linewidth=0.8, alpha=alpha)
+        else:
+            patch = Rectangle(xy, c.width_m, c.height_m, fill=False, edgecolor="#888888",
+                              linewidth=0.8, alpha=alpha)
+        ax.add_patch(patch)
+    ax.add_patch(Circle((plane.outlet_x_m, plane.outlet_y_m), plane.outlet_radius_m,
+                        facecolor="none", edgecolor="#444444", linestyle=":", linewidth=1.0))
+    ax.text(plane.outlet_x_m, plane.outlet_y_m, "outlet", ha="center", va="center",
+            fontsize=6, color="#444444")
+    ax.plot([case.crane.x_m], [case.crane.y_m], marker="^", color="#444444", markersize=6,
+            linestyle="none")
+    margin = 0.03 * max(plane.width_m, plane.height_m)
+    ax.set_xlim(-hw - margin, hw + margin)
+    ax.set_ylim(-hh - margin, hh + margin)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def trajectories(events: Sequence[Event], case: Case, path: str | Path,
+                 crew: str | None = None) -> Path:
+    """Fig. 11: (a) one crew's path and execution order, (b) every crew's path.
+
+    (a) The path of ``crew`` (default :func:`default_crew`: the hoisting crew) from its
+    ``position`` events, narrow early and wide late, over the layout: precast components filled
+    yellow, the others outlined grey, storages light blue, the outlet and the crane (triangle).
+    The components on which it started tasks carry their order of execution. (b) Every crew's
+    path, one colour per crew. Writes a PNG to ``path`` and returns it.
+    """
+    crew_ids = [c.id for c in case.crews]
+    crew = default_crew(case) if crew is None else crew
+    if crew not in crew_ids:
+        raise ValueError(f"crew {crew!r} is not in case {case.case.name!r}; fix: pass one of "
+                         f"{', '.join(crew_ids)}")
+    paths = crew_paths(events)
+    hw, hh = case.plane.half_extents
+    fig = Figure(figsize=(14, 6.0 * hh / hw + 1.3), layout="constrained")
+    ax_a, ax_b = fig.subplots(1, 2)
+
+    _draw_layout(ax_a, case)
+    own = paths.get(crew)
+    if own is not None and len(own) >= 2:
+        points = own[:, 1:3]
+        segments = np.stack([points[:-1], points[1:]], axis=1)
+        ax_a.add_collection(LineCollection(segments, linewidths=widths_by_time(own[:, 0]),
+                                           colors=PATH_COLOUR, capstyle="round"))
+    if own is not None and len(own):
+        ax_a.plot(own[0, 1], own[0, 2], "o", color=PATH_COLOUR, markersize=5)
+        ax_a.plot(own[-1, 1], own[-1, 2], "s", color=PATH_COLOUR, markersize=5)
+    else:
+        ax_a.text(0, 0, f"no position events for {crew}\n(log positions with "
+                  "position_log_every_s)", ha="center", va="center", fontsize=9)
+    components = {c.id: c for c in case.components}
+    for number, cid in enumerate(execution_order(events, case, crew), start=1):
+        c = components.get(cid)
+        if c is None:
+            continue
+        ax_a.annotate(str(number), (c.x_m + c.width_m / 2, c.y_m + c.height_m / 2),
+                      xytext=(2, 2), textcoords="offset points", fontsize=7,
+                      fontweight="bold", color="#222222",
+                      bbox={"boxstyle": "round,pad=0.15", "facecolor": "white",
+                            "edgecolor": "#8a7000", "linewidth": 0.5, "alpha": 0.9})
+    ax_a.set_title(f"(a) {crew}: path (wider = later) and order of execution", fontsize=10)
+
+    _draw_layout(ax_b, case, faint=True)
+    order = [c for c in crew_ids if c in paths] + [c for c in paths if c not in crew_ids]
+    cmap = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+            "#17becf", "#bcbd22", "#7f7f7f"]
+    for i, cid in enumerate(order):
+        p = paths[cid]
+        ax_b.plot(p[:, 1], p[:, 2], color=cmap[i % len(cmap)], linewidth=1.0, alpha=0.8,
+                  label=cid)
+    if order:
+        ax_b.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    ax_b.set_title("(b) every crew's path", fontsize=10)
+    key = [Patch(facecolor=PRECAST_FILL, edgecolor="#8a7000", label="precast component"),
+           Patch(facecolor="none", edgecolor="#888888", label="other component"),
+           Patch(facecolor="#dbe9f6", edgecolor="#4a7bb7", label="storage"),
+           Line2D([], [], color=PATH_COLOUR, marker="o", linestyle="none",
+                  label=f"{crew}: start"),
+           Line2D([], [], color=PATH_COLOUR, marker="s", linestyle="none", label=f"{crew}: end"),
+           Line2D([], [], color="#444444", marker="^", linestyle="none", label="crane")]
+    fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
+               frameon=False)
+    return _save(fig, path)
+
+
+# ------------------------------------------------------------------------------------------
+# A run folder, GIFs and the command line.
+
+CHART_FILES = ("gantt_agents.png", "gantt_tasks.png", "trajectories.png")
+
+
+def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
+    """Draw Figs. 9-11 of a saved run from ``run_dir/events.csv`` into ``run_dir``.
+
+    Returns the paths of ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png``.
+    Raises FileNotFoundError when there is no ``events.csv`` and ValueError when the log names
+    tasks that ``case`` does not define (the run was made with another case).
+    """
+    run_dir = Path(run_dir)
+    log = run_dir / "events.csv"
+    if not log.is_file():
+        raise FileNotFoundError(f"{log}: no event log; fix: pass a run folder written with "
+                                "env.log.write_csv(run_dir / 'events.csv')")
+    events = read_csv(log)
+    unknown = unknown_tasks(events, case)
+    if unknown:
+        shown = ", ".join(unknown[:5]) + (", ..." if len(unknown) > 5 else "")
+        raise ValueError(f"{log}: {len(unknown)} task(s) not in case {case.case.name!r} "
+                         f"({shown}); fix: pass the case the run was made with")
+    name = case.case.name
+    return [
+        gantt_agents(events, run_dir / CHART_FILES[0], title=f"Crews' activities: {name}"),
+        gantt_tasks(events, run_dir / CHART_FILES[1], case=case, title=f"Tasks: {name}"),
+        trajectories(events, case, run_dir / CHART_FILES[2]),
+    ]
+
+
+def write_gif(frames: Iterable[np.ndarray], path: str | Path,
+              duration_s_per_frame: float) -> Path:
+    """Write (H, W, 3) uint8 frames as a looping GIF, atomically; returns the path.
+
+    GIF stores durations in hundredths of a second, so ``duration_s_per_frame`` is rounded to
+    that. Pillow merges consecutive identical frames into one longer frame (the playing time
+    is unchanged), so the file may hold fewer frames than were given.
+    """
+    import imageio.v3 as iio  # only GIFs need imageio
+
+    if duration_s_per_frame <= 0:
+        raise ValueError(f"duration_s_per_frame must be positive, not {duration_s_per_frame}")
+    stack = [np.asarray(f) for f in frames]
+    if not stack:
+        raise ValueError("no frames to write; fix: pass at least one (H, W, 3) uint8 frame")
+    first = stack[0]
+    for i, f in enumerate(stack):
+        if f.dtype != np.uint8 or f.ndim != 3 or f.shape[2] != 3 or f.shape != first.shape:
+            raise ValueError(f"frame {i} is {f.dtype} {f.shape}; fix: every frame must be "
+                             f"uint8 of one shape (H, W, 3), like frame 0 {first.shape}")
+    buf = io.BytesIO()
+    iio.imwrite(buf, stack, extension=".gif", duration=round(duration_s_per_frame * 1000),
+                loop=0)
+    path = Path(path)
+    write_atomic(path, buf.getvalue())
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m media.charts RUN_DIR [--case PATH]``: redraw a saved run's charts."""
+    parser = argparse.ArgumentParser(prog="python -m media.charts",
+                                     description="Redraw Figs. 9-11 of a saved run from its "
+                                                 "events.csv.")
+    parser.add_argument("run_dir", type=Path, help="run folder holding events.csv")
+    parser.add_argument("--case", type=Path, default=None,
+                        help="the run's case file (TOML); default: RUN_DIR/case.toml if "
+                             "there is one, else the built-in case")
+    ns = parser.parse_args(argv)
+    prog = parser.prog
+    if not (ns.run_dir / "events.csv").is_file():
+        print(f"{prog}: {ns.run_dir / 'events.csv'} does not exist; fix: pass a run folder "
+              "that holds the run's events.csv (written by env.log.write_csv)", file=sys.stderr)
+        return 2
+    from cmdp_pymunk.case import CaseError, load_case
+
+    case_path = ns.case
+    if case_path is None and (ns.run_dir / "case.toml").is_file():
+        case_path = ns.run_dir / "case.toml"
+    try:
+        case = load_case(case_path)
+    except CaseError as err:
+        print(f"{prog}: {err}", file=sys.stderr)
+        return 2
+    try:
+        written = draw_run(ns.run_dir, case)
+    except ValueError as err:
+        print(f"{prog}: {err}", file=sys.stderr)
+        return 2
+    for p in written:
+        print(f"{prog}: wrote {p}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

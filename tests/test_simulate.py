@@ -1,0 +1,93 @@
+"""``cmdp-simulate`` in-process through ``main([...])``, on the tiny example case."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from training import simulate
+
+TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
+
+
+def test_simulate_writes_summary_events_and_charts(tmp_path, capsys):
+    out = tmp_path / "run"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--seed", "3", "--no-progress"]) == 0
+    data = json.loads((out / "summary.json").read_text())
+    assert data["all_finished"] and data["tasks_finished"] == data["tasks_total"] == 3
+    assert data["makespan_s"] > data["lower_bound"]["lower_bound_s"] > 0
+    assert data["makespan_over_lower_bound"] == pytest.approx(
+        data["makespan_s"] / data["lower_bound"]["lower_bound_s"])
+    crew = data["crews"]["RC-1"]
+    assert set(crew["idle_steps"]) == {"waiting_for_predecessor", "blocked_by_task_area",
+                                       "no_target"}
+    assert crew["idle_steps"]["waiting_for_predecessor"] > 0  # R waits for HI
+    assert crew["material_trips"] >= 1 and crew["distance_m"] > 0
+    assert data["seed"] == 3 and data["versions"]["pymunk"]
+    events = (out / "events.csv").read_text().splitlines()
+    assert events[0] == "time_s,kind,crew,subject,detail"
+    assert sum(",task_finish," in e for e in events) == 3
+    for chart in ("gantt_agents.png", "gantt_tasks.png", "trajectories.png"):
+        assert (out / chart).stat().st_size > 1000
+    assert json.loads((out / "case.json").read_text())["case"]["name"] == "tiny"
+    assert "makespan" in capsys.readouterr().out
+
+
+def test_same_seed_same_schedule(tmp_path):
+    for name in ("a", "b"):
+        assert simulate.main(["--case", TINY, "--out", str(tmp_path / name), "--no-charts",
+                              "--no-progress"]) == 0
+    assert (tmp_path / "a" / "events.csv").read_text() == \
+        (tmp_path / "b" / "events.csv").read_text()
+
+
+def test_episodes_table(tmp_path):
+    out = tmp_path / "many"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "3", "--no-charts",
+                          "--no-progress"]) == 0
+    stats = json.loads((out / "makespans.json").read_text())
+    assert stats["episodes"] == stats["finished"] == 3
+    assert stats["min_s"] <= stats["mean_s"] <= stats["max_s"]
+    assert len((out / "makespans.csv").read_text().splitlines()) == 4
+    assert (out / "seed-1" / "summary.json").exists()
+
+
+def test_gif_is_written(tmp_path):
+    out = tmp_path / "gif"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--gif", "--no-charts",
+                          "--no-progress"]) == 0
+    import imageio.v3 as iio
+
+    frames = iio.imread(out / "rollout.gif", index=None)
+    assert 2 <= len(frames) <= simulate.GIF_SECONDS * simulate.GIF_FPS
+
+
+def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch):
+    from cmdp_pymunk.move import STAND_STILL
+
+    class Frozen:  # a navigator that never moves: nobody reaches anything
+        def __init__(self, env):
+            pass
+
+        def actions(self, env, observations=None):
+            return {a: STAND_STILL for a in env.agents}
+
+    monkeypatch.setattr(simulate, "Navigator", Frozen)
+    out = tmp_path / "stall"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--stall-s", "200",
+                          "--no-charts", "--no-progress"]) == 1
+    data = json.loads((out / "summary.json").read_text())
+    assert data["stalled"]["after_s"] >= 200 and not data["all_finished"]
+    assert {c["crew"] for c in data["stalled"]["crews"]} == {"HIC-1", "RC-1"}
+    assert "STALLED" in capsys.readouterr().err
+
+
+def test_bad_input_exits_2(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[plane]\nwidth_m = -1\n")
+    assert simulate.main(["--case", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "bad.toml" in err and "Traceback" not in err
+    assert simulate.main(["--case", TINY, "--navigator", str(tmp_path / "nope.zip"),
+                          "--out", str(tmp_path / "o")]) == 2
+    assert "no such model file" in capsys.readouterr().err
