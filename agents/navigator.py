@@ -132,10 +132,9 @@ class Navigator:
         cost = np.ones((self.ny, self.nx))
         for t in self.site.active_areas:
             cost[self._rect_mask(self.site.tasks[t].area)] = AREA_COST
-        for st in self.site.storages:
-            if st.stock > 0:
-                cost[self._rect_mask(st.rect)] = np.maximum(cost[self._rect_mask(st.rect)],
-                                                            STORAGE_COST)
+        for st in self.site.storages:  # stocked or not: stocks change too often to re-plan on
+            cost[self._rect_mask(st.rect)] = np.maximum(cost[self._rect_mask(st.rect)],
+                                                        STORAGE_COST)
         return cost
 
     def _rect_mask(self, rect, shrink: float = 0.0) -> np.ndarray:
@@ -184,8 +183,7 @@ class Navigator:
         """Actions for every agent (the observations are not needed: it reads the state)."""
         if self._episode is not env.site:
             self._setup()
-        key = tuple(sorted(self.site.active_areas)) + tuple(
-            s.stock > 0 for s in self.site.storages)
+        key = tuple(sorted(self.site.active_areas))
         if key != self.area_key:  # task areas appeared or vanished: re-plan everything
             self.area_key = key
             self.fields = {}

@@ -52,6 +52,7 @@ class Rule:
     name: str  # the paper's wording
     trigger: Callable[[CrewState, Context], bool]
     effect: Callable[[CrewState, Context], None]
+    statuses: tuple[CrewStatus, ...]  # the crew states its trigger can hold in (an index only)
 
 
 # -- what the triggers read -------------------------------------------------------------------
@@ -329,24 +330,28 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
         crew.idle_cause = IdleCause.PREDECESSOR
 
 
+_T, _F, _R = (CrewStatus.TASKING,), (CrewStatus.FETCHING,), (CrewStatus.REACHING,)
 DECISION_TABLE: tuple[Rule, ...] = (
-    Rule("c9", "Complete task", tasking_with_progress_complete, complete_task),
-    Rule("c3", "Pause task", tasking_with_material_running_out, pause_task),
+    Rule("c9", "Complete task", tasking_with_progress_complete, complete_task, _T),
+    Rule("c3", "Pause task", tasking_with_material_running_out, pause_task, _T),
     Rule("c8", "Request crane for task", started_crane_task_with_material,
-         request_crane_for_task),
-    Rule("c2", "Execute task", tasking_with_equipment_and_material, execute_task),
-    Rule("c6", "Fetching completed", fetching_at_full_load, complete_fetching),
-    Rule("c7", "Request crane for material", storage_running_out, request_crane_for_material),
-    Rule("c5", "Fetch materials", reached_storage_with_stock, fetch_materials),
-    Rule("c4", "Resume task", reached_paused_task, resume_task),
-    Rule("c1", "Initiate task", reached_task_target_with_equipment, initiate_task),
-    Rule("c10", "Acquire target", reaching_without_current_scope, acquire_target),
+         request_crane_for_task, _T),
+    Rule("c2", "Execute task", tasking_with_equipment_and_material, execute_task, _T),
+    Rule("c6", "Fetching completed", fetching_at_full_load, complete_fetching, _F),
+    Rule("c7", "Request crane for material", storage_running_out, request_crane_for_material,
+         _F + _R),
+    Rule("c5", "Fetch materials", reached_storage_with_stock, fetch_materials, _R),
+    Rule("c4", "Resume task", reached_paused_task, resume_task, _R),
+    Rule("c1", "Initiate task", reached_task_target_with_equipment, initiate_task, _R),
+    Rule("c10", "Acquire target", reaching_without_current_scope, acquire_target, _R),
 )
 TERMINAL_ROWS = {"c2", "c10"}  # rows after which no other row fires in the same step
+# The table's rows per crew state, in table order: a waiting or deregistered crew tries none.
+ROWS_BY_STATUS = {s: tuple(r for r in DECISION_TABLE if s in r.statuses) for s in CrewStatus}
 
 
 def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
-    for rule in DECISION_TABLE:
+    for rule in ROWS_BY_STATUS[crew.status]:
         if rule.trigger(crew, ctx):
             return rule
     return None

@@ -115,6 +115,7 @@ class CMDPEnv(ParallelEnv):
             self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
         self.activities = [""] * len(self.site.crews)
         self._obs_cache = [None] * len(self.site.crews)
+        self._last_logged = [None] * len(self.site.crews)
         self.agents = list(self.possible_agents)
         self.positions = [tuple(b.position) for b in self.world.bodies]
         self.steps = 0
@@ -213,14 +214,21 @@ class CMDPEnv(ParallelEnv):
                 self.log.add(self.site.time_s, "activity", crew.id, now)
 
     def _log_positions(self) -> None:
-        """``position`` events (subject "x,y,heading_deg") of moving crews, for trajectories."""
+        """``position`` events (subject "x,y,heading_deg") of crews that moved, for trajectories.
+
+        Every ``position_log_every_s`` (in whole steps); a crew standing still logs nothing.
+        """
         every = self.position_log_every_s
-        if every is None or self.site.time_s % every:
+        if every is None or self.steps % max(1, round(every / self.case.simulation.step_s)):
             return
         for crew in self.site.crews:
             if crew.moving:
                 body = self.world.bodies[crew.index]
                 x, y = body.position
+                last = self._last_logged[crew.index]
+                if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
+                    continue
+                self._last_logged[crew.index] = (x, y)
                 self.log.add(self.site.time_s, "position", crew.id,
                              f"{x:.2f},{y:.2f},{math.degrees(body.angle) % 360:.0f}")
 

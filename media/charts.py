@@ -18,13 +18,16 @@ through ``pyplot``: no global backend is switched and no figure is registered an
 nothing needs closing and nothing leaks. Every file is rendered into memory first and then
 written atomically (``cmdp_pymunk.events.write_atomic``).
 
-Command line: ``python -m media.charts RUN_DIR [--case PATH]`` redraws a saved run's charts.
+Command line: ``python -m media.charts RUN_DIR [--case PATH]`` redraws a saved run's charts;
+without ``--case`` it uses the ``case.json`` that ``cmdp-simulate`` saves with a run (in RUN_DIR
+or its parent), else the built-in case.
 """
 
 from __future__ import annotations
 
 import argparse
 import io
+import json
 import sys
 from collections.abc import Iterable, Sequence
 from itertools import pairwise
@@ -519,6 +522,32 @@ def write_gif(frames: Iterable[np.ndarray], path: str | Path,
     return path
 
 
+def run_case_path(run_dir: Path) -> Path | None:
+    """The resolved case ``cmdp-simulate`` saved with a run: ``case.json`` in the run folder,
+    or in its parent (a ``seed-K/`` folder of a multi-episode run); None when there is none."""
+    for folder in (run_dir, run_dir.parent):
+        if (folder / "case.json").is_file():
+            return folder / "case.json"
+    return None
+
+
+def load_run_case(path: Path | None) -> Case:
+    """A case from a TOML case file, a resolved ``case.json``, or None (the built-in case).
+
+    Raises ``cmdp_pymunk.case.CaseError`` for a file that cannot be read or is not a valid case.
+    """
+    from cmdp_pymunk.case import CaseError, case_from_dict, load_case
+
+    if path is None or path.suffix.lower() != ".json":
+        return load_case(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise CaseError(str(path), [f"cannot read the resolved case ({err}); fix: pass the "
+                                    "run's case file with --case"]) from None
+    return case_from_dict(data, path.name)
+
+
 def main(argv: list[str] | None = None) -> int:
     """``python -m media.charts RUN_DIR [--case PATH]``: redraw a saved run's charts."""
     parser = argparse.ArgumentParser(prog="python -m media.charts",
@@ -526,21 +555,19 @@ def main(argv: list[str] | None = None) -> int:
                                                  "events.csv.")
     parser.add_argument("run_dir", type=Path, help="run folder holding events.csv")
     parser.add_argument("--case", type=Path, default=None,
-                        help="the run's case file (TOML); default: RUN_DIR/case.toml if "
-                             "there is one, else the built-in case")
+                        help="the run's case: a case file (TOML) or a resolved case.json; "
+                             "default: case.json in RUN_DIR or its parent, else the built-in "
+                             "case")
     ns = parser.parse_args(argv)
     prog = parser.prog
     if not (ns.run_dir / "events.csv").is_file():
         print(f"{prog}: {ns.run_dir / 'events.csv'} does not exist; fix: pass a run folder "
               "that holds the run's events.csv (written by env.log.write_csv)", file=sys.stderr)
         return 2
-    from cmdp_pymunk.case import CaseError, load_case
+    from cmdp_pymunk.case import CaseError
 
-    case_path = ns.case
-    if case_path is None and (ns.run_dir / "case.toml").is_file():
-        case_path = ns.run_dir / "case.toml"
     try:
-        case = load_case(case_path)
+        case = load_run_case(ns.case if ns.case is not None else run_case_path(ns.run_dir))
     except CaseError as err:
         print(f"{prog}: {err}", file=sys.stderr)
         return 2

@@ -8,6 +8,8 @@ reinforces C with one pause to fetch more, and is still walking out when the log
 
 from __future__ import annotations
 
+import json
+
 import imageio.v3 as iio
 import numpy as np
 import pytest
@@ -207,6 +209,17 @@ def test_cli(tmp_path, capsys):
     assert charts.main([str(tmp_path)]) == 0
     assert "trajectories.png" in capsys.readouterr().out
     assert (tmp_path / "gantt_tasks.png").is_file()
+
+
+def test_cli_finds_the_resolved_case_json(tmp_path, tiny_case, capsys):
+    """cmdp-simulate saves case.json beside the run, or above its seed-K/ folders."""
+    write_atomic(tmp_path / "case.json", json.dumps(tiny_case.model_dump(mode="json")))
+    write_atomic(tmp_path / "seed-0" / "events.csv", make_log().to_csv())
+    assert charts.main([str(tmp_path / "seed-0")]) == 0
+    assert (tmp_path / "seed-0" / "trajectories.png").is_file()
+    write_atomic(tmp_path / "case.json", "{not json")
+    assert charts.main([str(tmp_path / "seed-0")]) == 2
+    assert "case.json" in capsys.readouterr().err
 
 
 def test_write_gif(tmp_path):

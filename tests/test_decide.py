@@ -210,6 +210,8 @@ def test_no_state_fires_two_rows():
         ctx = ctx_of(env)
         ctx.reached[M1] = next(iter(crew.scope)) if reached and crew.scope else -1
         hits = [r.code for r in decide.DECISION_TABLE if r.trigger(crew, ctx)]
+        indexed = {r.code for r in decide.ROWS_BY_STATUS[status]}
+        assert set(hits) <= indexed, (status.name, hits)
         if len(hits) > 1:
             overlaps.append((status.name, kind.name, paused, reached, load, done, assisted,
                              stock, current, pool.name, hits))
@@ -219,3 +221,12 @@ def test_no_state_fires_two_rows():
 def test_table_prints_as_markdown():
     text = decide.table_as_markdown()
     assert text.count("\n") == 11 and "Initiate task" in text
+
+
+def test_rows_by_status_index_matches_the_triggers():
+    """A row left out of a state's index must never trigger in that state."""
+    for rule in decide.DECISION_TABLE:
+        for status in CrewStatus:
+            if status not in rule.statuses:
+                assert rule not in decide.ROWS_BY_STATUS[status]
+    assert decide.ROWS_BY_STATUS[CrewStatus.WAITING] == ()

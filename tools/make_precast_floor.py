@@ -17,8 +17,8 @@ ROWS_Y = (10.0, 0.0, -10.0)
 PRECAST_SIZE_M = 2.0
 JOINT_LONG_M, JOINT_SHORT_M = 2.0, 1.2
 MISSING_JOINT = ("V", 2, 0)  # the vertical joint at x=0 between rows 0 and 1: a stair opening
-REBAR_M3_PER_JOINT = 0.55
-FORMWORK_M2_PER_JOINT = 13.0
+REBAR_M3_PER_JOINT = 0.5
+FORMWORK_M2_PER_JOINT = 12.0
 STRUT_SETS_PER_PRECAST = 1.0
 
 HEADER = '''# The built-in case: a precast floor reconstructed from the paper's case study (sec. 5).
