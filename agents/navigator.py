@@ -81,13 +81,17 @@ class _Grid:
         self.n = n
         self.graphs: dict = {}
 
-    def graph(self, cost: np.ndarray, key) -> csr_matrix:
-        g = self.graphs.get(key)
+    def graph(self, cost: np.ndarray, key=None) -> csr_matrix:
+        """The weighted graph for these cell costs; cached under ``key`` (the area state) if
+        given. Personal detours pass no key: a key made from an object's id could be reused
+        by a later object, and a stale graph would make runs differ."""
+        g = self.graphs.get(key) if key is not None else None
         if g is None:
             c = cost.ravel()
             w = self.length * 0.5 * (c[self.src] + c[self.dst])
             g = csr_matrix((w, (self.src, self.dst)), shape=(self.n, self.n))
-            self.graphs = {key: g}  # one area state at a time
+            if key is not None:
+                self.graphs = {key: g}  # one area state at a time
         return g
 
 
@@ -165,7 +169,7 @@ class Navigator:
         if extra_blocked is not None:
             cost = cost.copy()
             cost[extra_blocked] = 1e4  # passable at a price: never trapped by a crowd
-        graph = grid.graph(cost, (self.area_key, extra_blocked is not None, id(extra_blocked)))
+        graph = grid.graph(cost, self.area_key if extra_blocked is None else None)
         goal = self._goal_mask(crew, target) & ~grid.blocked
         goals = np.flatnonzero(goal.ravel())
         if goals.size == 0:
@@ -296,7 +300,7 @@ class Navigator:
             for s in site.storages:
                 busy |= self._rect_mask(s.rect)
             goals = np.flatnonzero((~busy & ~grid.blocked).ravel())
-            graph = grid.graph(self._cost(), (self.area_key, False, 0))
+            graph = grid.graph(self._cost(), self.area_key)
             field = dijkstra(graph, directed=False, indices=goals, min_only=True)
             field = field.reshape(self.ny, self.nx)
             self.fields[key] = field

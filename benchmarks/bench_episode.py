@@ -21,8 +21,11 @@ from cmdp_pymunk.timing import StageClock
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--no-park", action="store_true",
+                        help="idle crews need a decision every step (the paper's reading)")
     args = parser.parse_args(argv)
-    env = cmdp_pymunk.parallel_env(seed=args.seed, evaluator=PriorityEvaluator())
+    env = cmdp_pymunk.parallel_env(seed=args.seed, evaluator=PriorityEvaluator(),
+                                   park_idle=not args.no_park)
     clock = StageClock()
     env.clock = clock
     observations, _ = env.reset(seed=args.seed)

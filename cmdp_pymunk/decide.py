@@ -357,6 +357,15 @@ def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
     return None
 
 
+def only_execution_fires(ctx: Context) -> bool:
+    """True when, for every crew, no row but c2 (execute) would fire: a quiet second."""
+    for crew in ctx.site.crews:
+        for rule in ROWS_BY_STATUS[crew.status]:
+            if rule.code != "c2" and rule.trigger(crew, ctx):
+                return False
+    return True
+
+
 def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}

@@ -32,6 +32,10 @@ Arguments
     ``"rgb_array"``. ``jump_idle``: when no crew needs a movement decision (all tasking,
     fetching, waiting or gone), one ``step`` call runs on to the next second at which one does;
     ``infos[agent]["elapsed_s"]`` says how far. ``max_time_s`` overrides the case's time limit.
+    ``park_idle``: a crew without a target that stands outside every task area and storage is
+    parked: it stands still, needs no movement decision and does not hold up the idle jump (the
+    paper lets such crews manoeuvre; a scripted low level that only parks them runs faster this
+    way). Default False.
     ``position_log_every_s``: log moving crews' positions to the event log this often (for
     trajectory charts); ``None`` logs none.
 
@@ -52,8 +56,8 @@ from pettingzoo import ParallelEnv
 from . import construct, decide, events, move, observe, reward
 from .case import Case, as_case
 from .evaluate import NearestFirstEvaluator, TargetEvaluator, assign_target_values
-from .state import CrewStatus, Site, activity
-from .world import World
+from .state import CrewStatus, Site, activity, inside
+from .world import N_KINDS, World
 
 
 class CMDPEnv(ParallelEnv):
@@ -63,7 +67,8 @@ class CMDPEnv(ParallelEnv):
     def __init__(self, case: Case | str | Path | None = None, stage: int = 2,
                  seed: int | None = None, evaluator: TargetEvaluator | None = None,
                  render_mode: str | None = None, jump_idle: bool = True,
-                 max_time_s: float | None = None, position_log_every_s: float | None = None):
+                 max_time_s: float | None = None, position_log_every_s: float | None = None,
+                 park_idle: bool = False):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -74,6 +79,7 @@ class CMDPEnv(ParallelEnv):
         self.render_mode = render_mode
         self.jump_idle = jump_idle
         self.position_log_every_s = position_log_every_s
+        self.park_idle = park_idle
         self.evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
         sim = self.case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
@@ -116,6 +122,8 @@ class CMDPEnv(ParallelEnv):
         self.activities = [""] * len(self.site.crews)
         self._obs_cache = [None] * len(self.site.crews)
         self._last_logged = [None] * len(self.site.crews)
+        self._no_contacts = [0] * N_KINDS
+        self._no_rewards = [0.0] * len(self.site.crews)
         self.agents = list(self.possible_agents)
         self.positions = [tuple(b.position) for b in self.world.bodies]
         self.steps = 0
@@ -124,6 +132,7 @@ class CMDPEnv(ParallelEnv):
         assign_target_values(self.site, self.evaluator, self.positions)
         self._log_activities()
         self._log_positions()
+        self._action_needed = any(self.needs_action(c) for c in self.site.crews)
         observations = self._observe()
         infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
         return observations, infos
@@ -145,7 +154,7 @@ class CMDPEnv(ParallelEnv):
                 terms[k] += v
             truncated = site.time_s >= self.max_time_s - 1e-9
             if site.done or truncated or not self.jump_idle or \
-                    any(c.moving for c in site.crews):
+                    self._action_needed:
                 break
         terminated = site.done
         agents = self.agents
@@ -165,18 +174,35 @@ class CMDPEnv(ParallelEnv):
         site, world, sim, clock = self.site, self.world, self.case.simulation, self.clock
         if clock:
             clock.start()
+        # Quiet: the plane is at rest and no crew needs a movement decision, so P_phy is void.
+        quiet = world.at_rest and not self._action_needed
         moving = [c.moving for c in site.crews]
         had_target = [c.moving and bool(c.scope) for c in site.crews]
-        move.apply_reaching_actions(world, site, actions)                     # P_phy, Eq. 1
-        if any(moving):
-            world.step(sim.step_s, sim.physics_substeps)
-            self._update_positions(moving)
+        if not quiet:
+            if self.park_idle:  # a parked crew stands still whatever its action
+                actions = [a if self.needs_action(c) else move.STAND_STILL
+                           for a, c in zip(actions, site.crews, strict=True)]
+            move.apply_reaching_actions(world, site, actions)                 # P_phy, Eq. 1
+            if any(moving):
+                world.step(sim.step_s, sim.physics_substeps)
+                self._update_positions(moving)
         site.time_s += sim.step_s
         self.steps += 1
         if clock:
             clock.lap("physics")
         construct.advance(site, self.positions, self.log, sim.step_s)         # P_cons, Eq. 2
         ctx = self._context()
+        if quiet and decide.only_execution_fires(ctx):
+            # Nothing but c2 (tasks progress) would fire: the decisions, the evaluation and the
+            # rewards would change nothing but the counters, so only those are kept.
+            for crew in site.crews:
+                self._count(crew, moving[crew.index], False, self._no_contacts)
+            if any(moving):
+                self._log_positions()
+            if clock:
+                clock.lap("decisions")
+            return self._no_rewards, reward.evaluation_reward_terms(
+                site, self.case.evaluation_reward)
         decide.apply_decision_table(ctx)                                      # Table 1
         assign_target_values(site, self.evaluator, self.positions)            # Eq. 4 or Eq. 9
         self._log_activities()
@@ -193,6 +219,7 @@ class CMDPEnv(ParallelEnv):
                 weights) if moving[crew.index] else 0.0)
             self._count(crew, moving[crew.index], had_target[crew.index], contacts)
         terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)
+        self._action_needed = any(self.needs_action(c) for c in site.crews)
         if clock:
             clock.lap("rewards")
         return rewards, terms
@@ -204,6 +231,16 @@ class CMDPEnv(ParallelEnv):
                 px, py = self.positions[i]
                 self.site.crews[i].stats.distance_m += math.hypot(x - px, y - py)
                 self.positions[i] = (x, y)
+
+    def needs_action(self, crew) -> bool:
+        """Whether the crew's reaching action is used this step (section 3.6.2)."""
+        if not crew.moving:
+            return False
+        if self.park_idle and not crew.scope and crew.status == CrewStatus.REACHING:
+            x, y = self.positions[crew.index]
+            return move.congestion_index(self.site, x, y) < 1.0 or any(
+                inside(x, y, s.rect) for s in self.site.storages)
+        return True
 
     def _log_activities(self) -> None:
         """An ``activity`` event whenever a crew's Gantt category (Fig. 9) changes."""
@@ -257,7 +294,7 @@ class CMDPEnv(ParallelEnv):
         for agent in self.agents:
             i = self.agent_index[agent]
             crew = self.site.crews[i]
-            if not crew.moving:
+            if not self.needs_action(crew):
                 out[agent] = self._idle_obs.copy()
                 continue
             # Nothing moved and its scope and values are the same objects: the same rays.
@@ -276,7 +313,7 @@ class CMDPEnv(ParallelEnv):
               time_limit: bool) -> dict:
         crew = self.site.crews[i]
         return {"status": crew.status.name.lower(), "time_s": self.site.time_s,
-                "elapsed_s": elapsed, "needs_action": crew.moving,
+                "elapsed_s": elapsed, "needs_action": self.needs_action(crew),
                 "evaluation_reward": eval_reward, "evaluation_terms": dict(terms),
                 "TimeLimit.truncated": time_limit}
 

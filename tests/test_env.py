@@ -124,3 +124,16 @@ def test_bad_arguments_are_refused():
         tiny_env(stage=3)
     with pytest.raises(ValueError, match="render_mode"):
         tiny_env(render_mode="human")
+
+
+def test_idle_jump_with_parked_crews_gives_the_same_schedule():
+    from agents.navigator import Navigator
+
+    runs = []
+    for jump in (True, False):
+        env = tiny_env(jump_idle=jump, park_idle=True, seed=2)
+        nav = Navigator(env)
+        run_episode(env, 2, lambda e, nav=nav: nav.actions(e))
+        assert env.site.done
+        runs.append(env)
+    assert schedule(runs[0]) == schedule(runs[1])

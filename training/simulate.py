@@ -288,10 +288,13 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     case_label = str(args.case) if args.case else "built-in (precast_floor.toml)"
     lb = lower_bound(case)
+    # The scripted navigator only parks idle crews: let the env skip their seconds (park_idle).
+    # A trained navigator gets every crew's decision, as in the paper.
     env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
                                    render_mode="rgb_array" if args.gif else None,
                                    max_time_s=args.max_time_s,
-                                   position_log_every_s=POSITION_LOG_EVERY_S)
+                                   position_log_every_s=POSITION_LOG_EVERY_S,
+                                   park_idle=args.navigator == "scripted")
     if hasattr(evaluator, "bind"):
         evaluator.bind(env)
     try:
