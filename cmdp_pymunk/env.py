@@ -60,6 +60,10 @@ from .state import CrewStatus, Site, activity, inside
 from .world import N_KINDS, World
 
 
+# per-agent counts of one step() call, in infos[agent]["step_stats"] (training metrics)
+STEP_STATS = ("reaches", "timeouts", "reaching", "collisions", "congestion")
+
+
 class CMDPEnv(ParallelEnv):
     metadata = {"name": "cmdp_pymunk_v0", "render_modes": ["rgb_array"], "render_fps": 10,
                 "is_parallelizable": True}
@@ -87,6 +91,7 @@ class CMDPEnv(ParallelEnv):
                                      sim.field_of_view_deg, sim.sight_distance_m,
                                      sim.surrounding_distance_m)
         self.eta = reward.eta_by_kind(self.case.reaching_reward)
+        self._reach_cap = sim.reevaluate_after_steps
         self.possible_agents = [c.id for c in self.case.crews]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
@@ -123,6 +128,7 @@ class CMDPEnv(ParallelEnv):
         self._obs_cache = [None] * len(self.site.crews)
         self._last_logged = [None] * len(self.site.crews)
         self._no_contacts = [0] * N_KINDS
+        self._step_stats = [dict.fromkeys(STEP_STATS, 0) for _ in self.site.crews]
         self._no_rewards = [0.0] * len(self.site.crews)
         self.agents = list(self.possible_agents)
         self.positions = [tuple(b.position) for b in self.world.bodies]
@@ -144,6 +150,8 @@ class CMDPEnv(ParallelEnv):
         action_list = [actions.get(a, move.STAND_STILL) for a in self.possible_agents]
         rewards = [0.0] * len(self.possible_agents)
         terms = dict.fromkeys(reward.EVALUATION_TERMS, 0.0)
+        reaches_before = [c.stats.reaches for c in site.crews]
+        self._step_stats = [dict.fromkeys(STEP_STATS, 0) for _ in site.crews]
         elapsed = 0
         while True:
             step_rewards, step_terms = self._one_step(action_list)
@@ -163,6 +171,9 @@ class CMDPEnv(ParallelEnv):
         rew = {a: rewards[self.agent_index[a]] for a in agents}
         terms_out = {a: terminated for a in agents}
         truncs = {a: truncated and not terminated for a in agents}
+        for crew in site.crews:
+            self._step_stats[crew.index]["reaches"] = crew.stats.reaches - \
+                reaches_before[crew.index]
         infos = {a: self._info(self.agent_index[a], terms, eval_reward, elapsed,
                                truncated and not terminated) for a in agents}
         if terminated or truncated:
@@ -270,15 +281,27 @@ class CMDPEnv(ParallelEnv):
                              f"{x:.2f},{y:.2f},{math.degrees(body.angle) % 360:.0f}")
 
     def _count(self, crew, was_moving: bool, had_target: bool, contacts) -> None:
-        stats = crew.stats
+        """Per-crew counters; ``step_stats`` gathers this call's share for training metrics."""
+        stats, step = crew.stats, self._step_stats[crew.index]
         if was_moving:
-            crew.steps_since_reach += 1
             if had_target:
                 stats.reaching_steps += 1
-            elif crew.status == CrewStatus.REACHING and crew.idle_cause:
-                stats.idle_steps[crew.idle_cause] += 1
-            stats.collisions += contacts[1] + contacts[2] + contacts[3]
-            stats.congestion_entries += contacts[4] + contacts[5]
+                step["reaching"] += 1
+                if crew.moving and crew.scope:  # still after it: one more step without a reach
+                    crew.steps_since_reach += 1
+                    if crew.steps_since_reach % self._reach_cap == 0:
+                        stats.reach_timeouts += 1  # over the step cap without reaching
+                        step["timeouts"] += 1
+            else:
+                crew.steps_since_reach = 0  # holding no target: no attempt under way
+                if crew.status == CrewStatus.REACHING and crew.idle_cause:
+                    stats.idle_steps[crew.idle_cause] += 1
+            collisions = contacts[1] + contacts[2] + contacts[3]
+            entries = contacts[4] + contacts[5]
+            stats.collisions += collisions
+            stats.congestion_entries += entries
+            step["collisions"] += collisions
+            step["congestion"] += entries
         elif crew.status == CrewStatus.WAITING:
             stats.crane_wait_steps += 1
 
@@ -315,6 +338,7 @@ class CMDPEnv(ParallelEnv):
         return {"status": crew.status.name.lower(), "time_s": self.site.time_s,
                 "elapsed_s": elapsed, "needs_action": self.needs_action(crew),
                 "evaluation_reward": eval_reward, "evaluation_terms": dict(terms),
+                "step_stats": self._step_stats[i],
                 "TimeLimit.truncated": time_limit}
 
     # -- for the high level, the scripted policies and the media ------------------------------

@@ -72,6 +72,6 @@ def assign_target_values(site: Site, evaluator: TargetEvaluator, positions) -> N
     for crew in site.crews:
         if not crew.scope:
             continue
-        stale = crew.steps_since_reach > 0 and crew.steps_since_reach % every == 0
+        stale = crew.steps_since_reach > 0 and crew.steps_since_reach % every == 0  # section 3.6
         if stale or crew.values.keys() != crew.scope.keys():
             crew.values = dict(evaluator.target_values(crew, site, positions[crew.index]))

@@ -147,6 +147,7 @@ class CrewStats:
     crane_waits: int = 0
     crane_wait_steps: int = 0
     reaches: int = 0
+    reach_timeouts: int = 0  # reevaluate_after_steps steps holding a target without reaching
     collisions: int = 0
     congestion_entries: int = 0
 
@@ -168,7 +169,7 @@ class CrewState:
     scope: dict = field(default_factory=dict)  # target index -> task index (or -1)
     values: dict = field(default_factory=dict)  # target index -> V_Tar
     scope_version: int = -1
-    steps_since_reach: int = 0
+    steps_since_reach: int = 0  # steps holding a target since the last reach
     idle_cause: IdleCause = IdleCause.NONE
     stats: CrewStats = field(default_factory=CrewStats)
 

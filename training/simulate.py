@@ -197,8 +197,17 @@ def crew_summary(env) -> dict:
             "collisions": s.collisions,
             "congestion_entries": s.congestion_entries,
             "reaches": s.reaches,
+            "reach_timeouts": s.reach_timeouts,
         }
     return out
+
+
+def reach_rate(env) -> float:
+    """Targets reached over attempts: an attempt that holds a target for the step cap
+    (``reevaluate_after_steps``) without reaching counts as a miss each time."""
+    reaches = sum(c.stats.reaches for c in env.site.crews)
+    misses = sum(c.stats.reach_timeouts for c in env.site.crews)
+    return reaches / max(1, reaches + misses)
 
 
 def versions() -> dict:
@@ -229,6 +238,7 @@ def summary(env, episode: Episode, args: SimulateArgs, case_label: str, lb) -> d
         "all_finished": site.done, "simulated_s": site.time_s,
         "lower_bound": lb.as_dict(),
         "makespan_over_lower_bound": makespan / lb.lower_bound_s if makespan else None,
+        "reach_rate": reach_rate(env),
         "crews": crew_summary(env),
         "stalled": episode.stalled,
         "wall_s": round(episode.wall_s, 3),
@@ -338,9 +348,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def write_makespans(out: Path, rows: list[dict]) -> dict:
-    lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished"]
+    lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished,reach_rate"]
     lines += [f"{r['seed']},{r['makespan_s'] or ''},{r['makespan_over_lower_bound'] or ''},"
-              f"{r['tasks_finished']},{r['all_finished']}" for r in rows]
+              f"{r['tasks_finished']},{r['all_finished']},{r['reach_rate']:.4f}" for r in rows]
     write_atomic(out / "makespans.csv", "\n".join(lines) + "\n")
     done = [r["makespan_s"] for r in rows if r["makespan_s"]]
     stats = {"episodes": len(rows), "finished": len(done),
@@ -350,6 +360,7 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
              "lower_bound_s": rows[0]["lower_bound"]["lower_bound_s"],
              "mean_over_lower_bound": float(np.mean(done)) / rows[0]["lower_bound"][
                  "lower_bound_s"] if done else None,
+             "mean_reach_rate": float(np.mean([r["reach_rate"] for r in rows])),
              "makespans_s": [r["makespan_s"] for r in rows]}
     write_json(out / "makespans.json", stats)
     if done:

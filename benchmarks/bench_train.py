@@ -1,0 +1,100 @@
+"""PPO agent-steps per second on the CMDP (stage 1) and on a trivial env with the same spaces
+and the same PPO settings, measured in one run, and their ratio (target 0.5 or better).
+
+    python benchmarks/bench_train.py [--steps 100000]
+
+Both go through the same SuperSuit -> VecMonitor -> PPO pipeline with the stage-1 config
+(training/configs/stage1.toml), so the ratio is what the simulator costs training.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import time
+
+import numpy as np
+from gymnasium import spaces
+from pettingzoo import ParallelEnv
+
+import cmdp_pymunk
+from training.stage1 import DEFAULT_CONFIG, Stage1Config, make_env
+
+
+class TrivialEnv(ParallelEnv):
+    """Seven agents, the CMDP's spaces, constant observations, zero reward, fixed length."""
+
+    metadata = {"name": "trivial_v0", "render_modes": [], "is_parallelizable": True}
+
+    def __init__(self, n_agents: int, obs_size: int, length: int):
+        self.possible_agents = [f"a{i}" for i in range(n_agents)]
+        self._obs = spaces.Box(-np.inf, np.inf, (obs_size,), np.float32)
+        self._act = spaces.MultiDiscrete([4, 3, 3])
+        self.length = length
+        self.render_mode = None
+
+    @functools.lru_cache(maxsize=None)  # noqa: B019 - one env, a handful of agents
+    def observation_space(self, agent):
+        return self._obs
+
+    @functools.lru_cache(maxsize=None)  # noqa: B019
+    def action_space(self, agent):
+        return self._act
+
+    def reset(self, seed=None, options=None):
+        self.agents = list(self.possible_agents)
+        self.t = 0
+        zero = np.zeros(self._obs.shape, np.float32)
+        return {a: zero for a in self.agents}, {a: {} for a in self.agents}
+
+    def step(self, actions):
+        self.t += 1
+        done = self.t >= self.length
+        zero = np.zeros(self._obs.shape, np.float32)
+        out = ({a: zero for a in self.agents}, {a: 0.0 for a in self.agents},
+               {a: False for a in self.agents}, {a: done for a in self.agents},
+               {a: {} for a in self.agents})
+        if done:
+            self.agents = []
+        return out
+
+
+def agent_steps_per_second(env, config: Stage1Config, steps: int) -> float:
+    import supersuit as ss
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    torch.set_num_threads(config.torch_threads)
+    venv = ss.concat_vec_envs_v1(ss.pettingzoo_env_to_vec_env_v1(env), config.n_envs,
+                                 num_cpus=config.num_cpus, base_class="stable_baselines3")
+    venv.venv.reset(seed=config.seed)
+    model = PPO("MlpPolicy", VecMonitor(venv), learning_rate=config.learning_rate,
+                n_steps=config.n_steps, batch_size=config.batch_size, n_epochs=config.n_epochs,
+                policy_kwargs={"net_arch": list(config.net_arch)}, device="cpu", verbose=0)
+    model.learn(config.n_steps * venv.num_envs)  # warm-up: one rollout and update
+    start, done = time.perf_counter(), model.num_timesteps
+    model.learn(steps, reset_num_timesteps=False)
+    rate = (model.num_timesteps - done) / (time.perf_counter() - start)
+    venv.close()
+    return rate
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=100_000)
+    args = parser.parse_args(argv)
+    config = Stage1Config.load(DEFAULT_CONFIG)
+    case = cmdp_pymunk.load_case(config.case)
+    ours = agent_steps_per_second(make_env(config, case), config, args.steps)
+    trivial = agent_steps_per_second(
+        TrivialEnv(len(case.crews), 115, int(config.episode_time_s)), config, args.steps)
+    print(f"PPO on the CMDP (stage 1): {ours:8,.0f} agent-steps/s")
+    print(f"PPO on a trivial env:      {trivial:8,.0f} agent-steps/s "
+          f"(same spaces, {config.n_envs} copies, {config.num_cpus} processes)")
+    print(f"ratio: {ours / trivial:.2f} (target 0.5 or better)")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,60 @@
+"""Training curves (Fig. 5) from the CSV log that SB3 writes beside its TensorBoard logs."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+from cmdp_pymunk.events import write_atomic
+
+CURVES = (
+    ("rollout/ep_rew_mean", "mean episode reward (per crew)"),
+    ("cmdp/reach_rate", "reach rate (rollouts)"),
+    ("eval/reach_rate", "reach rate (evaluation, fixed seeds)"),
+    ("cmdp/steps_per_reach", "steps per reach"),
+)
+
+
+def read_progress(path: Path) -> dict[str, list[tuple[float, float]]]:
+    """Columns of SB3's progress.csv as (timesteps, value) series, empty cells skipped."""
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = list(csv.DictReader(f))
+    if not rows or "time/total_timesteps" not in rows[0]:
+        raise ValueError(f"{path}: no time/total_timesteps column; is it SB3's progress.csv?")
+    series: dict[str, list[tuple[float, float]]] = {}
+    for row in rows:
+        step = row.get("time/total_timesteps")
+        if not step:
+            continue
+        for key, value in row.items():
+            if value not in ("", None) and key != "time/total_timesteps":
+                try:
+                    series.setdefault(key, []).append((float(step), float(value)))
+                except ValueError:
+                    pass
+    return series
+
+
+def draw_training_curve(progress_csv: Path, path: Path, title: str = "Stage 1: "
+                        "target-reaching policy") -> Path:
+    """Fig. 5: reward and reach rate against training steps; written atomically."""
+    from matplotlib.figure import Figure
+
+    series = read_progress(Path(progress_csv))
+    panels = [(k, label) for k, label in CURVES if k in series]
+    if not panels:
+        raise ValueError(f"{progress_csv}: none of {', '.join(k for k, _ in CURVES)} logged")
+    fig = Figure(figsize=(6.5, 2.4 * len(panels)), layout="constrained")
+    axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, (key, label) in zip(axes, panels, strict=True):
+        xs, ys = zip(*series[key], strict=True)
+        ax.plot([x / 1e6 for x in xs], ys, marker="." if len(xs) < 30 else None)
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("training steps (millions of agent-steps)")
+    fig.suptitle(title)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    write_atomic(Path(path), buf.getvalue())
+    return Path(path)

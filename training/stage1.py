@@ -1,0 +1,386 @@
+"""Stage 1 (section 4.2): train the shared target-reaching policy with SB3 PPO via SuperSuit.
+
+    cmdp-train stage1 [--config training/configs/stage1.toml] [--set key=value ...]
+                      [--out runs/stage1] [--resume CHECKPOINT.zip]
+
+Data flow: ``CMDPEnv(stage=1)`` (no durations, unlimited stock, no crane wait) ->
+``pettingzoo_env_to_vec_env_v1`` -> ``concat_vec_envs_v1`` -> ``VecMonitor`` -> one PPO MLP whose
+weights every crew shares. Optional warm start: behaviour cloning from the scripted navigator
+(``bc_samples`` > 0), then PPO.
+
+The run folder gets ``config.json`` (every setting, the seed, the case, the package versions,
+the command), ``case.json``, TensorBoard logs (``tb/``, with the team's metrics under
+``cmdp/``: reach rate, steps per reach, collisions and congestion entries per reach),
+``progress.csv``, checkpoints, ``best_model.zip`` (best evaluation reach rate on fixed seeds),
+``final_model.zip`` and ``training_curve.png``. Ctrl-C saves ``checkpoints/interrupted.zip``.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+import numpy as np
+
+import cmdp_pymunk
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.move import STAND_STILL
+
+DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage1.toml"
+
+
+@dataclass
+class Stage1Config:
+    """Every setting of a stage-1 run; the TOML config file and ``--set`` override these."""
+
+    case: str | None = None  # case file; None: the built-in case
+    seed: int = 0
+    total_steps: int = 3_000_000  # agent-steps (every crew's step counts)
+    episode_time_s: float = 1500.0  # stage-1 episodes are cut here
+    n_envs: int = 8  # env copies (each gives one sample per crew per step)
+    num_cpus: int = 2  # processes stepping the copies (1: all in this process)
+    torch_threads: int = 1
+    # PPO (Eq. 8 is SB3's ppo.py)
+    learning_rate: float = 3e-4
+    n_steps: int = 256  # per env copy and crew before each update
+    batch_size: int = 2048
+    n_epochs: int = 4
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.003
+    vf_coef: float = 0.5
+    net_arch: list = field(default_factory=lambda: [128, 128])
+    # warm start: behaviour cloning from the scripted navigator
+    bc_samples: int = 300_000
+    bc_epochs: int = 6
+    bc_batch_size: int = 1024
+    bc_learning_rate: float = 1e-3
+    # evaluation, checkpoints
+    eval_every_steps: int = 250_000
+    eval_seeds: list = field(default_factory=lambda: [1000, 1001])
+    checkpoint_every_steps: int = 250_000
+
+    @classmethod
+    def load(cls, path: Path | None, overrides: list[str] = ()) -> Stage1Config:
+        import tomllib
+
+        data = {}
+        if path is not None:
+            try:
+                data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+            except (OSError, tomllib.TOMLDecodeError) as err:
+                raise ValueError(f"{path}: cannot read the config ({err}); fix: check the "
+                                 "path and the TOML syntax") from None
+        names = {f.name: f for f in fields(cls)}
+        for item in overrides:
+            key, sep, value = item.partition("=")
+            if not sep:
+                raise ValueError(f"--set {item!r}: write key=value, e.g. --set seed=3")
+            try:
+                data[key] = tomllib.loads(f"v = {value}")["v"]
+            except tomllib.TOMLDecodeError:
+                data[key] = value  # a bare string
+        unknown = sorted(set(data) - set(names))
+        if unknown:
+            raise ValueError(f"{path or '--set'}: unknown setting(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(names)}")
+        config = cls(**data)
+        for name, f in names.items():  # types as declared: a TOML int for a float is fine
+            value = getattr(config, name)
+            if f.type in ("int", "float") and not isinstance(value, (int, float)):
+                raise ValueError(f"{path or '--set'}: {name} = {value!r} must be a number")
+        return config
+
+
+# -- environment -------------------------------------------------------------------------------
+
+def make_env(config: Stage1Config, case, stage: int = 1, seed: int | None = None):
+    from agents.priority import PriorityEvaluator
+
+    return cmdp_pymunk.parallel_env(case=case, stage=stage, seed=seed,
+                                    evaluator=PriorityEvaluator(),
+                                    max_time_s=config.episode_time_s)
+
+
+def make_vec_env(config: Stage1Config, case):
+    import supersuit as ss
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    env = make_env(config, case)  # not reset: its copies are pickled from it
+    venv = ss.pettingzoo_env_to_vec_env_v1(env)
+    venv = ss.concat_vec_envs_v1(venv, config.n_envs, num_cpus=config.num_cpus,
+                                 base_class="stable_baselines3")
+    # SB3's PPO(seed=) does not reach SuperSuit's vector env; seed the copies directly
+    # (copy i gets seed + i).
+    venv.venv.reset(seed=config.seed)
+    return VecMonitor(venv)
+
+
+# -- behaviour cloning from the navigator -----------------------------------------------------
+
+def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
+    """(observations, actions) of the scripted navigator on stage-1 episodes."""
+    from agents.navigator import Navigator
+
+    env = make_env(config, case, seed=seed)
+    obs_out, act_out = [], []
+    episode = 0
+    while len(obs_out) < n:
+        observations, infos = env.reset(seed=seed + episode)
+        navigator = Navigator(env)
+        while env.agents and len(obs_out) < n:
+            actions = navigator.actions(env, observations)
+            for agent in env.agents:
+                if infos[agent]["needs_action"]:
+                    obs_out.append(observations[agent])
+                    act_out.append(actions.get(agent, STAND_STILL))
+            observations, _, _, _, infos = env.step(actions)
+        episode += 1
+    return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out, dtype=np.int64)
+
+
+def behaviour_clone(model, observations, actions, config: Stage1Config, log=print) -> float:
+    """Fit the policy's action distribution to the navigator's actions (cross-entropy)."""
+    import torch
+
+    policy = model.policy
+    optimizer = torch.optim.Adam(policy.parameters(), lr=config.bc_learning_rate)
+    rng = np.random.default_rng(config.seed)
+    obs_t = torch.as_tensor(observations)
+    act_t = torch.as_tensor(actions)
+    loss_value = float("nan")
+    for epoch in range(config.bc_epochs):
+        order = rng.permutation(len(obs_t))
+        losses = []
+        for start in range(0, len(order), config.bc_batch_size):
+            idx = torch.as_tensor(order[start:start + config.bc_batch_size])
+            _, log_prob, _ = policy.evaluate_actions(obs_t[idx], act_t[idx])
+            loss = -log_prob.mean()
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            losses.append(loss.item())
+        loss_value = float(np.mean(losses))
+        with torch.no_grad():
+            dist = policy.get_distribution(obs_t[:20000])
+            pred = dist.mode() if hasattr(dist, "mode") else dist.get_actions(deterministic=True)
+            agree = (pred.numpy() == actions[:20000]).all(axis=1).mean()
+        log(f"behaviour cloning epoch {epoch + 1}/{config.bc_epochs}: loss {loss_value:.3f}, "
+            f"agreement with the navigator {agree:.1%}")
+    return loss_value
+
+
+# -- evaluation ---------------------------------------------------------------------------------
+
+def evaluate_reaching(model, config: Stage1Config, case, seeds, stage: int = 1) -> dict:
+    """Deterministic episodes on fixed seeds: reach rate within the step cap, reward, tasks."""
+    from agents.models import PolicyNavigator
+
+    navigator = PolicyNavigator.__new__(PolicyNavigator)  # reuse the live model, no file
+    navigator.model = model
+    reaches = timeouts = steps = 0
+    rewards, tasks = [], []
+    for seed in seeds:
+        env = make_env(config, case, stage=stage, seed=seed)
+        observations, _ = env.reset(seed=seed)
+        total = 0.0
+        while env.agents:
+            observations, rew, *_ = env.step(navigator.actions(env, observations))
+            total += sum(rew.values())
+        for crew in env.site.crews:
+            reaches += crew.stats.reaches
+            timeouts += crew.stats.reach_timeouts
+            steps += crew.stats.reaching_steps
+        rewards.append(total)
+        tasks.append(env.site.tasks_ended / len(env.site.tasks))
+    return {"reach_rate": reaches / max(1, reaches + timeouts),
+            "steps_per_reach": steps / max(1, reaches),
+            "mean_reward": float(np.mean(rewards)), "tasks_done": float(np.mean(tasks))}
+
+
+# -- callbacks ----------------------------------------------------------------------------------
+
+def make_callbacks(config: Stage1Config, case, run: Path):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    n_agents = len(case.crews)
+
+    class Metrics(BaseCallback):
+        """The team's metrics from the env infos, logged per rollout."""
+
+        def _on_rollout_start(self) -> None:
+            self.sums = dict.fromkeys(("reaches", "timeouts", "reaching", "collisions",
+                                       "congestion"), 0)
+
+        def _on_step(self) -> bool:
+            for info in self.locals["infos"]:
+                s = info.get("step_stats")
+                if s:
+                    for k, v in s.items():
+                        self.sums[k] += v
+            return True
+
+        def _on_rollout_end(self) -> None:
+            s = self.sums
+            reaches = max(1, s["reaches"])
+            self.logger.record("cmdp/reach_rate", s["reaches"] / max(1, s["reaches"]
+                                                                     + s["timeouts"]))
+            self.logger.record("cmdp/steps_per_reach", s["reaching"] / reaches)
+            self.logger.record("cmdp/collisions_per_reach", s["collisions"] / reaches)
+            self.logger.record("cmdp/congestion_entries_per_reach", s["congestion"] / reaches)
+            self.logger.record("cmdp/reaches", s["reaches"])
+
+    class Periodic(BaseCallback):
+        """Checkpoints and evaluation on fixed seeds, keeping the best model."""
+
+        def __init__(self):
+            super().__init__()
+            self.best = -1.0
+            self.next_eval = config.eval_every_steps
+            self.next_ckpt = config.checkpoint_every_steps
+
+        def _init_callback(self) -> None:
+            done = self.model.num_timesteps
+            self.next_eval = (done // config.eval_every_steps + 1) * config.eval_every_steps
+            self.next_ckpt = (done // config.checkpoint_every_steps + 1) * \
+                config.checkpoint_every_steps
+            best_file = run / "best.json"
+            if best_file.exists():
+                self.best = json.loads(best_file.read_text())["reach_rate"]
+
+        def _on_step(self) -> bool:
+            t = self.model.num_timesteps
+            if t >= self.next_ckpt:
+                self.next_ckpt += config.checkpoint_every_steps
+                save_model(self.model, run / "checkpoints" / f"step_{t}.zip")
+            if t >= self.next_eval:
+                self.next_eval += config.eval_every_steps
+                result = evaluate_reaching(self.model, config, case, config.eval_seeds)
+                for k, v in result.items():
+                    self.logger.record(f"eval/{k}", v)
+                print(f"\nevaluation at {t:,} steps: " + ", ".join(
+                    f"{k} {v:.3f}" for k, v in result.items()), flush=True)
+                score = result["reach_rate"] + 1e-3 * result["mean_reward"] / n_agents
+                if score > self.best:
+                    self.best = score
+                    save_model(self.model, run / "best_model.zip")
+                    write_atomic(run / "best.json", json.dumps(
+                        {"step": t, "reach_rate": score, **result}, indent=2))
+            return True
+
+    return [Metrics(), Periodic()]
+
+
+def save_model(model, path: Path) -> None:
+    """Saved to a temporary name, then renamed: a crash never leaves half a checkpoint."""
+    import os
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp.zip")
+    model.save(str(tmp))
+    os.replace(tmp, path)
+
+
+# -- main ---------------------------------------------------------------------------------------
+
+def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None,
+          progress_bar: bool = True, log=print) -> Path:
+    """Train (or resume) a stage-1 run in ``run``; returns the final model's path."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
+    from stable_baselines3.common.utils import set_random_seed
+
+    from training.simulate import versions
+
+    torch.set_num_threads(config.torch_threads)
+    torch.distributions.Distribution.set_default_validate_args(False)
+    case = cmdp_pymunk.load_case(config.case)
+    run.mkdir(parents=True, exist_ok=True)
+    write_atomic(run / "config.json", json.dumps(
+        {"config": asdict(config), "command": argv, "resumed_from": str(resume) if resume
+         else None, "versions": versions()}, indent=2))
+    write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
+    set_random_seed(config.seed)
+    venv = make_vec_env(config, case)
+    if resume is not None:
+        model = PPO.load(str(resume), env=venv, device="cpu")
+        log(f"resumed from {resume} at {model.num_timesteps:,} steps")
+    else:
+        model = PPO("MlpPolicy", venv, learning_rate=config.learning_rate,
+                    n_steps=config.n_steps, batch_size=config.batch_size,
+                    n_epochs=config.n_epochs, gamma=config.gamma, gae_lambda=config.gae_lambda,
+                    clip_range=config.clip_range, ent_coef=config.ent_coef,
+                    vf_coef=config.vf_coef, policy_kwargs={"net_arch": list(config.net_arch)},
+                    device="cpu", verbose=0)
+        if config.bc_samples > 0:
+            t0 = time.perf_counter()
+            obs, acts = navigator_samples(config, case, config.bc_samples, config.seed + 10_000)
+            log(f"behaviour cloning: {len(obs):,} navigator samples in "
+                f"{time.perf_counter() - t0:.0f} s")
+            behaviour_clone(model, obs, acts, config, log)
+    model.set_logger(Logger(None, [CSVOutputFormat(str(run / "progress.csv")),
+                                   TensorBoardOutputFormat(str(run / "tb"))]))
+    remaining = max(0, config.total_steps - model.num_timesteps)
+    try:
+        model.learn(remaining, callback=make_callbacks(config, case, run),
+                    reset_num_timesteps=resume is None, progress_bar=progress_bar)
+    except KeyboardInterrupt:
+        path = run / "checkpoints" / "interrupted.zip"
+        save_model(model, path)
+        log(f"\ninterrupted at {model.num_timesteps:,} steps: saved {path}; "
+            f"resume with --resume {path}")
+        venv.close()
+        raise
+    final = run / "final_model.zip"
+    save_model(model, final)
+    venv.close()
+    try:
+        from media.curves import draw_training_curve
+
+        draw_training_curve(run / "progress.csv", run / "training_curve.png")
+    except (FileNotFoundError, ValueError) as err:
+        log(f"no training curve: {err}")
+    return final
+
+
+def main(argv: list[str] | None = None) -> int:
+    import argparse
+
+    parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="stage", required=True)
+    p = sub.add_parser("stage1", help="train the shared target-reaching policy")
+    p.add_argument("--config", type=Path, default=DEFAULT_CONFIG)
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a config setting (repeatable)")
+    p.add_argument("--out", type=Path, default=Path("runs/stage1"))
+    p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
+    p.add_argument("--no-progress", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        config = Stage1Config.load(args.config, args.set)
+        cmdp_pymunk.load_case(config.case)
+        if args.resume is not None and not args.resume.is_file():
+            raise ValueError(f"--resume {args.resume}: no such checkpoint")
+    except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
+        print(f"cmdp-train: {err}", file=sys.stderr)
+        return 2
+    try:
+        final = train(config, args.out, args.resume, argv=argv if argv is not None
+                      else sys.argv[1:], progress_bar=not args.no_progress)
+    except KeyboardInterrupt:
+        return 130
+    print(f"cmdp-train: final model {final}")
+    return 0
+
+
+def entry_point() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry_point()
