@@ -10,7 +10,6 @@ Both go through the same SuperSuit -> VecMonitor -> PPO pipeline with the stage-
 from __future__ import annotations
 
 import argparse
-import functools
 import time
 
 import numpy as np
@@ -33,11 +32,9 @@ class TrivialEnv(ParallelEnv):
         self.length = length
         self.render_mode = None
 
-    @functools.lru_cache(maxsize=None)  # noqa: B019 - one env, a handful of agents
-    def observation_space(self, agent):
+    def observation_space(self, agent):  # the same object every call, as PettingZoo asks
         return self._obs
 
-    @functools.lru_cache(maxsize=None)  # noqa: B019
     def action_space(self, agent):
         return self._act
 

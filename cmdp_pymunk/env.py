@@ -59,7 +59,6 @@ from .evaluate import NearestFirstEvaluator, TargetEvaluator, assign_target_valu
 from .state import CrewStatus, Site, activity, inside
 from .world import N_KINDS, World
 
-
 # per-agent counts of one step() call, in infos[agent]["step_stats"] (training metrics)
 STEP_STATS = ("reaches", "timeouts", "reaching", "collisions", "congestion")
 
