@@ -43,13 +43,29 @@ def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[
     return out
 
 
+def as_target_values(priorities: dict[int, float]) -> dict[int, float]:
+    """Eq. 9's priorities as V_Tar: mapped linearly onto [0.5, 1] over the scope, best 1.
+
+    Eq. 9 only ranks targets, and its V' can be 0 or negative (a lone target without
+    successors scores b2 * (1 - 1) = 0). As V_Tar that would hide the target, since Eq. 3
+    reserves 0 for objects outside the scope, and make reaching it worth nothing (Eq. 7).
+    The mapping keeps the ranking, so the heuristic still chooses the same targets.
+    """
+    if not priorities:
+        return {}
+    low, high = min(priorities.values()), max(priorities.values())
+    span = high - low
+    return {t: 1.0 if span <= 0 else 0.5 + 0.5 * (v - low) / span for t, v in priorities.items()}
+
+
 class PriorityEvaluator:
     """Eq. 9 as an evaluator for ``cmdp_pymunk.parallel_env(evaluator=...)``."""
 
     def __init__(self, betas: tuple[float, float, float] = BETAS):
         self.betas = betas
 
-    def target_values(self, crew, site, position):
+    def priorities(self, crew, site, position) -> dict[int, float]:
+        """Eq. 9's V' for every target of the crew's scope."""
         attrs = target_attributes(crew, site, position)
         if not attrs:
             return {}
@@ -58,3 +74,6 @@ class PriorityEvaluator:
         max_c = max(a[2] for a in attrs.values())
         return {t: priority_value(s, d, c, max_s, max_d, max_c, self.betas)
                 for t, (s, d, c) in attrs.items()}
+
+    def target_values(self, crew, site, position):
+        return as_target_values(self.priorities(crew, site, position))

@@ -2,7 +2,7 @@
 
 import pytest
 
-from agents.priority import PriorityEvaluator, priority_value
+from agents.priority import PriorityEvaluator, as_target_values, priority_value
 
 
 def test_eq9_priority_value():
@@ -21,7 +21,18 @@ def test_eq9_priority_value():
 def test_priority_prefers_the_task_that_unblocks_more(tiny_env):
     env = tiny_env
     crew = env.site.crews[0]  # X-1: scope A (X-A -> K-A -> M-C: 2 successors), B (none)
-    values = PriorityEvaluator().target_values(crew, env.site, (1.0, 0.0))
+    evaluator = PriorityEvaluator()
+    priorities = evaluator.priorities(crew, env.site, (1.0, 0.0))
     # A: Suc 2/2 -> 1; distance from (1,0): A at (-3,0) 4 m, B at (5,0) 4 m -> both 0.5*(0)=0;
-    # conflicts with queued tasks: none queued around either -> 0. V(A) = 1, V(B) = 0.
-    assert values == pytest.approx({0: 1.0, 1: 0.0})
+    # conflicts with queued tasks: none queued around either -> 0. V'(A) = 1, V'(B) = 0.
+    assert priorities == pytest.approx({0: 1.0, 1: 0.0})
+    # as V_Tar: onto [0.5, 1], best 1
+    assert evaluator.target_values(crew, env.site, (1.0, 0.0)) == pytest.approx({0: 1.0, 1: 0.5})
+
+
+def test_priorities_become_positive_target_values():
+    # V' of -1, 0 and 0.5 -> 0.5, 0.5 + 0.5 * 1/1.5, 1
+    assert as_target_values({3: -1.0, 4: 0.0, 5: 0.5}) == pytest.approx(
+        {3: 0.5, 4: 0.5 + 0.5 / 1.5, 5: 1.0})
+    assert as_target_values({7: 0.0}) == {7: 1.0}  # a lone target is worth the most
+    assert as_target_values({}) == {}
