@@ -65,10 +65,11 @@ class ModelEvaluator:
         self.env = None
 
     def bind(self, env) -> None:
+        from cmdp_pymunk.state import Site
+
         self.env = env
-        _check_shape(self.model, evaluation_size(env.site) if env.site else
-                     self.model.observation_space.shape[0], self.path,
-                     "the evaluation observation")
+        site = env.site if env.site is not None else Site(env.case, env.stage)
+        _check_shape(self.model, evaluation_size(site), self.path, "the evaluation observation")
 
     def target_values(self, crew, site, position):
         heading = self.env.world.bodies[crew.index].angle

@@ -129,8 +129,6 @@ def run_episode(env, navigator, seed: int, stall_s: float, progress: bool = True
     from tqdm import tqdm
 
     observations, _ = env.reset(seed=seed)
-    if hasattr(navigator, "bind"):
-        navigator.bind(env)
     site = env.site
     frames = []
     next_frame = 0.0
@@ -305,10 +303,12 @@ def main(argv: list[str] | None = None) -> int:
                                    max_time_s=args.max_time_s,
                                    position_log_every_s=POSITION_LOG_EVERY_S,
                                    park_idle=args.navigator == "scripted")
-    if hasattr(evaluator, "bind"):
-        evaluator.bind(env)
     try:
+        if hasattr(evaluator, "bind"):
+            evaluator.bind(env)
         navigator = make_navigator(args.navigator, env)
+        if hasattr(navigator, "bind"):
+            navigator.bind(env)
     except ValueError as err:
         print(f"cmdp-simulate: {err}", file=sys.stderr)
         return 2
