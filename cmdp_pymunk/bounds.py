@@ -32,11 +32,7 @@ class LowerBound:
 def expected_duration_s(case: Case, task) -> float:
     """Expected duration of one task at Table 3's mean (plus crane assistance if it needs it)."""
     tt = case.task_types[task.type]
-    spec = case.crew_types[tt.crew_type]
-    if spec.by_duration:
-        seconds = spec.duration_mean_min * 60.0 * task.work
-    else:
-        seconds = task.work / spec.efficiency_mean_per_min * 60.0
+    seconds = case.crew_types[tt.crew_type].mean_seconds(task.work)
     return seconds + (case.crane.assist_time_s if tt.needs_crane else 0.0)
 
 

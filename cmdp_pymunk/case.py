@@ -153,6 +153,13 @@ class CrewType(_Model):
     def by_duration(self) -> bool:
         return self.duration_mean_min is not None
 
+    def mean_seconds(self, work: float) -> float:
+        """Expected working time for ``work`` units at Table 3's mean: a duration crew's
+        duration is per unit of work (a task of work 1 takes one duration)."""
+        if self.by_duration:
+            return self.duration_mean_min * 60.0 * work
+        return work / self.efficiency_mean_per_min * 60.0
+
     @property
     def radius_m(self) -> float:
         """Radius of the disc whose area is the occupation area."""
@@ -599,6 +606,20 @@ def _semantic_problems(parts: _Parts) -> list[str]:
             elif unknown("tasks", pred):
                 problems.append(f'{where}: precedence names unknown task "{pred}"'
                                 f"{_did_you_mean(pred, names['tasks'])}")
+    # The decision table targets components: one task per crew type per component, or the
+    # crew could not tell which of them a reach is for.
+    seen_on: dict[tuple[str, str], str] = {}
+    for i, task in parts.tasks:
+        tt = parts.task_types.get(task.type)
+        if tt is None:
+            continue
+        key = (task.component, tt.crew_type)
+        if key in seen_on:
+            problems.append(f'tasks[{i}] "{task.id}": component "{task.component}" already has '
+                            f'a task for crew type {tt.crew_type} ("{seen_on[key]}"); fix: '
+                            "merge them, or put one on another component")
+        else:
+            seen_on[key] = task.id
     for type_name, users in tasks_of_type.items():
         tt = parts.task_types.get(type_name)
         crew_types_on_crews = parts.crew_types_on_crews

@@ -44,7 +44,7 @@ def draw_pace(rng: np.random.Generator, crew: CrewState, task: TaskState) -> flo
     if spec.by_duration:
         mean, sd = spec.duration_mean_min, spec.duration_sd_min or 0.0
         minutes = max(rng.normal(mean, sd), MIN_PACE_SHARE * mean)
-        return task.work / (minutes * 60.0)
+        return 1.0 / (minutes * 60.0)  # one unit of work per drawn duration (CrewType doc)
     mean, sd = spec.efficiency_mean_per_min, spec.efficiency_sd_per_min or 0.0
     return max(rng.normal(mean, sd), MIN_PACE_SHARE * mean) / 60.0
 
@@ -97,6 +97,16 @@ def request_crane(site: Site, log: events.EventLog, request: CraneRequest) -> No
     log.add(site.time_s, "crane_request", site.crews[request.crew].id,
             site.tasks[request.task].id if request.task >= 0 else
             site.storages[request.storage].id, request.kind)
+    if site.crane.current is None:  # an idle crane sets off now: a lift takes lift_time_s
+        _start_next(site)
+
+
+def _start_next(site: Site) -> None:
+    crane = site.crane
+    crane.current = crane.queue.popleft()
+    cfg = site.case.crane
+    crane.remaining_s = cfg.lift_time_s if crane.current.kind == "material" \
+        else cfg.assist_time_s
 
 
 def _serve_crane(site: Site, log: events.EventLog, dt: float) -> None:
@@ -107,10 +117,7 @@ def _serve_crane(site: Site, log: events.EventLog, dt: float) -> None:
             _complete(site, log, crane.current)
             crane.current = None
     if crane.current is None and crane.queue:
-        crane.current = crane.queue.popleft()
-        cfg = site.case.crane
-        crane.remaining_s = cfg.lift_time_s if crane.current.kind == "material" \
-            else cfg.assist_time_s
+        _start_next(site)
 
 
 def _complete(site: Site, log: events.EventLog, request: CraneRequest) -> None:

@@ -207,6 +207,7 @@ class CMDPEnv(ParallelEnv):
             # rewards would change nothing but the counters, so only those are kept.
             for crew in site.crews:
                 self._count(crew, moving[crew.index], False, self._no_contacts)
+            self._log_activities()  # the crane may have woken a crew (waiting -> tasking)
             if any(moving):
                 self._log_positions()
             if clock:

@@ -150,9 +150,8 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
         if task is not None:
             row[3] = int(task.pool) / 3.0
             row[6] = site.case.task_types[task.type].area_distance_m / 3.0
-            mean_s = spec.duration_mean_min * 60.0 if spec.by_duration else \
-                task.work / spec.efficiency_mean_per_min * 60.0
-            row[7] = mean_s * (1.0 - task.progress / task.work) / EXPECTED_TIME_SCALE_S
+            remaining = 1.0 - task.progress / task.work
+            row[7] = spec.mean_seconds(task.work) * remaining / EXPECTED_TIME_SCALE_S
             row[10] = task.all_successors / n_tasks
             row[11] = sum(site.tasks[o].pool in (Pool.QUEUE, Pool.WAIT)
                           for o in task.conflicts) / n_tasks

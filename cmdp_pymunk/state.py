@@ -178,9 +178,11 @@ class CrewState:
         return self.status in MOVING
 
     def clear_scope(self) -> None:
+        """No target scope, and none current: c10 acquires one at its next chance."""
         self.scope_kind = ScopeKind.NONE
         self.scope = {}
         self.values = {}
+        self.scope_version = -1
 
 
 class Site:

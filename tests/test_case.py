@@ -467,8 +467,8 @@ def test_builtin_case_paper_values():
 
 def test_documented_tiny_case_loads():
     case = load_case(ROOT / "docs" / "examples" / "tiny_case.toml")
-    assert (len(case.components), len(case.tasks), len(case.crews)) == (2, 3, 2)
-    assert [t.predecessors for t in case.tasks] == [(), ("HI-P-1",), ("R-J-1a",)]
+    assert (len(case.components), len(case.tasks), len(case.crews)) == (3, 3, 2)
+    assert [t.predecessors for t in case.tasks] == [(), ("HI-P-1",), ("HI-P-1",)]
 
 
 def test_docs_example_is_the_example_file():
@@ -487,3 +487,16 @@ def test_a_case_built_in_python_with_tuples_is_checked_too(floor):
     label, crew = entry(floor, "crews", "RC-2")
     crew["type"] = "R"  # the tuple holds the same tables
     assert problems(data) == [f'{label}: type names unknown crew type "R"; did you mean "RC"?']
+
+
+def test_two_tasks_of_one_crew_type_on_a_component_are_refused(floor):
+    from cmdp_pymunk.case import CaseError, case_from_dict
+
+    data = floor
+    extra = dict(data["tasks"][0])
+    extra["id"] = "JC-P-11-again"
+    data["tasks"].append(extra)
+    with pytest.raises(CaseError) as err:
+        case_from_dict(data, "floor.toml")
+    msg = str(err.value)
+    assert 'tasks[87] "JC-P-11-again"' in msg and 'already has a task for crew type JCC' in msg

@@ -48,6 +48,28 @@ def test_whole_episode_is_deterministic_and_finishes():
     assert schedule(env_c) != schedule(env_a)
 
 
+def test_activity_events_follow_every_state_change():
+    """The Gantt chart's activity log agrees with the crew states: at every second in which a
+    crew's state changed, its activity at the end of that second matches the last state."""
+    from agents.navigator import Navigator
+
+    env = tiny_env(park_idle=True)
+    nav = Navigator(env)
+    run_episode(env, 1, lambda e: nav.actions(e))
+    final_state, activity_at = {}, {}
+    for e in env.log.events:
+        if e.kind == "crew_state":
+            final_state[(e.crew, e.time_s)] = e.subject
+        elif e.kind == "activity":
+            activity_at[(e.crew, e.time_s)] = e.subject
+    checked = 0
+    for key, state in final_state.items():
+        if state in ("tasking", "fetching", "waiting", "left") and key[1] > 0:
+            assert activity_at.get(key) == state, (key, state, activity_at.get(key))
+            checked += 1
+    assert checked >= 8
+
+
 def test_reset_without_seed_keeps_the_generator():
     env = tiny_env()
     env.reset(seed=5)
