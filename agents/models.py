@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cmdp_pymunk.evaluate import desired_position_value
+from cmdp_pymunk.evaluate import DesiredPositionEvaluator
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.observe import evaluation_observation, evaluation_size
 
@@ -56,10 +56,11 @@ class PolicyNavigator:
         return out
 
 
-class ModelEvaluator:
+class ModelEvaluator(DesiredPositionEvaluator):
     """A trained evaluation policy: its desired position values the targets by Eq. 4."""
 
     def __init__(self, path: str | Path):
+        super().__init__()
         self.path = Path(path)
         self.model = load_model(path)
         self.env = None
@@ -71,11 +72,9 @@ class ModelEvaluator:
         site = env.site if env.site is not None else Site(env.case, env.stage)
         _check_shape(self.model, evaluation_size(site), self.path, "the evaluation observation")
 
-    def target_values(self, crew, site, position):
+    def desired_position(self, crew, site, position) -> tuple[float, float]:
         heading = self.env.world.bodies[crew.index].angle
         obs = evaluation_observation(site, crew, position, heading)
         desired, _ = self.model.predict(obs, deterministic=True)
         desired = np.clip(desired, -1.0, 1.0)
-        half = site.case.plane.half_extents
-        return {t: desired_position_value((float(desired[0]), float(desired[1])),
-                                          site.target_xy[t], half) for t in crew.scope}
+        return float(desired[0]), float(desired[1])

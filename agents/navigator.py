@@ -304,8 +304,10 @@ class Navigator:
             field = dijkstra(graph, directed=False, indices=goals, min_only=True)
             field = field.reshape(self.ny, self.nx)
             self.fields[key] = field
-        px, py = self._carrot(field, x, y)
-        return self._drive(crew, body, x, y, px, py)
+        carrot = self._carrot(field, x, y)
+        if carrot is None:  # walled in by areas and components: wait for them to change
+            return STAND_STILL
+        return self._drive(crew, body, x, y, *carrot)
 
     def _drive(self, crew, body, x, y, px, py):
         """Turn toward (px, py), walk when facing it; swerve right from a crew ahead."""

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 
+from cmdp_pymunk.evaluate import as_target_values
 from cmdp_pymunk.state import CrewState, Pool, Site
 
 BETAS = (1.0, 0.5, -1.0)  # section 5.3
@@ -43,21 +44,6 @@ def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[
     return out
 
 
-def as_target_values(priorities: dict[int, float]) -> dict[int, float]:
-    """Eq. 9's priorities as V_Tar: mapped linearly onto [0.5, 1] over the scope, best 1.
-
-    Eq. 9 only ranks targets, and its V' can be 0 or negative (a lone target without
-    successors scores b2 * (1 - 1) = 0). As V_Tar that would hide the target, since Eq. 3
-    reserves 0 for objects outside the scope, and make reaching it worth nothing (Eq. 7).
-    The mapping keeps the ranking, so the heuristic still chooses the same targets.
-    """
-    if not priorities:
-        return {}
-    low, high = min(priorities.values()), max(priorities.values())
-    span = high - low
-    return {t: 1.0 if span <= 0 else 0.5 + 0.5 * (v - low) / span for t, v in priorities.items()}
-
-
 class PriorityEvaluator:
     """Eq. 9 as an evaluator for ``cmdp_pymunk.parallel_env(evaluator=...)``."""
 
@@ -76,4 +62,6 @@ class PriorityEvaluator:
                 for t, (s, d, c) in attrs.items()}
 
     def target_values(self, crew, site, position):
+        """Eq. 9's V' as V_Tar (``as_target_values``: a lone target without successors
+        scores 0 in Eq. 9, which Eq. 3 would read as no target)."""
         return as_target_values(self.priorities(crew, site, position))

@@ -28,6 +28,21 @@ def desired_position_value(desired: tuple[float, float], target_xy: tuple[float,
                             desired[1] - target_xy[1] / half_extents[1])
 
 
+def as_target_values(scores: dict[int, float]) -> dict[int, float]:
+    """Ranking scores (Eq. 4's or Eq. 9's) as V_Tar: mapped linearly onto [0.5, 1] over the
+    scope, best 1 (all 1 when they tie).
+
+    Both equations can score a target 0 or below. As V_Tar that would hide the target (Eq. 3
+    reserves 0 for objects outside the scope) and make reaching it worth nothing or less
+    (Eq. 7). The mapping keeps the ranking, so the target an evaluator prefers is unchanged.
+    """
+    if not scores:
+        return {}
+    low, high = min(scores.values()), max(scores.values())
+    span = high - low
+    return {t: 1.0 if span <= 0 else 0.5 + 0.5 * (v - low) / span for t, v in scores.items()}
+
+
 class TargetEvaluator(Protocol):
     def target_values(self, crew: CrewState, site: Site,
                       position: tuple[float, float]) -> dict[int, float]: ...
@@ -54,16 +69,21 @@ class NearestFirstEvaluator:
 
 
 class DesiredPositionEvaluator:
-    """Eq. 4 from a desired position per crew, e.g. the stage-2 policy's action."""
+    """Eq. 4 from a desired position per crew (the stage-2 policy's action), as V_Tar
+    through ``as_target_values``. ``desired_position`` is what a subclass overrides."""
 
     def __init__(self, default: tuple[float, float] = (0.0, 0.0)):
         self.desired: dict[int, tuple[float, float]] = {}
         self.default = default
 
+    def desired_position(self, crew, site, position) -> tuple[float, float]:
+        return self.desired.get(crew.index, self.default)
+
     def target_values(self, crew, site, position):
-        desired = self.desired.get(crew.index, self.default)
+        desired = self.desired_position(crew, site, position)
         half = site.case.plane.half_extents
-        return {t: desired_position_value(desired, site.target_xy[t], half) for t in crew.scope}
+        return as_target_values({t: desired_position_value(desired, site.target_xy[t], half)
+                                 for t in crew.scope})
 
 
 def assign_target_values(site: Site, evaluator: TargetEvaluator, positions) -> None:

@@ -36,12 +36,22 @@ def read_progress(path: Path) -> dict[str, list[tuple[float, float]]]:
     return series
 
 
-def draw_training_curve(progress_csv: Path, path: Path, title: str = "Stage 1: "
+def draw_training_curve(progress_csv, path: Path, title: str = "Stage 1: "
                         "target-reaching policy") -> Path:
-    """Fig. 5: reward and reach rate against training steps; written atomically."""
+    """Fig. 5: reward and reach rate against training steps; written atomically.
+
+    ``progress_csv`` is one CSV or a list of them (a run and its resumed parts)."""
     from matplotlib.figure import Figure
 
-    series = read_progress(Path(progress_csv))
+    parts = [progress_csv] if isinstance(progress_csv, (str, Path)) else list(progress_csv)
+    if not parts:
+        raise FileNotFoundError("no progress*.csv to draw")
+    series: dict[str, list[tuple[float, float]]] = {}
+    for part in parts:
+        for key, points in read_progress(Path(part)).items():
+            series.setdefault(key, []).extend(points)
+    for points in series.values():
+        points.sort()
     panels = [(k, label) for k, label in CURVES if k in series]
     if not panels:
         raise ValueError(f"{progress_csv}: none of {', '.join(k for k, _ in CURVES)} logged")

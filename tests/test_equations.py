@@ -68,3 +68,24 @@ def test_eq6_reaching_reward():
     # no target held: no time penalty, no reach
     assert reaching_reward([0] * N_KINDS, eta, None, False, w) == 0.0
     assert reaching_reward([0] * N_KINDS, eta, None, True, w) == pytest.approx(-0.001)
+
+
+def test_ranking_scores_become_target_values():
+    from cmdp_pymunk.evaluate import DesiredPositionEvaluator, as_target_values
+
+    # Eq. 4 scores 1 - 2.83 .. 1 all become [0.5, 1] with the best at 1
+    assert as_target_values({1: -1.0, 2: 0.0, 3: 1.0}) == pytest.approx({1: 0.5, 2: 0.75, 3: 1.0})
+
+    class Crew:
+        index, scope = 0, {0: -1, 1: -1}
+
+    class Site:
+        class case:  # noqa: N801
+            class plane:  # noqa: N801
+                half_extents = (10.0, 5.0)
+        target_xy = [(5.0, 0.0), (-5.0, 2.5)]
+
+    ev = DesiredPositionEvaluator()
+    ev.desired[0] = (0.5, 0.0)  # exactly on target 0: Eq. 4 gives 1 there
+    values = ev.target_values(Crew, Site, (0.0, 0.0))
+    assert values[0] == 1.0 and values[1] == 0.5

@@ -2,7 +2,8 @@
 
 import pytest
 
-from agents.priority import PriorityEvaluator, as_target_values, priority_value
+from agents.priority import PriorityEvaluator, priority_value
+from cmdp_pymunk.evaluate import as_target_values
 
 
 def test_eq9_priority_value():

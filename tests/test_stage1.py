@@ -47,7 +47,13 @@ def test_train_checkpoint_evaluate_and_resume(tmp_path):
                         *SMALL, "--set", "total_steps=4096"]) == 0
     resumed = PPO.load(str(run / "final_model.zip"), device="cpu").num_timesteps
     assert start < resumed and resumed >= 4096
-    assert json.loads((run / "config.json").read_text())["resumed_from"].endswith(".zip")
+    # the first part's history and config stay; the resumed part adds its own files
+    assert json.loads((run / "config.json").read_text())["resumed_from"] is None
+    assert json.loads((run / "config-1.json").read_text())["resumed_from"].endswith(".zip")
+    first = (run / "progress.csv").read_text().splitlines()
+    second = (run / "progress-1.csv").read_text().splitlines()
+    assert len(first) > 1 and len(second) > 1
+    assert "score" in json.loads((run / "best.json").read_text())
 
 
 @pytest.mark.slow
@@ -66,6 +72,10 @@ def test_bad_config_exits_2(tmp_path, capsys):
     assert "unknown setting" in capsys.readouterr().err
     assert stage1.main(["stage1", "--out", str(tmp_path), "--resume",
                         str(tmp_path / "missing.zip")]) == 2
+    assert stage1.main(["stage1", "--out", str(tmp_path), "--set", "eval_seeds=5"]) == 2
+    assert "eval_seeds" in capsys.readouterr().err
+    assert stage1.main(["stage1", "--out", str(tmp_path), "--set", "eval_every_steps=0"]) == 2
+    assert "must be positive" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text("seed = [")
     assert stage1.main(["stage1", "--config", str(bad), "--out", str(tmp_path)]) == 2

@@ -80,6 +80,12 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     a = p.parse_args(argv)
     if a.episodes < 1:
         p.error("--episodes must be at least 1")
+    if a.seed < 0:
+        p.error(f"--seed must be 0 or more, not {a.seed}")
+    if a.stall_s <= 0:
+        p.error(f"--stall-s must be positive, not {a.stall_s:g}")
+    if a.max_time_s is not None and a.max_time_s <= 0:
+        p.error(f"--max-time-s must be positive, not {a.max_time_s:g}")
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress)
 
@@ -342,7 +348,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.episodes > 1:
         write_makespans(args.out, rows)
     if args.gif:
-        print(f"cmdp-simulate: GIF {args.out / 'rollout.gif'}")
+        gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
+        print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
     print(f"cmdp-simulate: charts and summary in {args.out}")
     return 1 if failed else 0
 

@@ -30,6 +30,8 @@ from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.move import STAND_STILL
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage1.toml"
+ZERO_ALLOWED = {"seed", "bc_samples", "bc_epochs", "ent_coef", "gamma", "gae_lambda",
+                "clip_range", "vf_coef", "torch_threads"}
 
 
 @dataclass
@@ -89,11 +91,31 @@ class Stage1Config:
             raise ValueError(f"{path or '--set'}: unknown setting(s) {', '.join(unknown)}; "
                              f"known: {', '.join(names)}")
         config = cls(**data)
-        for name, f in names.items():  # types as declared: a TOML int for a float is fine
-            value = getattr(config, name)
-            if f.type in ("int", "float") and not isinstance(value, (int, float)):
-                raise ValueError(f"{path or '--set'}: {name} = {value!r} must be a number")
+        problems = config.problems()
+        if problems:
+            raise ValueError(f"{path or '--set'}: " + "; ".join(problems))
         return config
+
+    def problems(self) -> list[str]:
+        """Every setting of the wrong type or out of range, each with its fix."""
+        out = []
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.type in ("int", "float"):
+                if isinstance(value, bool) or not isinstance(value, (int, float)) or \
+                        (f.type == "int" and not isinstance(value, int)):
+                    kind = "a whole number" if f.type == "int" else "a number"
+                    out.append(f"{f.name} = {value!r} must be {kind}")
+                elif value < 0 or (value == 0 and f.name not in ZERO_ALLOWED):
+                    out.append(f"{f.name} = {value!r} must be positive")
+            elif f.type == "list" and not (isinstance(value, list) and value and all(
+                    isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)):
+                out.append(f"{f.name} = {value!r} must be a non-empty list of positive whole "
+                           "numbers, e.g. [128, 128]")
+        if self.num_cpus > self.n_envs:
+            out.append(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; fix: "
+                       "lower num_cpus")
+        return out
 
 
 # -- environment -------------------------------------------------------------------------------
@@ -250,7 +272,7 @@ def make_callbacks(config: Stage1Config, case, run: Path):
                 config.checkpoint_every_steps
             best_file = run / "best.json"
             if best_file.exists():
-                self.best = json.loads(best_file.read_text())["reach_rate"]
+                self.best = json.loads(best_file.read_text())["score"]
 
         def _on_step(self) -> bool:
             t = self.model.num_timesteps
@@ -269,10 +291,15 @@ def make_callbacks(config: Stage1Config, case, run: Path):
                     self.best = score
                     save_model(self.model, run / "best_model.zip")
                     write_atomic(run / "best.json", json.dumps(
-                        {"step": t, "reach_rate": score, **result}, indent=2))
+                        {"step": t, "score": score, **result}, indent=2))
             return True
 
     return [Metrics(), Periodic()]
+
+
+def _next_part(run: Path) -> int:
+    """1 + the number of resumed parts already in the run folder."""
+    return 1 + sum(1 for _ in run.glob("progress-*.csv"))
 
 
 def save_model(model, path: Path) -> None:
@@ -301,7 +328,9 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
     torch.distributions.Distribution.set_default_validate_args(False)
     case = cmdp_pymunk.load_case(config.case)
     run.mkdir(parents=True, exist_ok=True)
-    write_atomic(run / "config.json", json.dumps(
+    part = _next_part(run) if resume is not None else 0  # a resumed run adds files, never
+    suffix = f"-{part}" if part else ""                   # overwrites the history
+    write_atomic(run / f"config{suffix}.json", json.dumps(
         {"config": asdict(config), "command": argv, "resumed_from": str(resume) if resume
          else None, "versions": versions()}, indent=2))
     write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
@@ -323,7 +352,7 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
             log(f"behaviour cloning: {len(obs):,} navigator samples in "
                 f"{time.perf_counter() - t0:.0f} s")
             behaviour_clone(model, obs, acts, config, log)
-    model.set_logger(Logger(None, [CSVOutputFormat(str(run / "progress.csv")),
+    model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
                                    TensorBoardOutputFormat(str(run / "tb"))]))
     remaining = max(0, config.total_steps - model.num_timesteps)
     try:
@@ -342,7 +371,7 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
     try:
         from media.curves import draw_training_curve
 
-        draw_training_curve(run / "progress.csv", run / "training_curve.png")
+        draw_training_curve(sorted(run.glob("progress*.csv")), run / "training_curve.png")
     except (FileNotFoundError, ValueError) as err:
         log(f"no training curve: {err}")
     return final
