@@ -72,11 +72,11 @@ def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
     if not crane_ready(task) or not material_sufficient(crew, task):
         return
     remaining = task.work - task.progress
-    if site.stage == 1:  # section 4.2: no task durations, no stock consumption
-        task.progress = task.work
-        return
-    amount = min(remaining, invaded_efficiency(task.pace, invasion(
-        site, positions, crew, task.area)) * dt)
+    if site.stage == 1:  # section 4.2: no task durations (the crew's load is still used up)
+        amount = remaining
+    else:
+        amount = min(remaining, invaded_efficiency(task.pace, invasion(
+            site, positions, crew, task.area)) * dt)
     if task.material_per_work > 0.0:
         amount = min(amount, crew.load / task.material_per_work)
         crew.load = max(0.0, crew.load - amount * task.material_per_work)
@@ -85,6 +85,9 @@ def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
 
 def _fetch(site: Site, positions, crew: CrewState, dt: float) -> None:
     storage = site.storages[crew.storage]
+    if site.stage == 1:  # section 5.2: unrestricted stockpiles, no durations: load up at once
+        crew.load = crew.capacity
+        return
     rate = site.case.materials[storage.material].acquire_per_min / 60.0
     amount = min(invaded_efficiency(rate, invasion(site, positions, crew, storage.rect)) * dt,
                  storage.stock, crew.capacity - crew.load)

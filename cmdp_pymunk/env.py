@@ -21,8 +21,10 @@ Rewards
     terms in ``infos[agent]["evaluation_terms"]``, for the high-level policy.
 
 Stages (section 4.2)
-    ``stage=1``: task durations zero, unlimited stock (crews start loaded and never run out),
-    no crane wait. ``stage=2``: the full CMDP.
+    ``stage=1``: task durations zero, unrestricted stockpiles (storages are full and never
+    drawn down, a fetch loads the crew at once), no crane wait. Crews still use up their loads
+    and walk to the storages, so the reaching policy meets every kind of target it meets in
+    stage 2. ``stage=2``: the full CMDP.
 
 Arguments
     ``case``: a ``Case``, a path to a case file, or ``None`` for the built-in case.
@@ -118,9 +120,9 @@ class CMDPEnv(ParallelEnv):
         self.site = Site(self.case, self.stage)
         self.world = World(self.case, self.site)
         self.log = events.EventLog()
-        if self.stage == 1:  # unlimited stock: every crew carries what it needs from the start
-            for crew in self.site.crews:
-                crew.load = crew.capacity
+        if self.stage == 1:  # unrestricted stockpiles (section 5.2): storages start full and
+            for storage in self.site.storages:  # are never drawn down; crews still fetch
+                storage.stock = storage.capacity
         for crew in self.site.crews:
             self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
         self.activities = [""] * len(self.site.crews)

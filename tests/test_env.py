@@ -95,11 +95,20 @@ def test_stage_1_has_no_durations_stock_or_crane_wait():
     env = tiny_env(stage=1)
     run_episode(env, 0, steer_all)
     assert env.site.done
-    kinds = {e.kind for e in env.log.events}
-    assert "crane_request" not in kinds and "task_pause" not in kinds
+    kinds = [e.kind for e in env.log.events]
+    assert "crane_request" not in kinds  # no crane waits
+    assert all(s.stock == s.capacity for s in env.site.storages)  # stockpiles never drawn down
+    paused = {e.subject for e in env.log.events if e.kind == "task_pause"}
+    assert paused == {"M-C"}  # 0.3 m3 of bars for a crew that carries 0.2: one trip between
+    assert sum(c.stats.material_trips for c in env.site.crews) >= 2
     for task in env.site.tasks:
-        assert task.ended_s - task.started_s == 1.0  # done the step after it was initiated
-    assert all(c.stats.material_trips == 0 for c in env.site.crews)
+        if task.id not in paused:
+            assert task.ended_s - task.started_s == 1.0  # done the step after it was initiated
+    fetching = [e for e in env.log.events if e.kind == "crew_state" and e.subject == "fetching"]
+    for e in fetching:  # a fetch loads the crew at once: reaching again the next step
+        after = [f for f in env.log.events if f.crew == e.crew and f.kind == "crew_state"
+                 and f.time_s > e.time_s]
+        assert after and after[0].time_s == e.time_s + 1
 
 
 def test_time_limit_truncates_with_the_sb3_flag():
