@@ -144,6 +144,20 @@ def make_vec_env(config: Stage1Config, case):
 
 # -- behaviour cloning from the navigator -----------------------------------------------------
 
+SEARCH_TURN = (0, 1, 2)  # stand and turn anticlockwise
+
+
+def teacher_action(env, agent: str, navigator_action) -> tuple:
+    """The navigator's action, except that a crew holding no target turns in place.
+
+    The rays cannot tell "no target" from "a target out of view" (both read V = 0 on every
+    ray), so the navigator's standing idle would teach the policy to stand whenever its target
+    is behind it. Turning finds a target behind within a turn, and costs an idle crew nothing.
+    """
+    crew = env.site.crews[env.agent_index[agent]]
+    return navigator_action if crew.scope else SEARCH_TURN
+
+
 def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
     """(observations, actions) of the scripted navigator on stage-1 episodes."""
     from agents.navigator import Navigator
@@ -159,7 +173,7 @@ def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
             for agent in env.agents:
                 if infos[agent]["needs_action"]:
                     obs_out.append(observations[agent])
-                    act_out.append(actions.get(agent, STAND_STILL))
+                    act_out.append(teacher_action(env, agent, actions.get(agent, STAND_STILL)))
             observations, _, _, _, infos = env.step(actions)
         episode += 1
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out, dtype=np.int64)
