@@ -35,11 +35,22 @@ def _check_shape(model, expected: int, path, what: str) -> None:
 
 
 class PolicyNavigator:
-    """A trained reaching policy, one set of weights shared by every crew."""
+    """A trained reaching policy, one set of weights shared by every crew.
 
-    def __init__(self, path: str | Path):
+    ``deterministic=False`` samples its actions (a deterministic policy can repeat the same
+    blocked move forever); the samples come from torch's generator, seeded by ``reset(seed)``
+    at every episode, so a run is still reproducible.
+    """
+
+    def __init__(self, path: str | Path, deterministic: bool = True):
         self.path = Path(path)
         self.model = load_model(path)
+        self.deterministic = deterministic
+
+    def reset(self, seed: int) -> None:
+        import torch
+
+        torch.manual_seed(seed)
 
     def bind(self, env) -> None:
         _check_shape(self.model, env.observation_space(env.possible_agents[0]).shape[0],
@@ -50,7 +61,7 @@ class PolicyNavigator:
         out = {a: STAND_STILL for a in env.agents}
         if movers:
             batch = np.stack([observations[a] for a in movers])
-            acts, _ = self.model.predict(batch, deterministic=True)
+            acts, _ = self.model.predict(batch, deterministic=self.deterministic)
             out.update({a: tuple(int(v) for v in act) for a, act in zip(movers, acts,
                                                                         strict=True)})
         return out

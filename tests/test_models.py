@@ -55,3 +55,15 @@ def test_a_model_of_the_wrong_shape_is_refused(tmp_path, capsys):
     assert simulate.main(["--case", TINY, "--navigator", str(wrong), "--out",
                           str(tmp_path / "o"), "--no-progress"]) == 2
     assert "observes (7,)" in capsys.readouterr().err
+
+
+def test_stochastic_model_navigator_is_reproducible(tmp_path):
+    navigator = save_ppo(tmp_path / "reach.zip", 115, spaces.MultiDiscrete([4, 3, 3]))
+    outs = []
+    for name in ("a", "b"):
+        out = tmp_path / name
+        simulate.main(["--case", TINY, "--navigator", str(navigator), "--stochastic",
+                       "--out", str(out), "--max-time-s", "120", "--no-charts",
+                       "--no-progress"])
+        outs.append((out / "events.csv").read_text())
+    assert outs[0] == outs[1] and "position" in outs[0]

@@ -58,6 +58,7 @@ class SimulateArgs:
     max_time_s: float | None = None
     charts: bool = True
     progress: bool = True
+    stochastic: bool = False
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
@@ -77,6 +78,8 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    help="time limit per episode (default: the case's)")
     p.add_argument("--no-charts", action="store_true", help="skip the PNG charts")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--stochastic", action="store_true",
+                   help="a model navigator samples its actions (seeded per episode)")
     a = p.parse_args(argv)
     if a.episodes < 1:
         p.error("--episodes must be at least 1")
@@ -87,7 +90,8 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     if a.max_time_s is not None and a.max_time_s <= 0:
         p.error(f"--max-time-s must be positive, not {a.max_time_s:g}")
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
-                        a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress)
+                        a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
+                        a.stochastic)
 
 
 # -- policies -------------------------------------------------------------------------------
@@ -102,12 +106,12 @@ def make_evaluator(spec: str):
     return ModelEvaluator(_model_path(spec, "--evaluator"))
 
 
-def make_navigator(spec: str, env):
+def make_navigator(spec: str, env, stochastic: bool = False):
     if spec == "scripted":
         return Navigator(env)
     from agents.models import PolicyNavigator
 
-    return PolicyNavigator(_model_path(spec, "--navigator"))
+    return PolicyNavigator(_model_path(spec, "--navigator"), deterministic=not stochastic)
 
 
 def _model_path(spec: str, option: str) -> Path:
@@ -135,6 +139,8 @@ def run_episode(env, navigator, seed: int, stall_s: float, progress: bool = True
     from tqdm import tqdm
 
     observations, _ = env.reset(seed=seed)
+    if hasattr(navigator, "reset"):
+        navigator.reset(seed)
     site = env.site
     frames = []
     next_frame = 0.0
@@ -237,6 +243,7 @@ def summary(env, episode: Episode, args: SimulateArgs, case_label: str, lb) -> d
     return {
         "case": site.case.case.name, "case_file": case_label, "seed": episode.seed,
         "stage": env.stage, "evaluator": args.evaluator, "navigator": args.navigator,
+        "navigator_sampling": "stochastic" if args.stochastic else "deterministic",
         "makespan_s": makespan,
         "tasks_finished": site.tasks_ended, "tasks_total": len(site.tasks),
         "all_finished": site.done, "simulated_s": site.time_s,
@@ -312,7 +319,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if hasattr(evaluator, "bind"):
             evaluator.bind(env)
-        navigator = make_navigator(args.navigator, env)
+        navigator = make_navigator(args.navigator, env, args.stochastic)
         if hasattr(navigator, "bind"):
             navigator.bind(env)
     except ValueError as err:
