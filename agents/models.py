@@ -47,6 +47,14 @@ class PolicyNavigator:
         self.model = load_model(path)
         self.deterministic = deterministic
 
+    @classmethod
+    def from_model(cls, model, deterministic: bool = True) -> PolicyNavigator:
+        """Wrap a live model (e.g. during training) without a file."""
+        navigator = cls.__new__(cls)
+        navigator.path, navigator.model, navigator.deterministic = Path("<live>"), model, \
+            deterministic
+        return navigator
+
     def reset(self, seed: int) -> None:
         import torch
 

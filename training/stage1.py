@@ -216,8 +216,7 @@ def evaluate_reaching(model, config: Stage1Config, case, seeds, stage: int = 1) 
     """Deterministic episodes on fixed seeds: reach rate within the step cap, reward, tasks."""
     from agents.models import PolicyNavigator
 
-    navigator = PolicyNavigator.__new__(PolicyNavigator)  # reuse the live model, no file
-    navigator.model = model
+    navigator = PolicyNavigator.from_model(model)
     reaches = timeouts = steps = 0
     rewards, tasks = [], []
     for seed in seeds:
