@@ -213,15 +213,18 @@ def behaviour_clone(model, observations, actions, config: Stage1Config, log=prin
 # -- evaluation ---------------------------------------------------------------------------------
 
 def evaluate_reaching(model, config: Stage1Config, case, seeds, stage: int = 1) -> dict:
-    """Deterministic episodes on fixed seeds: reach rate within the step cap, reward, tasks."""
+    """Episodes on fixed seeds, actions sampled with a seeded generator (the deterministic
+    argmax policy tends to repeat a blocked move): reach rate within the step cap, reward,
+    share of tasks done."""
     from agents.models import PolicyNavigator
 
-    navigator = PolicyNavigator.from_model(model)
+    navigator = PolicyNavigator.from_model(model, deterministic=False)
     reaches = timeouts = steps = 0
     rewards, tasks = [], []
     for seed in seeds:
         env = make_env(config, case, stage=stage, seed=seed)
         observations, _ = env.reset(seed=seed)
+        navigator.reset(seed)
         total = 0.0
         while env.agents:
             observations, rew, *_ = env.step(navigator.actions(env, observations))
