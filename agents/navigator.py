@@ -286,9 +286,7 @@ class Navigator:
     def _idle(self, crew, body, x, y):
         """No target: stand aside, out of active task areas and storages."""
         site = self.site
-        in_area = any(_inside(x, y, site.tasks[t].area) for t in site.active_areas) or \
-            any(_inside(x, y, s.rect) for s in site.storages)
-        if not in_area:
+        if not site.in_congestion_area(x, y):  # the same test as the env's parking
             return STAND_STILL
         key = ("clear", self.crew_grid[crew.index].radius)
         field = self.fields.get(key)
@@ -351,6 +349,3 @@ class Navigator:
 def _wrap(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
 
-
-def _inside(x, y, r) -> bool:
-    return r[0] <= x <= r[2] and r[1] <= y <= r[3]

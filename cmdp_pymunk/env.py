@@ -58,7 +58,7 @@ from pettingzoo import ParallelEnv
 from . import construct, decide, events, move, observe, reward
 from .case import Case, as_case
 from .evaluate import NearestFirstEvaluator, TargetEvaluator, assign_target_values
-from .state import CrewStatus, Site, activity, inside
+from .state import CrewStatus, Site, activity
 from .world import N_KINDS, World
 
 # per-agent counts of one step() call, in infos[agent]["step_stats"] (training metrics)
@@ -250,9 +250,7 @@ class CMDPEnv(ParallelEnv):
         if not crew.moving:
             return False
         if self.park_idle and not crew.scope and crew.status == CrewStatus.REACHING:
-            x, y = self.positions[crew.index]
-            return move.congestion_index(self.site, x, y) < 1.0 or any(
-                inside(x, y, s.rect) for s in self.site.storages)
+            return self.site.in_congestion_area(*self.positions[crew.index])
         return True
 
     def _log_activities(self) -> None:

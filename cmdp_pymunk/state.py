@@ -255,6 +255,11 @@ class Site:
         return task.pool == Pool.QUEUE and not any(
             self.tasks[o].pool == Pool.ON for o in task.conflicts)
 
+    def in_congestion_area(self, x: float, y: float) -> bool:
+        """Inside an active task area or a storage area: where an idle crew is in the way."""
+        return any(inside(x, y, self.tasks[t].area) for t in self.active_areas) or any(
+            inside(x, y, s.rect) for s in self.storages)
+
     def storage_congestion(self, storage: StorageState) -> float:
         """I_area of a storage (Eq. 1): 1 when empty, falling to its full index with the stock."""
         fill = min(1.0, storage.stock / storage.capacity)
