@@ -83,9 +83,11 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     config = Stage1Config.load(DEFAULT_CONFIG)
     case = cmdp_pymunk.load_case(config.case)
-    ours = agent_steps_per_second(make_env(config, case), config, args.steps)
+    env = make_env(config, case)
+    obs_size = env.observation_space(env.possible_agents[0]).shape[0]
+    ours = agent_steps_per_second(env, config, args.steps)
     trivial = agent_steps_per_second(
-        TrivialEnv(len(case.crews), 115, int(config.episode_time_s)), config, args.steps)
+        TrivialEnv(len(case.crews), obs_size, int(config.episode_time_s)), config, args.steps)
     print(f"PPO on the CMDP (stage 1): {ours:8,.0f} agent-steps/s")
     print(f"PPO on a trivial env:      {trivial:8,.0f} agent-steps/s "
           f"(same spaces, {config.n_envs} copies, {config.num_cpus} processes)")

@@ -74,6 +74,9 @@ class Simulation(_Model):
     turning_rate_deg_s: Positive = 30.0
     lateral_velocity_m_s: Positive = 0.1
     reevaluate_after_steps: Annotated[int, Strict(), Field(ge=1)] = 300
+    # Beyond the paper (its section 6 names a "memory storage" as the remedy for blind spots):
+    # the reaching observation also carries where the crew last saw a target of its scope.
+    target_memory: Annotated[bool, Strict()] = False
 
 
 class ReachingReward(_Model):

@@ -90,7 +90,8 @@ class CMDPEnv(ParallelEnv):
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
         self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
                                      sim.field_of_view_deg, sim.sight_distance_m,
-                                     sim.surrounding_distance_m)
+                                     sim.surrounding_distance_m, sim.target_memory,
+                                     sim.reevaluate_after_steps * sim.step_s)
         self.eta = reward.eta_by_kind(self.case.reaching_reward)
         self._reach_cap = sim.reevaluate_after_steps
         self.possible_agents = [c.id for c in self.case.crews]
@@ -325,9 +326,13 @@ class CMDPEnv(ParallelEnv):
             if cached is None or cached[0] != version or cached[1] is not crew.scope \
                     or cached[2] is not crew.values:
                 cached = (version, crew.scope, crew.values,
-                          observe.observe_crew(self.world, self.rays, crew))
+                          observe.observe_crew(self.world, self.rays, crew, self.site.time_s))
                 self._obs_cache[i] = cached
-            out[agent] = cached[3].copy()
+            obs = out[agent] = cached[3].copy()
+            if self.rays.memory:  # the age moves on even when nothing else does
+                x, y = self.positions[i]
+                obs[-observe.MEMORY_FEATURES:] = observe.remembered_target(
+                    self.rays, crew, x, y, self.world.bodies[i].angle, self.site.time_s)
         if self.clock:
             self.clock.lap("rays")
         return out

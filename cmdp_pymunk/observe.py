@@ -13,6 +13,14 @@ straight ahead):
 then the crew's velocity in its own frame (forward, left) and its speed, each over its nominal
 forward velocity.
 
+With the case's ``target_memory`` on (beyond the paper: its section 6 names a "memory storage"
+as the remedy for blind spots among components), 4 more floats: where the crew last saw a
+target of its current scope, as (1, forward offset, left offset, age), the offsets over the
+sight distance in the crew's frame and the age over the re-evaluation step cap (capped at 1);
+all 0 while it remembers none. A sighting is the hit point of the frontal ray with the highest
+priority value after Eq. 3; targets never move, so a sighting stays true while its target
+stays in the scope.
+
 What rays see of sensor areas: frontal rays (to the sight distance, within the field of view)
 look through task areas, so that targets stay visible behind the congestion in front of them;
 they stop at storages and the outlet, which are targets themselves. Surrounding rays (short,
@@ -31,6 +39,7 @@ from .state import CrewState, Pool, Site
 from .world import N_KINDS, World
 
 VELOCITY_FEATURES = 3
+MEMORY_FEATURES = 4
 VALUES_PER_RAY = 4
 TYPE_SCALE = 1.0 / (N_KINDS - 1)
 
@@ -52,7 +61,7 @@ class RayModel:
     """The ray layout of Fig. 3, computed once per env."""
 
     def __init__(self, n_frontal: int, n_surrounding: int, fov_deg: float, sight_m: float,
-                 surrounding_m: float):
+                 surrounding_m: float, memory: bool = False, memory_age_s: float = 300.0):
         half = math.radians(fov_deg) / 2.0
         frontal = [(-half + 2 * half * k / (n_frontal - 1)) if n_frontal > 1 else 0.0
                    for k in range(n_frontal)]
@@ -61,7 +70,11 @@ class RayModel:
         self.rays = [(math.cos(a), math.sin(a), sight_m, True) for a in frontal] + \
                     [(math.cos(a), math.sin(a), surrounding_m, False) for a in surrounding]
         self.n_rays = len(self.rays)
-        self.size = self.n_rays * VALUES_PER_RAY + VELOCITY_FEATURES
+        self.sight_m = sight_m
+        self.memory = memory
+        self.memory_age_s = memory_age_s
+        self.velocity_at = self.n_rays * VALUES_PER_RAY
+        self.size = self.velocity_at + VELOCITY_FEATURES + (MEMORY_FEATURES if memory else 0)
         angles = frontal + [math.atan2(math.sin(a), math.cos(a)) for a in surrounding]
         self.template = np.zeros(self.size, dtype=np.float32)
         self.template[1:self.n_rays * VALUES_PER_RAY:VALUES_PER_RAY] = np.array(angles) / math.pi
@@ -76,8 +89,10 @@ class RayModel:
                 for ux, uy, length, frontal in self.rays]
 
 
-def observe_crew(world: World, rays: RayModel, crew: CrewState) -> np.ndarray:
-    """Cast the crew's rays and return its reaching observation (see the module doc)."""
+def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0.0) -> np.ndarray:
+    """Cast the crew's rays and return its reaching observation (see the module doc); the
+    memory features, if any, are left 0 (``remembered_target`` fills them). Records the crew's
+    sighting of its best target in view."""
     body = world.bodies[crew.index]
     x, y = body.position
     start = (x, y)
@@ -86,22 +101,42 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState) -> np.ndarray:
     surrounding_filter = world.surrounding_filters[crew.index]
     scope, values = crew.scope, crew.values
     cast: list[float] = []
+    best_value, sighting = 0.0, None
     for ex, ey, frontal in rays.endpoints(x, y, body.angle):
         hit = query(start, (ex, ey), frontal_filter if frontal else surrounding_filter)
         if hit is None:
             cast += (1.0, 0.0, 0.0)
         else:
             alpha, kind, target = hit
-            cast += (alpha, kind * TYPE_SCALE, modified_priority(target, scope, values))
+            value = modified_priority(target, scope, values)
+            cast += (alpha, kind * TYPE_SCALE, value)
+            if frontal and value > best_value:
+                best_value, sighting = value, (target, x + alpha * (ex - x), y + alpha * (ey - y))
+    if sighting is not None:
+        crew.sighting = (*sighting, now_s)
     obs = rays.template.copy()
     obs[rays.slots] = cast
     vx, vy = body.velocity
     c, s = math.cos(body.angle), math.sin(body.angle)
     v_nominal = crew.spec.velocity_m_s
-    obs[-3] = (c * vx + s * vy) / v_nominal
-    obs[-2] = (-s * vx + c * vy) / v_nominal
-    obs[-1] = math.hypot(vx, vy) / v_nominal
+    at = rays.velocity_at
+    obs[at] = (c * vx + s * vy) / v_nominal
+    obs[at + 1] = (-s * vx + c * vy) / v_nominal
+    obs[at + 2] = math.hypot(vx, vy) / v_nominal
     return obs
+
+
+def remembered_target(rays: RayModel, crew: CrewState, x: float, y: float, heading: float,
+                      now_s: float) -> tuple[float, float, float, float]:
+    """The memory features: (1, forward, left, age) of the crew's last sighting of a target
+    still in its scope (offsets over the sight distance, age over the step cap), else zeros."""
+    seen = crew.sighting
+    if seen is None or seen[0] not in crew.scope:
+        return (0.0, 0.0, 0.0, 0.0)
+    dx, dy = seen[1] - x, seen[2] - y
+    c, s = math.cos(heading), math.sin(heading)
+    return (1.0, (c * dx + s * dy) / rays.sight_m, (-s * dx + c * dy) / rays.sight_m,
+            min(1.0, (now_s - seen[3]) / rays.memory_age_s))
 
 
 # -- the evaluation policy's observation O^e (section 3.6.1) -----------------------------------

@@ -170,6 +170,7 @@ class CrewState:
     values: dict = field(default_factory=dict)  # target index -> V_Tar
     scope_version: int = -1
     steps_since_reach: int = 0  # steps holding a target since the last reach
+    sighting: tuple | None = None  # (target, x, y, time_s): the last target of its scope seen
     idle_cause: IdleCause = IdleCause.NONE
     stats: CrewStats = field(default_factory=CrewStats)
 

@@ -28,10 +28,12 @@ def test_builtin_case_spaces_and_agents():
     env = parallel_env(seed=0)
     obs, infos = env.reset(seed=0)
     assert env.agents == ["JCC-1", "HIC-1", "GC-1", "RC-1", "RC-2", "FC-1", "FC-2"]
-    assert env.observation_space("RC-1").shape == (115,)
+    # (12 + 16) rays x 4 values + 3 velocity values + 4 target-memory values (the built-in
+    # case turns the memory on)
+    assert env.observation_space("RC-1").shape == (119,)
     assert list(env.action_space("RC-1").nvec) == [4, 3, 3]
     assert env.observation_space("RC-1") is env.observation_space("RC-1")
-    assert all(o.shape == (115,) and o.dtype == np.float32 for o in obs.values())
+    assert all(o.shape == (119,) and o.dtype == np.float32 for o in obs.values())
     assert len(env.evaluation_observation("RC-1")) == 5 + 12 * (36 + 3 + 1)
 
 

@@ -102,3 +102,41 @@ def test_fast_rays_answer_like_the_public_api():
             assert (a is None and b is None) or (a[1:] == b[1:] and a[0] == pytest.approx(b[0]))
     env.world.remove_task_area(99)
     assert all(k != 99 for k in env.world.area_shapes)
+
+
+def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
+    """Beyond the paper: the last hit point of a target in scope, hand-computed."""
+    from cmdp_pymunk.observe import MEMORY_FEATURES, RayModel, remembered_target
+
+    env = scene()
+    crew = env.site.crews[0]
+    crew.scope, crew.values = {0: -1}, {0: 0.7}
+    rays = RayModel(3, 4, 120.0, 10.0, 3.0, memory=True, memory_age_s=300.0)
+    assert rays.size == 4 * 7 + 3 + MEMORY_FEATURES
+    obs = observe_crew(env.world, rays, crew, now_s=100.0)
+    # the 0 deg frontal ray hits B's face at (4, 0): the sighting, stamped 100 s
+    assert crew.sighting[0] == 0 and crew.sighting[3] == 100.0
+    assert crew.sighting[1:3] == pytest.approx((4.0, 0.0), abs=1e-6)
+    assert list(obs[-MEMORY_FEATURES:]) == [0.0] * MEMORY_FEATURES  # filled by the env
+    # 160 s later the crew stands at (1, 3) facing +y: the point is 3 m behind (forward -3/10)
+    # and 3 m to its right (left -3/10); age 60 / 300
+    assert remembered_target(rays, crew, 1.0, 3.0, math.pi / 2, 160.0) == pytest.approx(
+        (1.0, -0.3, -0.3, 0.2), abs=1e-6)
+    # ages cap at 1; a target that left the scope is forgotten
+    assert remembered_target(rays, crew, 1.0, 3.0, 0.0, 1000.0)[3] == 1.0
+    crew.scope = {1: -1}
+    assert remembered_target(rays, crew, 1.0, 3.0, 0.0, 160.0) == (0.0, 0.0, 0.0, 0.0)
+    # a look without the target in view keeps the old sighting
+    observe_crew(env.world, rays, crew, now_s=200.0)
+    assert crew.sighting[3] == 100.0
+
+
+def test_env_observation_carries_memory_only_when_the_case_asks():
+    data = tiny_dict()
+    data["simulation"]["target_memory"] = True
+    env = parallel_env(case=case_from_dict(data), seed=0)
+    obs, _ = env.reset(seed=0)
+    plain = parallel_env(case=case_from_dict(tiny_dict()), seed=0)
+    size = plain.observation_space(plain.possible_agents[0]).shape[0]
+    assert env.observation_space(env.possible_agents[0]).shape == (size + 4,)
+    assert all(o.shape == (size + 4,) for o in obs.values())

@@ -49,6 +49,7 @@ surrounding_distance_m = 3.0
 turning_rate_deg_s = 30.0
 lateral_velocity_m_s = 0.1
 reevaluate_after_steps = 300
+target_memory = true
 
 [reaching_reward]
 eta_wall = 0.05
