@@ -1,6 +1,6 @@
 """Trained Stable-Baselines3 models in the places the scripted policies take.
 
-``PolicyNavigator``: a stage-1 reaching policy (observation Box(115), action
+``PolicyNavigator``: a stage-1 reaching policy (observation Box(115) or Box(119), action
 MultiDiscrete([4, 3, 3])) as the low level. ``ModelEvaluator``: a stage-2 evaluation policy
 (observation O^e, action Box(2), the desired position) as the target evaluator, through Eq. 4.
 Both load on the CPU and act deterministically.

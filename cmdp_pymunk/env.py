@@ -8,7 +8,9 @@ Agents
 Observation space (reaching policy, section 3.6.2)
     ``Box(115,)`` for 12 frontal + 16 surrounding rays: 4 values a ray (relative length,
     emission angle, type id, priority value after Eq. 3) and the crew's velocity (forward,
-    left, speed). See ``observe`` for the exact layout and what rays see of sensor areas.
+    left, speed). With the case's ``target_memory`` on (beyond the paper; the built-in case
+    has it), 4 more floats say where the crew last saw a target of its scope: ``Box(119,)``.
+    See ``observe`` for the exact layout and what rays see of sensor areas.
 
 Action space
     ``MultiDiscrete([4, 3, 3])``: forward {0, 0.3, 0.8, 1} x v_f, lateral {-1, 0, 1} x v_l,
