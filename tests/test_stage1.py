@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+import cmdp_pymunk
 from training import stage1
 
 TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
@@ -97,3 +98,26 @@ def test_training_curve_from_progress_csv(tmp_path):
         bad = tmp_path / "bad.csv"
         bad.write_text("a,b\n1,2\n")
         read_progress(bad)
+
+
+def test_mixed_stage_env_mixes_in_stage2_after_its_start_step():
+    config = stage1.Stage1Config(n_envs=2, episode_time_s=50.0, stage2_share=1.0,
+                                 stage2_after_steps=100, stage2_episode_time_s=70.0)
+    case = cmdp_pymunk.load_case(None)
+    n_crews = len(case.crews)
+    env = stage1.MixedStageEnv(config, case)
+    env.reset(seed=3)
+    assert (env.stage, env.max_time_s) == (1, 50.0)  # 0 agent-steps < 100
+    for _ in range(8):  # 8 calls x 2 copies x 7 crews = 112 agent-steps of the run
+        env.step({})
+    assert env.run_steps == 8 * 2 * n_crews
+    env.reset()
+    assert (env.stage, env.max_time_s) == (2, 70.0)
+    assert env.site.stage == 2
+    resumed = stage1.MixedStageEnv(config, case, start_steps=1_000)
+    resumed.reset(seed=3)
+    assert resumed.stage == 2
+    half = stage1.MixedStageEnv(stage1.Stage1Config(stage2_share=0.5), case)
+    stages = {half.reset(seed=s) and half.stage for s in range(40)}
+    assert stages == {1, 2}  # both drawn
+    assert "stage2_share = 1.5" in " ".join(stage1.Stage1Config(stage2_share=1.5).problems())

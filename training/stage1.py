@@ -3,7 +3,8 @@
     cmdp-train stage1 [--config training/configs/stage1.toml] [--set key=value ...]
                       [--out runs/stage1] [--resume CHECKPOINT.zip]
 
-Data flow: ``CMDPEnv(stage=1)`` (no durations, unlimited stock, no crane wait) ->
+Data flow: ``CMDPEnv(stage=1)`` (no durations, unlimited stock, no crane wait; with
+``stage2_share`` > 0, a share of full-CMDP episodes mixed in: ``MixedStageEnv``) ->
 ``pettingzoo_env_to_vec_env_v1`` -> ``concat_vec_envs_v1`` -> ``VecMonitor`` -> one PPO MLP whose
 weights every crew shares. Optional warm start: behaviour cloning from the scripted navigator
 (``bc_samples`` > 0), then PPO.
@@ -30,7 +31,7 @@ from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.move import STAND_STILL
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage1.toml"
-ZERO_ALLOWED = {"seed", "bc_samples", "bc_epochs", "ent_coef", "gamma", "gae_lambda",
+ZERO_ALLOWED = {"seed", "bc_samples", "bc_epochs", "stage2_share", "stage2_after_steps", "ent_coef", "gamma", "gae_lambda",
                 "clip_range", "vf_coef", "torch_threads"}
 
 
@@ -61,6 +62,11 @@ class Stage1Config:
     bc_epochs: int = 6
     bc_batch_size: int = 1024
     bc_learning_rate: float = 1e-3
+    # stage-2 episodes in the mix (MixedStageEnv): their share of the resets, from which
+    # agent-step of the run, and where they are cut
+    stage2_share: float = 0.0
+    stage2_after_steps: int = 0
+    stage2_episode_time_s: float = 20000.0
     # evaluation, checkpoints
     eval_every_steps: int = 250_000
     eval_seeds: list = field(default_factory=lambda: [1000, 1001])
@@ -112,6 +118,9 @@ class Stage1Config:
                     isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)):
                 out.append(f"{f.name} = {value!r} must be a non-empty list of positive whole "
                            "numbers, e.g. [128, 128]")
+        if isinstance(self.stage2_share, (int, float)) and self.stage2_share > 1:
+            out.append(f"stage2_share = {self.stage2_share!r} is a share of the episodes; fix: "
+                       "give a number from 0 to 1")
         if self.num_cpus > self.n_envs:
             out.append(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; fix: "
                        "lower num_cpus")
@@ -128,11 +137,44 @@ def make_env(config: Stage1Config, case, stage: int = 1, seed: int | None = None
                                     max_time_s=config.episode_time_s)
 
 
-def make_vec_env(config: Stage1Config, case):
+class MixedStageEnv(cmdp_pymunk.CMDPEnv):
+    """Stage-1 episodes and, once the run has done ``stage2_after_steps`` agent-steps, a share
+    ``stage2_share`` of full-CMDP (stage-2) episodes, drawn at each reset from the episode's
+    generator.
+
+    Stage 1 never shows what stage 2 is full of: task areas that stay up for hours, crews
+    tasking inside them, and paused tasks whose own area the crew must re-enter after fetching.
+    The copies of a vector env step in lockstep, so a copy's own ``step`` calls times the number
+    of copies and crews is the run's agent-step count (``start_steps`` on a resumed run).
+    """
+
+    def __init__(self, config: Stage1Config, case, start_steps: int = 0, **kwargs):
+        from agents.priority import PriorityEvaluator
+
+        super().__init__(case=case, stage=1, evaluator=PriorityEvaluator(),
+                         max_time_s=config.episode_time_s, **kwargs)
+        self.config = config
+        self.run_steps = start_steps
+        self.steps_per_call = config.n_envs * len(self.possible_agents)
+
+    def reset(self, seed=None, options=None):
+        c = self.config
+        draw = (np.random.default_rng(seed) if seed is not None else self.rng).random()
+        stage2 = self.run_steps >= c.stage2_after_steps and draw < c.stage2_share
+        self.stage = 2 if stage2 else 1
+        self.max_time_s = c.stage2_episode_time_s if stage2 else c.episode_time_s
+        return super().reset(seed=seed, options=options)
+
+    def step(self, actions):
+        self.run_steps += self.steps_per_call
+        return super().step(actions)
+
+
+def make_vec_env(config: Stage1Config, case, start_steps: int = 0):
     import supersuit as ss
     from stable_baselines3.common.vec_env import VecMonitor
 
-    env = make_env(config, case)  # not reset: its copies are pickled from it
+    env = MixedStageEnv(config, case, start_steps)  # not reset: its copies are pickled from it
     venv = ss.pettingzoo_env_to_vec_env_v1(env)
     venv = ss.concat_vec_envs_v1(venv, config.n_envs, num_cpus=config.num_cpus,
                                  base_class="stable_baselines3")
@@ -361,7 +403,12 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
          else None, "versions": versions()}, indent=2))
     write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
     set_random_seed(config.seed)
-    venv = make_vec_env(config, case)
+    start_steps = 0
+    if resume is not None:
+        from stable_baselines3.common.save_util import load_from_zip_file
+
+        start_steps = load_from_zip_file(str(resume), device="cpu")[0]["num_timesteps"]
+    venv = make_vec_env(config, case, start_steps)
     if resume is not None:
         model = PPO.load(str(resume), env=venv, device="cpu")
         log(f"resumed from {resume} at {model.num_timesteps:,} steps")
