@@ -170,6 +170,9 @@ def tasking_with_material_running_out(crew: CrewState, ctx: Context) -> bool:
 
 def pause_task(crew: CrewState, ctx: Context) -> None:
     crew.paused = True
+    # A crew knows where it left its work (the target memory, when the case has it, tells it)
+    task = _task(crew, ctx)
+    crew.sightings[task.component] = (*ctx.positions[crew.index], ctx.site.time_s)
     ctx.log.add(ctx.site.time_s, "task_pause", crew.id, _task(crew, ctx).id)
     set_storage_scope(crew, ctx.site)
     events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)

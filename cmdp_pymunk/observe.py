@@ -14,16 +14,19 @@ then the crew's velocity in its own frame (forward, left) and its speed, each ov
 forward velocity.
 
 With the case's ``target_memory`` on (beyond the paper: its section 6 names a "memory storage"
-as the remedy for blind spots among components), 4 more floats: where the crew last saw a
-target of its current scope, as (1, forward offset, left offset, age), the offsets over the
-sight distance in the crew's frame and the age over the re-evaluation step cap (capped at 1);
-all 0 while it remembers none. A sighting is the hit point of the frontal ray with the highest
-priority value after Eq. 3; targets never move, so a sighting stays true while its target
-stays in the scope.
+as the remedy for blind spots among components), 4 more floats: the latest sighting of a
+target of the crew's current scope, as (1, forward offset, left offset, age), the offsets over
+the sight distance in the crew's frame and the age over the re-evaluation step cap (capped at
+1); all 0 while it remembers none. A crew keeps, per target, the last point where one of its
+frontal rays hit that target while it was in the scope (a non-zero value after Eq. 3), and the
+point where it paused a task to fetch materials (it knows where it left its work). Targets never
+move, so a sighting stays true.
 
 What rays see of sensor areas: frontal rays (to the sight distance, within the field of view)
 look through task areas, so that targets stay visible behind the congestion in front of them;
-they stop at storages and the outlet, which are targets themselves. Surrounding rays (short,
+they stop at storages and the outlet, which are targets themselves, except at the storage the
+crew stands in (a ray that starts inside a shape would hit it at once and leave the crew
+blind until it has walked out). Surrounding rays (short,
 all around) stop at every area, task areas included, so they report the congestion around
 the crew (a ray that starts inside an area hits it at length 0). A crew's rays never hit the
 crew itself (shared ``ShapeFilter`` group).
@@ -36,7 +39,7 @@ import math
 import numpy as np
 
 from .state import CrewState, Pool, Site
-from .world import N_KINDS, World
+from .world import N_KINDS, STORAGE, World
 
 VELOCITY_FEATURES = 3
 MEMORY_FEATURES = 4
@@ -101,19 +104,20 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
     surrounding_filter = world.surrounding_filters[crew.index]
     scope, values = crew.scope, crew.values
     cast: list[float] = []
-    best_value, sighting = 0.0, None
+    sightings = crew.sightings
     for ex, ey, frontal in rays.endpoints(x, y, body.angle):
         hit = query(start, (ex, ey), frontal_filter if frontal else surrounding_filter)
+        if frontal and hit is not None and hit[0] == 0.0 and hit[1] == STORAGE:
+            hit = _cast_out_of(world, world.storage_rects[hit[2]], start, (ex, ey),
+                               frontal_filter)
         if hit is None:
             cast += (1.0, 0.0, 0.0)
         else:
             alpha, kind, target = hit
             value = modified_priority(target, scope, values)
             cast += (alpha, kind * TYPE_SCALE, value)
-            if frontal and value > best_value:
-                best_value, sighting = value, (target, x + alpha * (ex - x), y + alpha * (ey - y))
-    if sighting is not None:
-        crew.sighting = (*sighting, now_s)
+            if frontal and value > 0.0:
+                sightings[target] = (x + alpha * (ex - x), y + alpha * (ey - y), now_s)
     obs = rays.template.copy()
     obs[rays.slots] = cast
     vx, vy = body.velocity
@@ -126,17 +130,42 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
     return obs
 
 
+def _cast_out_of(world: World, rect, start, end, shape_filter):
+    """A frontal ray from a crew standing in a storage: cast again from where the ray leaves
+    the storage, so that the crew is not blind while it fetches and walks out. The answer's
+    alpha is along the whole ray."""
+    (x, y), (ex, ey) = start, end
+    dx, dy = ex - x, ey - y
+    t_out = 1.0
+    for d, p, lo, hi in ((dx, x, rect[0], rect[2]), (dy, y, rect[1], rect[3])):
+        if d > 0:
+            t_out = min(t_out, (hi - p) / d)
+        elif d < 0:
+            t_out = min(t_out, (lo - p) / d)
+    t_out = t_out + 1e-6
+    if t_out >= 1.0:  # the whole ray lies in the storage
+        return None
+    hit = world.rays.cast((x + t_out * dx, y + t_out * dy), end, shape_filter)
+    if hit is None:
+        return None
+    return t_out + hit[0] * (1.0 - t_out), hit[1], hit[2]
+
+
 def remembered_target(rays: RayModel, crew: CrewState, x: float, y: float, heading: float,
                       now_s: float) -> tuple[float, float, float, float]:
-    """The memory features: (1, forward, left, age) of the crew's last sighting of a target
-    still in its scope (offsets over the sight distance, age over the step cap), else zeros."""
-    seen = crew.sighting
-    if seen is None or seen[0] not in crew.scope:
+    """The memory features: (1, forward, left, age) of the latest sighting of a target in the
+    crew's scope (offsets over the sight distance, age over the step cap), else zeros."""
+    latest = None
+    for target in crew.scope:
+        seen = crew.sightings.get(target)
+        if seen is not None and (latest is None or seen[2] > latest[2]):
+            latest = seen
+    if latest is None:
         return (0.0, 0.0, 0.0, 0.0)
-    dx, dy = seen[1] - x, seen[2] - y
+    dx, dy = latest[0] - x, latest[1] - y
     c, s = math.cos(heading), math.sin(heading)
     return (1.0, (c * dx + s * dy) / rays.sight_m, (-s * dx + c * dy) / rays.sight_m,
-            min(1.0, (now_s - seen[3]) / rays.memory_age_s))
+            min(1.0, (now_s - latest[2]) / rays.memory_age_s))
 
 
 # -- the evaluation policy's observation O^e (section 3.6.1) -----------------------------------

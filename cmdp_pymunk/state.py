@@ -170,7 +170,8 @@ class CrewState:
     values: dict = field(default_factory=dict)  # target index -> V_Tar
     scope_version: int = -1
     steps_since_reach: int = 0  # steps holding a target since the last reach
-    sighting: tuple | None = None  # (target, x, y, time_s): the last target of its scope seen
+    # target -> (x, y, time_s): where the crew last saw it in its scope, or left it paused
+    sightings: dict = field(default_factory=dict)
     idle_cause: IdleCause = IdleCause.NONE
     stats: CrewStats = field(default_factory=CrewStats)
 

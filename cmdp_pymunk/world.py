@@ -109,9 +109,11 @@ class World:
         for comp in site.components:
             self._add_static(_tag(_box(static, comp.rect), COMPONENT, target=comp.index),
                              CATEGORY[COMPONENT])
+        self.storage_rects: dict[int, Rect] = {}  # by target index
         for st in site.storages:
             self._add_static(_tag(_box(static, st.rect), STORAGE, target=st.target),
                              CATEGORY[STORAGE], sensor=True)
+            self.storage_rects[st.target] = st.rect
         outlet = pymunk.Circle(static, case.plane.outlet_radius_m,
                                (case.plane.outlet_x_m, case.plane.outlet_y_m))
         self._add_static(_tag(outlet, OUTLET, target=site.outlet_target), CATEGORY[OUTLET],

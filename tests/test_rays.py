@@ -105,7 +105,7 @@ def test_fast_rays_answer_like_the_public_api():
 
 
 def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
-    """Beyond the paper: the last hit point of a target in scope, hand-computed."""
+    """Beyond the paper: the latest sighting of a target in scope, hand-computed."""
     from cmdp_pymunk.observe import MEMORY_FEATURES, RayModel, remembered_target
 
     env = scene()
@@ -114,21 +114,51 @@ def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
     rays = RayModel(3, 4, 120.0, 10.0, 3.0, memory=True, memory_age_s=300.0)
     assert rays.size == 4 * 7 + 3 + MEMORY_FEATURES
     obs = observe_crew(env.world, rays, crew, now_s=100.0)
-    # the 0 deg frontal ray hits B's face at (4, 0): the sighting, stamped 100 s
-    assert crew.sighting[0] == 0 and crew.sighting[3] == 100.0
-    assert crew.sighting[1:3] == pytest.approx((4.0, 0.0), abs=1e-6)
+    # the 0 deg frontal ray hits B's face at (4, 0): the sighting of target 0, stamped 100 s
+    assert crew.sightings[0] == pytest.approx((4.0, 0.0, 100.0), abs=1e-6)
     assert list(obs[-MEMORY_FEATURES:]) == [0.0] * MEMORY_FEATURES  # filled by the env
     # 160 s later the crew stands at (1, 3) facing +y: the point is 3 m behind (forward -3/10)
     # and 3 m to its right (left -3/10); age 60 / 300
     assert remembered_target(rays, crew, 1.0, 3.0, math.pi / 2, 160.0) == pytest.approx(
         (1.0, -0.3, -0.3, 0.2), abs=1e-6)
-    # ages cap at 1; a target that left the scope is forgotten
+    # ages cap at 1; a target outside the scope is not offered
     assert remembered_target(rays, crew, 1.0, 3.0, 0.0, 1000.0)[3] == 1.0
     crew.scope = {1: -1}
     assert remembered_target(rays, crew, 1.0, 3.0, 0.0, 160.0) == (0.0, 0.0, 0.0, 0.0)
-    # a look without the target in view keeps the old sighting
+    # a look without the target in view keeps the old sighting; of two, the latest is offered
     observe_crew(env.world, rays, crew, now_s=200.0)
-    assert crew.sighting[3] == 100.0
+    assert crew.sightings[0][2] == 100.0
+    crew.sightings[1] = (1.0, 5.0, 150.0)
+    crew.scope = {0: -1, 1: -1}
+    assert remembered_target(rays, crew, 1.0, 3.0, 0.0, 160.0) == pytest.approx(
+        (1.0, 0.0, 0.2, 10 / 300), abs=1e-6)
+
+
+def test_a_crew_in_a_storage_sees_out_of_it_with_its_frontal_rays():
+    env = scene()
+    crew = env.site.crews[0]
+    crew.scope, crew.values = {0: -1}, {0: 0.7}
+    # storage S spans x 4.5..7.5, y 3.5..5.5; the crew stands in it at (5.5, 4.5) facing -y
+    place(env, 0, 5.5, 4.5, angle=-math.pi / 2)
+    obs = observe_crew(env.world, env.rays, crew)
+    # the 0 deg frontal ray leaves S at y = 3.5 (1 m) and meets B's top face y = 1 at 3.5 m
+    assert ray(obs, 1) == pytest.approx((0.35, 0.0, COMPONENT * SCALE, 0.7), abs=1e-5)
+    # surrounding rays still report the storage around the crew, at length 0
+    assert ray(obs, 3)[0] == 0.0 and ray(obs, 3)[2] == pytest.approx(STORAGE * SCALE)
+
+
+def test_a_crew_remembers_where_it_paused_its_task():
+    import numpy as np
+
+    from cmdp_pymunk import decide
+
+    env = scene()
+    crew = env.site.crews[0]
+    crew.task = 3  # M-C, on component C (target 2)
+    env.site.time_s = 42.0
+    ctx = decide.Context(env.site, env.world, env.positions, np.random.default_rng(0), env.log)
+    decide.pause_task(crew, ctx)
+    assert crew.sightings[env.site.tasks[3].component] == (0.0, 0.0, 42.0)
 
 
 def test_env_observation_carries_memory_only_when_the_case_asks():
