@@ -18,7 +18,12 @@ from cmdp_pymunk.observe import evaluation_observation, evaluation_size
 
 
 def load_model(path: str | Path):
+    import torch
     from stable_baselines3 import PPO
+
+    # Inference on a few rows a step: one thread is fastest, and the default (one per core)
+    # makes two simulations side by side fight over the cores (4x slower here).
+    torch.set_num_threads(1)
 
     try:
         return PPO.load(str(path), device="cpu")
