@@ -3,9 +3,10 @@ and the same PPO settings, measured in one run, and their ratio (target 0.5 or b
 
     python benchmarks/bench_train.py [--steps 100000] [--rounds 3]
 
-The two are measured in alternating rounds (CMDP, trivial, CMDP, trivial...) and the median
-of the per-round ratios is reported: on a shared 2-core machine one measurement of each
-varied from 0.46 to 0.56.
+The two are measured in alternating rounds (CMDP, trivial, CMDP, trivial...), each in a fresh
+Python process (a later measurement in the same process inherits the earlier one's workers and
+memory and ran up to 40 % slower), and the median of the per-round ratios is reported: on a
+shared 2-core machine single measurements varied from 0.46 to 0.56.
 
 Both go through the same SuperSuit -> VecMonitor -> PPO pipeline with the stage-1 config
 (training/configs/stage1.toml), so the ratio is what the simulator costs training.
@@ -81,21 +82,34 @@ def agent_steps_per_second(env, config: Stage1Config, steps: int) -> float:
     return rate
 
 
+def _measure_in_fresh_process(which: str, steps: int) -> float:
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, __file__, "--only", which, "--steps", str(steps)],
+                         capture_output=True, text=True, check=True).stdout
+    return float(out.strip().splitlines()[-1])
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--only", choices=("cmdp", "trivial"), help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     config = Stage1Config.load(DEFAULT_CONFIG)
     case = cmdp_pymunk.load_case(config.case)
+    if args.only:  # one measurement, in this (fresh) process
+        env = make_env(config, case)
+        if args.only == "trivial":
+            obs_size = env.observation_space(env.possible_agents[0]).shape[0]
+            env = TrivialEnv(len(case.crews), obs_size, int(config.episode_time_s))
+        print(agent_steps_per_second(env, config, args.steps))
+        return 0
     rates = []
     for k in range(args.rounds):
-        env = make_env(config, case)
-        obs_size = env.observation_space(env.possible_agents[0]).shape[0]
-        ours = agent_steps_per_second(env, config, args.steps)
-        trivial = agent_steps_per_second(
-            TrivialEnv(len(case.crews), obs_size, int(config.episode_time_s)), config,
-            args.steps)
+        ours, trivial = (_measure_in_fresh_process(which, args.steps)
+                         for which in ("cmdp", "trivial"))
         rates.append((ours, trivial))
         print(f"round {k + 1}: CMDP {ours:8,.0f}, trivial {trivial:8,.0f} agent-steps/s, "
               f"ratio {ours / trivial:.2f}", flush=True)

@@ -14,7 +14,10 @@ SMALL = ["--set", f"case='{TINY}'", "--set", "total_steps=2048", "--set", "n_env
          "--set", "num_cpus=1", "--set", "n_steps=128", "--set", "batch_size=256",
          "--set", "n_epochs=1", "--set", "bc_samples=600", "--set", "bc_epochs=1",
          "--set", "eval_every_steps=1024", "--set", "checkpoint_every_steps=1024",
-         "--set", "eval_seeds=[5]", "--set", "episode_time_s=200", "--no-progress"]
+         "--set", "eval_seeds=[5]", "--set", "episode_time_s=200",
+         # full-CMDP episodes mixed in from the start, short, so that the plumbing runs them
+         "--set", "stage2_share=0.5", "--set", "stage2_after_steps=0",
+         "--set", "stage2_episode_time_s=300", "--no-progress"]
 
 
 def weights(path):
