@@ -9,7 +9,8 @@ memory and ran up to 40 % slower), and the median of the per-round ratios is rep
 shared 2-core machine single measurements varied from 0.46 to 0.56.
 
 Both go through the same SuperSuit -> VecMonitor -> PPO pipeline with the stage-1 config
-(training/configs/stage1.toml), so the ratio is what the simulator costs training.
+(training/configs/stage1.toml), the CMDP as training builds it (``MixedStageEnv``, lean
+infos), so the ratio is what the simulator costs training.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 import cmdp_pymunk
-from training.stage1 import DEFAULT_CONFIG, Stage1Config, make_env
+from training.stage1 import DEFAULT_CONFIG, MixedStageEnv, Stage1Config
 
 
 class TrivialEnv(ParallelEnv):
@@ -100,7 +101,7 @@ def main(argv=None) -> int:
     config = Stage1Config.load(DEFAULT_CONFIG)
     case = cmdp_pymunk.load_case(config.case)
     if args.only:  # one measurement, in this (fresh) process
-        env = make_env(config, case)
+        env = MixedStageEnv(config, case)  # the env as training builds it
         if args.only == "trivial":
             obs_size = env.observation_space(env.possible_agents[0]).shape[0]
             env = TrivialEnv(len(case.crews), obs_size, int(config.episode_time_s))

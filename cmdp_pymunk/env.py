@@ -41,7 +41,10 @@ Arguments
     paper lets such crews manoeuvre; a scripted low level that only parks them runs faster this
     way). Default False.
     ``position_log_every_s``: log moving crews' positions to the event log this often (for
-    trajectory charts); ``None`` logs none.
+    trajectory charts); ``None`` logs none. ``lean_infos``: each agent's info holds only its
+    non-zero ``step_stats`` and ``TimeLimit.truncated`` when true (an empty dict most steps);
+    for training, since SuperSuit deep-copies every info of every step (about 0.6-0.9 ms a
+    step for 56 full infos, the same as stepping the envs themselves). Default False.
 
 One step, in the paper's order (section 3.2)
     P_phy (move, physics), P_cons (construct), Pi_cons (the decision table), target
@@ -75,7 +78,7 @@ class CMDPEnv(ParallelEnv):
                  seed: int | None = None, evaluator: TargetEvaluator | None = None,
                  render_mode: str | None = None, jump_idle: bool = True,
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
-                 park_idle: bool = False):
+                 park_idle: bool = False, lean_infos: bool = False):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -87,6 +90,7 @@ class CMDPEnv(ParallelEnv):
         self.jump_idle = jump_idle
         self.position_log_every_s = position_log_every_s
         self.park_idle = park_idle
+        self.lean_infos = lean_infos
         self.evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
         sim = self.case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
@@ -341,6 +345,14 @@ class CMDPEnv(ParallelEnv):
 
     def _info(self, i: int, terms: dict, eval_reward: float, elapsed: int,
               time_limit: bool) -> dict:
+        if self.lean_infos:
+            info = {}
+            stats = {k: v for k, v in self._step_stats[i].items() if v}
+            if stats:
+                info["step_stats"] = stats
+            if time_limit:
+                info["TimeLimit.truncated"] = True
+            return info
         crew = self.site.crews[i]
         return {"status": crew.status.name.lower(), "time_s": self.site.time_s,
                 "elapsed_s": elapsed, "needs_action": self.needs_action(crew),

@@ -170,3 +170,18 @@ def test_idle_jump_with_parked_crews_gives_the_same_schedule():
         assert env.site.done
         runs.append(env)
     assert schedule(runs[0]) == schedule(runs[1])
+
+
+def test_lean_infos_hold_only_nonzero_step_counts():
+    full = parallel_env(seed=0)
+    lean = parallel_env(seed=0, lean_infos=True)
+    full.reset(seed=0)
+    _, infos = lean.reset(seed=0)
+    assert all(info == {} for info in infos.values())
+    for _ in range(30):
+        actions = {a: (3, 1, 0) for a in full.agents}
+        *_, full_infos = full.step(actions)
+        *_, lean_infos = lean.step(actions)
+        for agent, info in lean_infos.items():
+            expected = {k: v for k, v in full_infos[agent]["step_stats"].items() if v}
+            assert info == ({"step_stats": expected} if expected else {})

@@ -152,7 +152,7 @@ class MixedStageEnv(cmdp_pymunk.CMDPEnv):
         from agents.priority import PriorityEvaluator
 
         super().__init__(case=case, stage=1, evaluator=PriorityEvaluator(),
-                         max_time_s=config.episode_time_s, **kwargs)
+                         max_time_s=config.episode_time_s, lean_infos=True, **kwargs)
         self.config = config
         self.run_steps = start_steps
         self.steps_per_call = config.n_envs * len(self.possible_agents)
