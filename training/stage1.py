@@ -31,8 +31,8 @@ from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.move import STAND_STILL
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage1.toml"
-ZERO_ALLOWED = {"seed", "bc_samples", "bc_epochs", "stage2_share", "stage2_after_steps", "ent_coef", "gamma", "gae_lambda",
-                "clip_range", "vf_coef", "torch_threads"}
+ZERO_ALLOWED = {"seed", "bc_samples", "bc_epochs", "stage2_share", "stage2_after_steps",
+                "ent_coef", "gamma", "gae_lambda", "clip_range", "vf_coef", "torch_threads"}
 
 
 @dataclass
