@@ -354,11 +354,15 @@ class CMDPEnv(ParallelEnv):
                 info["TimeLimit.truncated"] = True
             return info
         crew = self.site.crews[i]
-        return {"status": crew.status.name.lower(), "time_s": self.site.time_s,
+        info = {"status": crew.status.name.lower(), "time_s": self.site.time_s,
                 "elapsed_s": elapsed, "needs_action": self.needs_action(crew),
                 "evaluation_reward": eval_reward, "evaluation_terms": dict(terms),
-                "step_stats": self._step_stats[i],
-                "TimeLimit.truncated": time_limit}
+                "step_stats": self._step_stats[i]}
+        # Only when true: SuperSuit merges the next episode's reset infos over the last step's,
+        # and a False there would hide the time-out from SB3 (no bootstrapping).
+        if time_limit:
+            info["TimeLimit.truncated"] = True
+        return info
 
     # -- for the high level, the scripted policies and the media ------------------------------
 

@@ -185,3 +185,21 @@ def test_lean_infos_hold_only_nonzero_step_counts():
         for agent, info in lean_infos.items():
             expected = {k: v for k, v in full_infos[agent]["step_stats"].items() if v}
             assert info == ({"step_stats": expected} if expected else {})
+
+
+@pytest.mark.parametrize("lean", [False, True])
+def test_time_out_reaches_sb3_through_supersuit(lean):
+    """SuperSuit merges the reset infos over the last step's: the flag must survive that."""
+    import supersuit as ss
+
+    env = tiny_env(max_time_s=20)
+    env.lean_infos = lean
+    venv = ss.pettingzoo_env_to_vec_env_v1(env)
+    venv.reset(seed=0)
+    actions = np.array([[0, 1, 1]] * venv.num_envs)
+    for _ in range(100):
+        _, _, terms, truncs, infos = venv.step(actions)
+        if truncs.any():
+            break
+    assert truncs.all() and not terms.any()
+    assert all(i.get("TimeLimit.truncated") and "terminal_observation" in i for i in infos)
