@@ -200,14 +200,13 @@ def teacher_action(env, agent: str, navigator_action) -> tuple:
     return navigator_action if crew.scope else SEARCH_TURN
 
 
-def navigator_samples(config: Stage1Config, case, n: int, seed: int, driver=None) -> tuple:
-    """(observations, actions) labelled by the scripted navigator on stage-1 episodes.
+def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
+    """(observations, actions) of the scripted navigator on stage-1 episodes.
 
-    ``driver``: None, the navigator drives the crews (plain cloning); a ``PolicyNavigator``,
-    the policy drives and the navigator only labels the states the policy visits (DAgger).
-    DAgger was tried on the built-in case and made the clone worse (stage-2 reach rate 0.75-0.83
-    after two rounds against 0.89-0.91 for plain cloning): the navigator's answers in the
-    clone's states lean on its own re-planning memory and the map, which the rays cannot show.
+    DAgger (the clone drives, the navigator labels the states it visits) was tried on the
+    built-in case and made the clone worse (stage-2 reach rate 0.75-0.83 after two rounds
+    against 0.89-0.91 for plain cloning): the navigator's answers in the clone's states lean on
+    its own re-planning memory and the map, which the rays cannot show.
     """
     from agents.navigator import Navigator
 
@@ -217,15 +216,12 @@ def navigator_samples(config: Stage1Config, case, n: int, seed: int, driver=None
     while len(obs_out) < n:
         observations, infos = env.reset(seed=seed + episode)
         navigator = Navigator(env)
-        if driver is not None:
-            driver.reset(seed + episode)
         while env.agents and len(obs_out) < n:
-            labels = navigator.actions(env, observations)
+            actions = navigator.actions(env, observations)
             for agent in env.agents:
                 if infos[agent]["needs_action"]:
                     obs_out.append(observations[agent])
-                    act_out.append(teacher_action(env, agent, labels.get(agent, STAND_STILL)))
-            actions = labels if driver is None else driver.actions(env, observations)
+                    act_out.append(teacher_action(env, agent, actions.get(agent, STAND_STILL)))
             observations, _, _, _, infos = env.step(actions)
         episode += 1
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out, dtype=np.int64)
