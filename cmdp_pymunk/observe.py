@@ -94,8 +94,8 @@ class RayModel:
 
 def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0.0) -> np.ndarray:
     """Cast the crew's rays and return its reaching observation (see the module doc); the
-    memory features, if any, are left 0 (``remembered_target`` fills them). Records the crew's
-    sighting of its best target in view."""
+    memory features, if any, are left 0 (``remembered_target`` fills them). Records in
+    ``crew.sightings`` where its frontal rays hit targets of its scope."""
     body = world.bodies[crew.index]
     x, y = body.position
     start = (x, y)
