@@ -22,7 +22,8 @@ def load_model(path: str | Path):
     from stable_baselines3 import PPO
 
     # Inference on a few rows a step: one thread is fastest, and the default (one per core)
-    # makes two simulations side by side fight over the cores (4x slower here).
+    # made two simulations side by side fight over the cores (156 against 2,400 x real time
+    # per episode here).
     torch.set_num_threads(1)
 
     try:

@@ -4,9 +4,9 @@ and the same PPO settings, measured in one run, and their ratio (target 0.5 or b
     python benchmarks/bench_train.py [--steps 100000] [--rounds 3]
 
 The two are measured in alternating rounds (CMDP, trivial, CMDP, trivial...), each in a fresh
-Python process (a later measurement in the same process inherits the earlier one's workers and
-memory and ran up to 40 % slower), and the median of the per-round ratios is reported: on a
-shared 2-core machine single measurements varied from 0.46 to 0.56.
+Python process, and the median of the per-round ratios is reported. Measured in one process
+one after the other, the rounds' ratios ranged from 0.31 to 0.56 here; in fresh processes
+from 0.39 to 0.42.
 
 Both go through the same SuperSuit -> VecMonitor -> PPO pipeline with the stage-1 config
 (training/configs/stage1.toml), the CMDP as training builds it (``MixedStageEnv``, lean

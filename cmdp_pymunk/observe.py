@@ -94,8 +94,8 @@ class RayModel:
 
 def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0.0) -> np.ndarray:
     """Cast the crew's rays and return its reaching observation (see the module doc); the
-    memory features, if any, are left 0 (``remembered_target`` fills them). Records in
-    ``crew.sightings`` where its frontal rays hit targets of its scope."""
+    memory features, if any, are left 0 (``remembered_target`` fills them). With the memory
+    on, records in ``crew.sightings`` where its frontal rays hit targets of its scope."""
     body = world.bodies[crew.index]
     x, y = body.position
     start = (x, y)
@@ -116,7 +116,7 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
             alpha, kind, target = hit
             value = modified_priority(target, scope, values)
             cast += (alpha, kind * TYPE_SCALE, value)
-            if frontal and value > 0.0:
+            if frontal and value > 0.0 and rays.memory:
                 sightings[target] = (x + alpha * (ex - x), y + alpha * (ey - y), now_s)
     obs = rays.template.copy()
     obs[rays.slots] = cast
