@@ -3,7 +3,17 @@
 ``PolicyNavigator``: a stage-1 reaching policy (observation Box(115) or Box(119), action
 MultiDiscrete([4, 3, 3])) as the low level. ``ModelEvaluator``: a stage-2 evaluation policy
 (observation O^e, action Box(2), the desired position) as the target evaluator, through Eq. 4.
-Both load on the CPU and act deterministically.
+Both load on the CPU. The navigator samples its actions unless asked for argmax
+(``deterministic=True``, which stops with :class:`PolicyStuck` when a crew gets nowhere); the
+evaluator acts deterministically.
+
+``LeanActor``: the actor half of an SB3 MLP policy (its layers' weights copied out) evaluated in
+numpy. One SB3 forward on a few rows costs about 0.4 ms here, nearly all of it per-call overhead
+(tensor conversion, distribution objects); the same arithmetic in numpy costs tens of
+microseconds. Its actions are SB3's own: argmax per sub-action (``MultiDiscrete``) or the
+Gaussian mean clipped to the action space (``Box``) when deterministic; sampled from the same
+distribution with a ``numpy.random.Generator`` otherwise (not torch's generator, so the samples
+for a seed differ from ``model.predict``'s, but a seed always gives the same samples).
 """
 
 from __future__ import annotations
@@ -15,6 +25,8 @@ import numpy as np
 from cmdp_pymunk.evaluate import DesiredPositionEvaluator
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.observe import evaluation_observation, evaluation_size
+
+ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0, out=x)}
 
 
 def load_model(path: str | Path):
@@ -40,45 +52,221 @@ def _check_shape(model, expected: int, path, what: str) -> None:
                          "fix: use a model trained on this case and stage")
 
 
-class PolicyNavigator:
-    """A trained reaching policy, one set of weights shared by every crew.
+class LeanActor:
+    """An SB3 ``MlpPolicy`` actor in numpy: ``act(obs_batch, deterministic, rng)``.
 
-    ``deterministic=False`` samples its actions (a deterministic policy can repeat the same
-    blocked move forever); the samples come from torch's generator, seeded by ``reset(seed)``
-    at every episode, so a run is still reproducible.
+    Supports what our models use: a flattening features extractor over a ``Box`` observation,
+    ``nn.Linear`` layers with one activation (``Tanh`` or ``ReLU``), and a ``MultiDiscrete``
+    (one categorical per sub-action), ``Discrete`` or ``Box`` action (diagonal Gaussian,
+    without gSDE or squashing). Anything else is refused with the reason.
+
+    Attributes: ``layers`` (list of (W, b), float32, W of shape (in, out)), ``action_net``
+    ((W, b)), ``log_std`` (Box only), ``nvec`` (sub-action sizes; Discrete: one), ``low`` and
+    ``high`` (Box bounds), ``observation_size``.
     """
 
-    def __init__(self, path: str | Path, deterministic: bool = True):
-        self.path = Path(path)
-        self.model = load_model(path)
-        self.deterministic = deterministic
+    def __init__(self, layers, activation: str, action_net, action_space, log_std=None):
+        from gymnasium import spaces
+
+        if activation not in ACTIVATIONS:
+            raise ValueError(f"LeanActor: activation {activation!r} is not supported; "
+                             f"supported: {', '.join(ACTIVATIONS)}")
+        self.layers = [(np.ascontiguousarray(w, np.float32), np.asarray(b, np.float32))
+                       for w, b in layers]
+        self.activation = activation
+        self._activate = ACTIVATIONS[activation]
+        self.action_net = (np.ascontiguousarray(action_net[0], np.float32),
+                           np.asarray(action_net[1], np.float32))
+        self.observation_size = (self.layers[0][0] if self.layers else self.action_net[0]).shape[0]
+        self.action_space = action_space
+        self.gaussian = isinstance(action_space, spaces.Box)
+        if self.gaussian:
+            if log_std is None:
+                raise ValueError("LeanActor: a Box action needs the policy's log_std")
+            self.log_std = np.asarray(log_std, np.float32)
+            self.std = np.exp(self.log_std)
+            self.low = action_space.low.astype(np.float32)
+            self.high = action_space.high.astype(np.float32)
+            self.nvec = None
+        elif isinstance(action_space, spaces.MultiDiscrete):
+            self.nvec = [int(n) for n in np.asarray(action_space.nvec).ravel()]
+        elif isinstance(action_space, spaces.Discrete):
+            self.nvec = [int(action_space.n)]
+        else:
+            raise ValueError(f"LeanActor: action space {action_space} is not supported; "
+                             "supported: Box, Discrete, MultiDiscrete")
+        if self.nvec is not None:
+            self._splits = np.cumsum(self.nvec)[:-1]
+
+    # -- loading --------------------------------------------------------------------------------
 
     @classmethod
-    def from_model(cls, model, deterministic: bool = True) -> PolicyNavigator:
-        """Wrap a live model (e.g. during training) without a file."""
+    def from_sb3(cls, model) -> LeanActor:
+        """Copy the actor's current weights out of an SB3 model (or its ``policy``)."""
+        from stable_baselines3.common.torch_layers import FlattenExtractor
+        from torch import nn
+
+        policy = getattr(model, "policy", model)
+        why = None
+        if getattr(policy, "use_sde", False):
+            why = "gSDE exploration"
+        elif getattr(policy, "squash_output", False):
+            why = "squashed outputs"
+        elif not isinstance(policy.pi_features_extractor, FlattenExtractor):
+            why = f"the features extractor {type(policy.pi_features_extractor).__name__}"
+        elif len(policy.observation_space.shape) != 1:
+            why = f"the observation shape {policy.observation_space.shape}"
+        if why is not None:
+            raise ValueError(f"LeanActor: {why} is not supported; fix: use model.predict "
+                             "for this model")
+        layers, activation = [], None
+        for module in policy.mlp_extractor.policy_net:
+            if isinstance(module, nn.Linear):
+                layers.append((_numpy(module.weight).T, _numpy(module.bias)))
+            elif activation in (None, type(module).__name__):
+                activation = type(module).__name__
+            else:
+                raise ValueError(f"LeanActor: mixed activations ({activation}, "
+                                 f"{type(module).__name__}) are not supported")
+        action_net = (_numpy(policy.action_net.weight).T, _numpy(policy.action_net.bias))
+        log_std = _numpy(policy.log_std) if hasattr(policy, "log_std") else None
+        return cls(layers, activation or "Tanh", action_net, policy.action_space, log_std)
+
+    @classmethod
+    def from_zip(cls, path: str | Path) -> LeanActor:
+        """Load an SB3 PPO zip (``model.save()``) and copy its actor out."""
+        return cls.from_sb3(load_model(path))
+
+    # -- acting ---------------------------------------------------------------------------------
+
+    def _forward(self, obs: np.ndarray) -> np.ndarray:
+        x = np.asarray(obs, np.float32)
+        for w, b in self.layers:
+            x = self._activate(x @ w + b)
+        return x @ self.action_net[0] + self.action_net[1]
+
+    def distribution(self, obs: np.ndarray) -> np.ndarray:
+        """The action distribution's parameters for a batch (n, obs) of observations:
+        categorical: the logits, normalised per sub-action (log-probabilities, as torch's
+        ``Categorical.logits``), side by side, (n, sum(nvec)); Gaussian: the mean (n, dim)
+        (the standard deviation is ``std``, the same for every row)."""
+        out = self._forward(obs)
+        if self.gaussian:
+            return out
+        parts = np.split(out, self._splits, axis=1)
+        return np.concatenate([p - _logsumexp(p) for p in parts], axis=1)
+
+    def act(self, obs: np.ndarray, deterministic: bool = True,
+            rng: np.random.Generator | None = None) -> np.ndarray:
+        """Actions for a batch (n, obs) of observations, as ``model.predict`` returns them:
+        (n, len(nvec)) int64 for categorical actions, (n, dim) float32 clipped to the bounds
+        for Gaussian ones. Sampling (``deterministic=False``) draws from ``rng``: one
+        ``standard_normal`` (Gaussian) or one ``random`` (categorical, (n, len(nvec))) call."""
+        if not deterministic and rng is None:
+            raise ValueError("LeanActor.act: sampling needs a numpy Generator (rng=...)")
+        out = self._forward(obs)
+        if self.gaussian:
+            if not deterministic:
+                out = out + self.std * rng.standard_normal(out.shape).astype(np.float32)
+            return np.clip(out, self.low, self.high)
+        n = out.shape[0]
+        actions = np.empty((n, len(self.nvec)), dtype=np.int64)
+        u = None if deterministic else rng.random((n, len(self.nvec)))
+        start = 0
+        for k, size in enumerate(self.nvec):
+            logits = out[:, start:start + size]
+            start += size
+            if deterministic:
+                actions[:, k] = logits.argmax(axis=1)
+                continue
+            # inverse CDF: the first category whose cumulative probability passes u (the
+            # softmax's normaliser moved to the other side: cumsum(e) < u * sum(e))
+            cum = np.exp(logits - logits.max(axis=1, keepdims=True)).cumsum(axis=1)
+            picked = (cum < u[:, k:k + 1] * cum[:, -1:]).sum(axis=1)
+            actions[:, k] = np.minimum(picked, size - 1)
+        return actions
+
+
+def _numpy(tensor) -> np.ndarray:
+    return tensor.detach().cpu().numpy().astype(np.float32)
+
+
+def _logsumexp(x: np.ndarray) -> np.ndarray:
+    top = x.max(axis=1, keepdims=True)
+    return top + np.log(np.exp(x - top).sum(axis=1, keepdims=True))
+
+
+class PolicyStuck(RuntimeError):
+    """An argmax policy whose crew has held a target for ``stuck_after_caps`` step caps
+    without reaching any: it repeats a blocked move, and would until the stall guard."""
+
+
+class PolicyNavigator:
+    """A trained reaching policy, one set of weights shared by every crew (``LeanActor``).
+
+    By default it samples its actions: the argmax policy can repeat the same blocked move
+    forever (the committed stage-1 model did on seed 0). The samples come from a numpy
+    generator made by ``reset(seed)`` at every episode, so a run is still reproducible.
+    ``deterministic=True`` takes the argmax and raises :class:`PolicyStuck` as soon as a crew
+    has held a target for ``stuck_after_caps`` times the case's step cap
+    (``reevaluate_after_steps``) without reaching one, instead of stalling for an hour.
+    """
+
+    stuck_after_caps = 3
+
+    def __init__(self, path: str | Path, deterministic: bool = False):
+        self.path = Path(path)
+        self.model = load_model(path)
+        self.actor = LeanActor.from_sb3(self.model)
+        self.deterministic = deterministic
+        self.rng = np.random.default_rng(0)
+
+    @classmethod
+    def from_model(cls, model, deterministic: bool = False) -> PolicyNavigator:
+        """Wrap a live model (e.g. during training) without a file: the actor's weights as
+        they are now."""
         navigator = cls.__new__(cls)
         navigator.path, navigator.model, navigator.deterministic = Path("<live>"), model, \
             deterministic
+        navigator.actor = LeanActor.from_sb3(model)
+        navigator.rng = np.random.default_rng(0)
         return navigator
 
     def reset(self, seed: int) -> None:
-        import torch
-
-        torch.manual_seed(seed)
+        self.rng = np.random.default_rng(seed)
 
     def bind(self, env) -> None:
         _check_shape(self.model, env.observation_space(env.possible_agents[0]).shape[0],
                      self.path, "the reaching observation")
 
     def actions(self, env, observations) -> dict:
-        movers = [a for a in env.agents if env.site.crews[env.agent_index[a]].moving]
-        out = {a: STAND_STILL for a in env.agents}
+        crews = env.site.crews
+        movers = [a for a in env.agents if crews[env.agent_index[a]].moving]
+        out = dict.fromkeys(env.agents, STAND_STILL)
         if movers:
             batch = np.stack([observations[a] for a in movers])
-            acts, _ = self.model.predict(batch, deterministic=self.deterministic)
-            out.update({a: tuple(int(v) for v in act) for a, act in zip(movers, acts,
-                                                                        strict=True)})
+            acts = self.actor.act(batch, self.deterministic, self.rng).tolist()
+            out.update(zip(movers, map(tuple, acts), strict=True))
+        if self.deterministic:
+            check_not_stuck(env, self.stuck_after_caps)
         return out
+
+
+def check_not_stuck(env, caps: int) -> None:
+    """Raise :class:`PolicyStuck` naming the first crew that has held a target for ``caps``
+    step caps without reaching one."""
+    from cmdp_pymunk.decide import target_id
+
+    limit = caps * env.case.simulation.reevaluate_after_steps
+    for crew in env.site.crews:
+        if crew.moving and crew.scope and crew.steps_since_reach >= limit:
+            x, y = env.world.bodies[crew.index].position
+            targets = ", ".join(sorted(target_id(env.site, t) for t in crew.scope))
+            raise PolicyStuck(
+                f"the argmax navigator is stuck: {crew.id} has held its target(s) {targets} "
+                f"for {crew.steps_since_reach} steps without reaching one (at x {x:.1f}, "
+                f"y {y:.1f} m, t = {env.site.time_s:.0f} s); an argmax policy repeats a "
+                "blocked move forever; fix: drop --deterministic (actions are sampled)")
 
 
 class ModelEvaluator(DesiredPositionEvaluator):
@@ -88,6 +276,7 @@ class ModelEvaluator(DesiredPositionEvaluator):
         super().__init__()
         self.path = Path(path)
         self.model = load_model(path)
+        self.actor = LeanActor.from_sb3(self.model)
         self.env = None
 
     def bind(self, env) -> None:
@@ -100,6 +289,6 @@ class ModelEvaluator(DesiredPositionEvaluator):
     def desired_position(self, crew, site, position) -> tuple[float, float]:
         heading = self.env.world.bodies[crew.index].angle
         obs = evaluation_observation(site, crew, position, heading)
-        desired, _ = self.model.predict(obs, deterministic=True)
+        desired = self.actor.act(obs[None], deterministic=True)[0]
         desired = np.clip(desired, -1.0, 1.0)
         return float(desired[0]), float(desired[1])

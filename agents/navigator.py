@@ -96,12 +96,23 @@ class _Grid:
 
 
 class Navigator:
-    """Scripted low level for a ``CMDPEnv``; call ``actions(env)`` every step."""
+    """Scripted low level for a ``CMDPEnv`` (``cmdp_pymunk.policy.LowLevel``): ``bind(env)``
+    (or ``Navigator(env)``), then ``actions(env, observations)`` every step."""
 
-    def __init__(self, env, cell_m: float = 0.5, clearance_m: float = -0.2):
+    def __init__(self, env=None, cell_m: float = 0.5, clearance_m: float = -0.2):
         self.env = env
         self.cell_m = cell_m
         self.clearance_m = clearance_m
+        self._episode = None
+
+    def reset(self, seed: int) -> None:
+        """A new episode: plans are rebuilt on the next ``actions`` (the navigator draws no
+        random numbers, so the seed is not used)."""
+        self._episode = None
+
+    def bind(self, env) -> None:
+        """Drive ``env`` from now on."""
+        self.env = env
         self._episode = None
 
     # -- set-up per episode -------------------------------------------------------------------
@@ -216,6 +227,9 @@ class Navigator:
         if detour is not None:
             field = detour[0]
             self.detour[crew.index] = (detour[0], detour[1] - 1) if detour[1] > 1 else None
+            detoured = True
+        else:
+            detoured = False
         if field is None:
             tx, ty = self.site.target_xy[target]
             return self._drive(crew, body, x, y, tx, ty)
@@ -234,7 +248,7 @@ class Navigator:
             x0, y0, x1, y1 = self.site.components[target].rect
             px, py = min(max(x, x0), x1), min(max(y, y0), y1)
         else:
-            carrot = self._carrot(field, x, y)
+            carrot = self._carrot(field, x, y, lowest=detoured)
             px, py = carrot if carrot is not None else self.site.target_xy[target]
         return self._drive(crew, body, x, y, px, py)
 
@@ -242,20 +256,28 @@ class Navigator:
         i, j = self._cell(x, y)
         return field[j, i]
 
-    def _carrot(self, field, x: float, y: float) -> tuple[float, float]:
-        """A point a few cells down the field's steepest descent from the crew."""
+    def _carrot(self, field, x: float, y: float, lowest: bool = False) -> tuple[float, float]:
+        """A point a few cells down the field's steepest descent from the crew.
+
+        From a blocked cell (a crew pushed against a component) it heads for the nearest free
+        cell; with ``lowest`` (on a detour), for the one lowest on the field among the nearest
+        free cells: the nearest alone may lie on the very route the detour avoids (seed 102:
+        FC-1, squeezed against a component's corner, kept stepping back toward the parked crew
+        that blocked its lane instead of taking the free lane beside it, for 3,000 s).
+        """
         i, j = self._cell(x, y)
         if not math.isfinite(field[j, i]):  # pushed into a blocked cell: head for a free one
-            best = None
             for r in range(1, 6):
+                best = None
                 for dj in range(-r, r + 1):
                     for di in range(-r, r + 1):
                         ii, jj = i + di, j + dj
                         if 0 <= ii < self.nx and 0 <= jj < self.ny and \
                                 math.isfinite(field[jj, ii]):
                             d = di * di + dj * dj
-                            if best is None or d < best[0]:
-                                best = (d, ii, jj)
+                            key = (field[jj, ii], d) if lowest else (d, 0.0)
+                            if best is None or key < best[0]:
+                                best = (key, ii, jj)
                 if best:
                     return self.cx[0, best[1]], self.cy[best[2], 0]
             return None

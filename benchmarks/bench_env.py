@@ -56,6 +56,7 @@ def run_floor(env, n: int, moving_per_step: float) -> float:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(parser)
     parser.add_argument("--steps", type=int, default=3000)
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args(argv)

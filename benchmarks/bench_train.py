@@ -94,6 +94,7 @@ def _measure_in_fresh_process(which: str, steps: int) -> float:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(parser)
     parser.add_argument("--steps", type=int, default=100_000)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--only", choices=("cmdp", "trivial"), help=argparse.SUPPRESS)

@@ -16,6 +16,7 @@ quantities are in the unit named by the crew type's ``work_unit`` and the materi
 from __future__ import annotations
 
 import difflib
+import graphlib
 import math
 import re
 import tomllib
@@ -28,11 +29,12 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, mode
 BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
 
 # Scalars are strict: a quoted "0.4" in a case file is a mistake to report, not to guess at.
-# (Strict floats still accept whole numbers, so ``width_m = 54`` is fine.)
-Number = Annotated[float, Strict()]
-Positive = Annotated[float, Strict(), Field(gt=0)]
-NonNegative = Annotated[float, Strict(), Field(ge=0)]
-UnitIndex = Annotated[float, Strict(), Field(ge=0, le=1)]
+# (Strict floats still accept whole numbers, so ``width_m = 54`` is fine.) TOML has ``nan`` and
+# ``inf``: no quantity of a floor is either, and a NaN coordinate stalls a run.
+Number = Annotated[float, Strict(), Field(allow_inf_nan=False)]
+Positive = Annotated[float, Strict(), Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Strict(), Field(ge=0, allow_inf_nan=False)]
+UnitIndex = Annotated[float, Strict(), Field(ge=0, le=1, allow_inf_nan=False)]
 Flag = Annotated[bool, Strict()]
 
 
@@ -68,7 +70,8 @@ class Simulation(_Model):
     max_time_s: Positive = 60000.0
     frontal_rays: Annotated[int, Strict(), Field(ge=1)] = 12
     surrounding_rays: Annotated[int, Strict(), Field(ge=1)] = 16
-    field_of_view_deg: Annotated[float, Strict(), Field(gt=0, le=360)] = 120.0
+    field_of_view_deg: Annotated[float, Strict(), Field(gt=0, le=360, allow_inf_nan=False)] \
+        = 120.0
     sight_distance_m: Positive = 30.0
     surrounding_distance_m: Positive = 3.0
     turning_rate_deg_s: Positive = 30.0
@@ -280,6 +283,7 @@ _FIXES = {
     "dict_type": "write a table",
     "model_type": "write a table",
     "too_short": "add at least one entry",
+    "finite_number": "write a finite number (not nan or inf)",
 }
 
 
@@ -581,11 +585,30 @@ def _semantic_problems(parts: _Parts) -> list[str]:
         placed.append((i, comp, r))
     for i, st in parts.storages:
         where = f'storages[{i}] "{st.id}"'
+        for j, comp, rc in placed:
+            if _overlap(_rect(st), rc):
+                problems.append(f'{where}: overlaps components[{j}] "{comp.id}" (crews could '
+                                "not stand in it to fetch); fix: move the storage off the "
+                                "component")
         if unknown("materials", st.material):
             problems.append(f'{where}: material "{st.material}" is not in [materials]'
                             f"{_did_you_mean(st.material, names['materials'])}")
         if plane is not None and outside(*_rect(st)):
             problems.append(f"{where}: lies outside the plane {bounds}; fix: move it inside")
+
+    if plane is not None:
+        for j, comp, rc in placed:
+            if rc[0] <= plane.outlet_x_m <= rc[2] and rc[1] <= plane.outlet_y_m <= rc[3]:
+                problems.append(f"plane: the outlet ({plane.outlet_x_m:g}, {plane.outlet_y_m:g})"
+                                f' lies inside components[{j}] "{comp.id}"; fix: move the '
+                                "outlet onto open floor")
+    for i, crew in parts.crews:
+        for j, comp, rc in placed:
+            # centre inside: a disc that only overlaps the edge is pushed off by the physics
+            if rc[0] <= crew.start_x_m <= rc[2] and rc[1] <= crew.start_y_m <= rc[3]:
+                problems.append(f'crews[{i}] "{crew.id}": start ({crew.start_x_m:g}, '
+                                f'{crew.start_y_m:g}) lies inside components[{j}] "{comp.id}"'
+                                "; fix: start the crew on open floor")
 
     tasks_of_type: dict[str, list[str]] = {}
     for i, task in parts.tasks:
@@ -642,32 +665,81 @@ def _semantic_problems(parts: _Parts) -> list[str]:
     return problems
 
 
+def _time_problems(case: Case) -> list[str]:
+    """Times and quantities so large that no episode could finish within the time limit.
+
+    Each check is a floor under any schedule: one task's expected duration, one crane lift,
+    the crane's total busy time, one fetch, walking across the plane, and the makespan lower
+    bound (``bounds``). A run that could never finish would only stall.
+    """
+    from .bounds import expected_duration_s, lower_bound
+
+    limit = case.simulation.max_time_s
+    over = f"beyond simulation.max_time_s = {limit:g} s, so no episode could finish"
+    fix_limit = "or raise simulation.max_time_s"
+    problems = []
+    for name, value in (("lift_time_s", case.crane.lift_time_s),
+                        ("assist_time_s", case.crane.assist_time_s)):
+        if value >= limit:
+            problems.append(f"crane: {name} = {value:g} s is {over}; fix: give the time of one "
+                            f"lift in seconds (the paper's crane takes minutes) {fix_limit}")
+    for i, task in enumerate(case.tasks):
+        seconds = expected_duration_s(case, task)
+        if seconds >= limit:
+            problems.append(f'tasks[{i}] "{task.id}": its expected duration ({seconds:.4g} s '
+                            f"at the crew type's mean pace) is {over}; fix: check work, the "
+                            f"crew type's pace and its unit, {fix_limit}")
+    crane_s = 0.0
+    for name, mat in case.materials.items():
+        needed = sum(t.material_quantity for t in case.tasks
+                     if case.task_types[t.type].material == name)
+        crane_s += math.ceil(needed / mat.crane_lift_quantity) * case.crane.lift_time_s
+        for ct_name, ct in case.crew_types.items():
+            carries = any(tt.crew_type == ct_name and tt.material == name
+                          for tt in case.task_types.values())
+            if carries and ct.carry_capacity / mat.acquire_per_min * 60.0 >= limit:
+                problems.append(f"materials.{name}: acquire_per_min = {mat.acquire_per_min:g} "
+                                f"fills a {ct_name} crew's load ({ct.carry_capacity:g}) in "
+                                f"more than the time limit, {over}; fix: check "
+                                f"acquire_per_min and carry_capacity, {fix_limit}")
+    crane_s += sum(case.crane.assist_time_s for t in case.tasks
+                   if case.task_types[t.type].needs_crane)
+    if crane_s >= limit and not problems:
+        problems.append(f"crane: its lifts and assistance add up to {crane_s:.4g} s, {over}; "
+                        f"fix: check lift_time_s, assist_time_s and the materials' "
+                        f"crane_lift_quantity, {fix_limit}")
+    across = case.plane.width_m + case.plane.height_m
+    for name, ct in case.crew_types.items():
+        if across / ct.velocity_m_s >= limit:
+            problems.append(f"crew_types.{name}: velocity_m_s = {ct.velocity_m_s:g} takes "
+                            f"{across / ct.velocity_m_s:.4g} s to cross the plane, {over}; "
+                            f"fix: give the velocity in metres per second, {fix_limit}")
+    if not problems:
+        bound = lower_bound(case)
+        if bound.lower_bound_s >= limit:
+            problems.append(f"simulation: max_time_s = {limit:g} s is below the makespan lower "
+                            f"bound of {bound.lower_bound_s:.0f} s (critical path "
+                            f"{' -> '.join(bound.critical_path[:4])}"
+                            f"{' ...' if len(bound.critical_path) > 4 else ''}), so no episode "
+                            "could finish; fix: raise max_time_s, or check the tasks' work and "
+                            "the crews' paces")
+    return problems
+
+
 def _find_cycle(tasks) -> list[str] | None:
     """A precedence cycle in precedence order (predecessor first; the first id repeated last),
-    or None."""
+    or None. ``graphlib`` finds it; the cycle is turned to start at the task listed first in
+    the case, so that the message is the same whichever way the search ran."""
     preds = {t.id: [p for p in t.predecessors if p != t.id] for t in tasks}
-    colour: dict[str, int] = {}
-    for start in preds:
-        if colour.get(start):
-            continue
-        stack = [(start, iter(preds[start]))]
-        path = [start]
-        colour[start] = 1
-        while stack:
-            node, it = stack[-1]
-            nxt = next(it, None)
-            if nxt is None:
-                colour[node] = 2
-                stack.pop()
-                path.pop()
-            elif nxt in preds:
-                if colour.get(nxt) == 1:
-                    # path runs from a task to its predecessors: reverse it to read forwards
-                    return list(reversed(path[path.index(nxt):] + [nxt]))
-                if not colour.get(nxt):
-                    colour[nxt] = 1
-                    stack.append((nxt, iter(preds[nxt])))
-                    path.append(nxt)
+    try:
+        graphlib.TopologicalSorter(preds).prepare()
+    except graphlib.CycleError as err:
+        # args[1]: nodes each an immediate predecessor of the next, the first repeated last
+        cycle = list(err.args[1][:-1])
+        order = {task_id: i for i, task_id in enumerate(preds)}
+        start = min(range(len(cycle)), key=lambda k: order.get(cycle[k], len(order)))
+        cycle = cycle[start:] + cycle[:start]
+        return cycle + [cycle[0]]
     return None
 
 
@@ -686,6 +758,8 @@ def case_from_dict(data: dict, source: str = "<case>") -> Case:
     except ValidationError as err:
         case, problems = None, _pydantic_problems(data, err)
     problems += [p for p in _semantic_problems(_parts(data, case)) if p not in problems]
+    if case is not None and not problems:
+        problems = _time_problems(case)
     if problems:
         raise CaseError(source, problems)
     assert case is not None

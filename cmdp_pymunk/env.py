@@ -10,7 +10,10 @@ Observation space (reaching policy, section 3.6.2)
     emission angle, type id, priority value after Eq. 3) and the crew's velocity (forward,
     left, speed). With the case's ``target_memory`` on (beyond the paper; the built-in case
     has it), 4 more floats say where the crew last saw a target of its scope: ``Box(119,)``.
-    See ``observe`` for the exact layout and what rays see of sensor areas.
+    See ``observe`` for the exact layout and what rays see of sensor areas. Every float is
+    bounded (``observe.observation_bounds``): lengths, type ids and priorities in [0, 1],
+    angles in [-1, 1], velocities within the case's speed cap, memory offsets within the
+    plane's diagonal over the sight distance.
 
 Action space
     ``MultiDiscrete([4, 3, 3])``: forward {0, 0.3, 0.8, 1} x v_f, lateral {-1, 0, 1} x v_l,
@@ -45,6 +48,24 @@ Arguments
     non-zero ``step_stats`` and ``TimeLimit.truncated`` when true (an empty dict most steps);
     for training, since SuperSuit deep-copies every info of every step (0.6-0.9 ms a step
     for 56 full infos, measured here). Default False.
+    ``external_values``: the target values come from outside (the stage-2 high-level policy,
+    ``cmdp_pymunk.highlevel``) instead of ``evaluator``. After ``reset`` and every ``step``,
+    ``pending_values`` lists the crews whose scope must be valued now (section 3.6: a new
+    scope, or ``reevaluate_after_steps`` steps without reaching); give each one its values with
+    ``set_target_values(agent, values)`` before the next ``step``, then ``observe()`` gives the
+    reaching observations with the new values (Eq. 3). The idle jump stops at such a step.
+    With the same values the schedule is the one the evaluator would have made.
+    ``stall_s``: the stall guard. An episode in which no task moves on (no progress, no task
+    ending) for this many simulated seconds is truncated: every agent's info gets
+    ``"stalled": True`` and ``"TimeLimit.truncated": True``, and ``env.stalled`` holds
+    ``{"after_s", "time_s"}``. ``None`` (the default) turns it off; then only ``max_time_s``
+    ends an episode that never finishes.
+
+Global state
+    ``state()`` and ``state_space``: one fixed-size float32 vector (578 floats in the built-in
+    case) of every crew's position, heading, status, load and target, every task's pool and
+    progress, storage stocks, the crane and its queue, and the time, for a centralized critic;
+    the layout is documented in ``cmdp_pymunk.global_state`` (``state_layout(case)``).
 
 One step, in the paper's order (section 3.2)
     P_phy (move, physics), P_cons (construct), Pi_cons (the decision table), target
@@ -62,7 +83,13 @@ from pettingzoo import ParallelEnv
 
 from . import construct, decide, events, move, observe, reward
 from .case import Case, as_case
-from .evaluate import NearestFirstEvaluator, TargetEvaluator, assign_target_values
+from .evaluate import (
+    NearestFirstEvaluator,
+    TargetEvaluator,
+    assign_target_values,
+    crews_needing_values,
+)
+from .global_state import global_state, state_bounds
 from .state import CrewStatus, Site, activity
 from .world import N_KINDS, World
 
@@ -71,14 +98,16 @@ STEP_STATS = ("reaches", "timeouts", "reaching", "collisions", "congestion")
 
 
 class CMDPEnv(ParallelEnv):
-    metadata = {"name": "cmdp_pymunk_v0", "render_modes": ["rgb_array"], "render_fps": 10,
+    metadata = {"name": "cmdp_pymunk_v1", "render_modes": ["rgb_array"], "render_fps": 10,
                 "is_parallelizable": True}
 
     def __init__(self, case: Case | str | Path | None = None, stage: int = 2,
                  seed: int | None = None, evaluator: TargetEvaluator | None = None,
                  render_mode: str | None = None, jump_idle: bool = True,
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
-                 park_idle: bool = False, lean_infos: bool = False):
+                 park_idle: bool = False, lean_infos: bool = False,
+                 external_values: bool = False,
+                 stall_s: float | None = None):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -91,9 +120,19 @@ class CMDPEnv(ParallelEnv):
         self.position_log_every_s = position_log_every_s
         self.park_idle = park_idle
         self.lean_infos = lean_infos
+        self.external_values = external_values
+        self._pending: list[int] = []
         self.evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
         sim = self.case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
+        if not math.isfinite(self.max_time_s) or self.max_time_s <= 0:
+            raise ValueError(f"max_time_s must be a positive finite number of seconds, not "
+                             f"{self.max_time_s!r}")
+        if stall_s is not None and not (math.isfinite(stall_s) and stall_s > 0):
+            raise ValueError(f"stall_s must be a positive finite number of seconds or None "
+                             f"(no stall guard), not {stall_s!r}")
+        self.stall_s = stall_s
+        self.stalled: dict | None = None
         self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
                                      sim.field_of_view_deg, sim.sight_distance_m,
                                      sim.surrounding_distance_m, sim.target_memory,
@@ -103,9 +142,12 @@ class CMDPEnv(ParallelEnv):
         self.possible_agents = [c.id for c in self.case.crews]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
-        self._observation_space = spaces.Box(-np.inf, np.inf, (self.rays.size,), np.float32)
+        self._obs_low, self._obs_high = observe.observation_bounds(self.rays, self.case)
+        self._observation_space = spaces.Box(self._obs_low, self._obs_high, dtype=np.float32)
         self._action_space = spaces.MultiDiscrete(move.ACTION_NVEC)
         self._idle_obs = np.zeros(self.rays.size, dtype=np.float32)
+        self._state_low, self._state_high = state_bounds(self.case)
+        self.state_space = spaces.Box(self._state_low, self._state_high, dtype=np.float32)
         self.rng = np.random.default_rng(seed)
         self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
         self.site: Site | None = None
@@ -141,9 +183,12 @@ class CMDPEnv(ParallelEnv):
         self.agents = list(self.possible_agents)
         self.positions = [tuple(b.position) for b in self.world.bodies]
         self.steps = 0
+        self.stalled = None
+        self._progress_mark = (0.0, self._task_progress())
         ctx = self._context()
         decide.apply_decision_table(ctx)
-        assign_target_values(self.site, self.evaluator, self.positions)
+        self._pending = []
+        self._evaluate()
         self._log_activities()
         self._log_positions()
         self._action_needed = any(self.needs_action(c) for c in self.site.crews)
@@ -154,6 +199,9 @@ class CMDPEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
+        if self._pending:
+            raise RuntimeError(f"crews {self.pending_values} wait for target values; call "
+                               "set_target_values(agent, values) for each before step()")
         site = self.site
         action_list = [actions.get(a, move.STAND_STILL) for a in self.possible_agents]
         rewards = [0.0] * len(self.possible_agents)
@@ -168,9 +216,9 @@ class CMDPEnv(ParallelEnv):
                 rewards[i] += r
             for k, v in step_terms.items():
                 terms[k] += v
-            truncated = site.time_s >= self.max_time_s - 1e-9
+            truncated = site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
             if site.done or truncated or not self.jump_idle or \
-                    self._action_needed:
+                    self._action_needed or self._pending:
                 break
         terminated = site.done
         agents = self.agents
@@ -224,7 +272,7 @@ class CMDPEnv(ParallelEnv):
             return self._no_rewards, reward.evaluation_reward_terms(
                 site, self.case.evaluation_reward)
         decide.apply_decision_table(ctx)                                      # Table 1
-        assign_target_values(site, self.evaluator, self.positions)            # Eq. 4 or Eq. 9
+        self._evaluate()                                                      # Eq. 4 or Eq. 9
         self._log_activities()
         if any(moving):
             self._log_positions()
@@ -243,6 +291,56 @@ class CMDPEnv(ParallelEnv):
         if clock:
             clock.lap("rewards")
         return rewards, terms
+
+    def _evaluate(self) -> None:
+        """Target evaluation (section 3.6): by the injected evaluator, or left to the caller."""
+        if self.external_values:
+            self._pending = [c.index for c in crews_needing_values(self.site)]
+        else:
+            assign_target_values(self.site, self.evaluator, self.positions)
+
+    @property
+    def pending_values(self) -> list[str]:
+        """Agents whose target scope waits for values (``external_values`` only)."""
+        return [self.possible_agents[i] for i in self._pending]
+
+    def set_target_values(self, agent: str, values: dict[int, float]) -> None:
+        """V_Tar for the agent's target scope, from outside (the stage-2 policy through Eq. 4).
+
+        ``values`` maps every target of the crew's scope (target indices, ``crew.scope``'s
+        keys) to its value; Eq. 3 puts them into the crew's rays.
+        """
+        i = self.agent_index[agent]
+        crew = self.site.crews[i]
+        if values.keys() != crew.scope.keys():
+            raise ValueError(f"{agent}: values for targets {sorted(values)}, but its scope is "
+                             f"{sorted(crew.scope)}; fix: give one value per target in scope")
+        crew.values = dict(values)
+        if i in self._pending:
+            self._pending.remove(i)
+
+    def observe(self) -> dict[str, np.ndarray]:
+        """The reaching observations now (after ``set_target_values``, with the new values)."""
+        return self._observe()
+
+    def _task_progress(self) -> tuple[int, float]:
+        """What the stall guard watches: tasks ended and the progress of those on."""
+        site = self.site
+        return site.tasks_ended, sum(site.tasks[t].progress for t in site.active_areas)
+
+    def _stall_check(self) -> bool:
+        """True once no task has moved on for ``stall_s``; records ``self.stalled``."""
+        if self.stall_s is None or self.site.done:
+            return False
+        now = self.site.time_s
+        progress = self._task_progress()
+        if progress != self._progress_mark[1]:
+            self._progress_mark = (now, progress)
+            return False
+        if now - self._progress_mark[0] < self.stall_s - 1e-9:
+            return False
+        self.stalled = {"after_s": now - self._progress_mark[0], "time_s": now}
+        return True
 
     def _update_positions(self, moving) -> None:
         for i, body in enumerate(self.world.bodies):
@@ -339,6 +437,7 @@ class CMDPEnv(ParallelEnv):
                 x, y = self.positions[i]
                 obs[-observe.MEMORY_FEATURES:] = observe.remembered_target(
                     self.rays, crew, x, y, self.world.bodies[i].angle, self.site.time_s)
+            np.clip(obs, self._obs_low, self._obs_high, out=obs)  # the space's promise
         if self.clock:
             self.clock.lap("rays")
         return out
@@ -352,6 +451,8 @@ class CMDPEnv(ParallelEnv):
                 info["step_stats"] = stats
             if time_limit:
                 info["TimeLimit.truncated"] = True
+                if self.stalled:
+                    info["stalled"] = True
             return info
         crew = self.site.crews[i]
         info = {"status": crew.status.name.lower(), "time_s": self.site.time_s,
@@ -362,6 +463,8 @@ class CMDPEnv(ParallelEnv):
         # and a False there would hide the time-out from SB3 (no bootstrapping).
         if time_limit:
             info["TimeLimit.truncated"] = True
+            if self.stalled:
+                info["stalled"] = True
         return info
 
     # -- for the high level, the scripted policies and the media ------------------------------
@@ -372,6 +475,17 @@ class CMDPEnv(ParallelEnv):
         body = self.world.bodies[i]
         return observe.evaluation_observation(self.site, self.site.crews[i], self.positions[i],
                                               body.angle)
+
+    def state(self) -> np.ndarray:
+        """The global state: a fixed-size float32 vector in ``state_space`` with every crew's
+        position, heading, status, load and target, every task's pool and progress, the
+        storages' stocks, the crane and its queue, and the time (layout:
+        ``cmdp_pymunk.global_state``), for centralized critics."""
+        if self.site is None:
+            raise RuntimeError("state() before the first reset(); call reset() first")
+        headings = [body.angle for body in self.world.bodies]
+        out = global_state(self.site, self.positions, headings, self.max_time_s)
+        return np.clip(out, self._state_low, self._state_high, out=out)
 
     @property
     def makespan_s(self) -> float | None:

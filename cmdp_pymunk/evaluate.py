@@ -86,12 +86,23 @@ class DesiredPositionEvaluator:
                                  for t in crew.scope})
 
 
+def needs_values(crew: CrewState, reevaluate_after_steps: int) -> bool:
+    """Whether the crew's target scope must be valued now (section 3.6): it has just acquired
+    a scope (its values do not cover it), or it has gone ``reevaluate_after_steps`` steps
+    without reaching a target."""
+    if not crew.scope:
+        return False
+    stale = crew.steps_since_reach > 0 and crew.steps_since_reach % reevaluate_after_steps == 0
+    return stale or crew.values.keys() != crew.scope.keys()
+
+
+def crews_needing_values(site: Site) -> list[CrewState]:
+    """The crews whose scope must be valued now, in crew order."""
+    every = site.case.simulation.reevaluate_after_steps
+    return [crew for crew in site.crews if needs_values(crew, every)]
+
+
 def assign_target_values(site: Site, evaluator: TargetEvaluator, positions) -> None:
     """Value the scope of every crew that needs it: a new scope, or too long without reaching."""
-    every = site.case.simulation.reevaluate_after_steps
-    for crew in site.crews:
-        if not crew.scope:
-            continue
-        stale = crew.steps_since_reach > 0 and crew.steps_since_reach % every == 0  # section 3.6
-        if stale or crew.values.keys() != crew.scope.keys():
-            crew.values = dict(evaluator.target_values(crew, site, positions[crew.index]))
+    for crew in crews_needing_values(site):
+        crew.values = dict(evaluator.target_values(crew, site, positions[crew.index]))

@@ -92,6 +92,40 @@ class RayModel:
                 for ux, uy, length, frontal in self.rays]
 
 
+def observation_bounds(rays: RayModel, case) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) of every reaching-observation float, from what each feature can be.
+
+    - relative length, type id over 6, priority value V_Tar: [0, 1] (evaluators give V_Tar in
+      [0, 1]; ``as_target_values`` maps Eqs. 4 and 9 onto [0.5, 1]);
+    - emission angle over pi: [-1, 1];
+    - velocities over the crew's nominal forward velocity v_f: a crew moves at most at
+      hypot(v_f, v_l) (forward plus lateral, Eq. 1 only slows it), and a crew pushed by
+      another moves no faster than the pusher. So no crew's speed exceeds the fastest
+      crew type's hypot(v_f, v_l), and over the slowest type's v_f that is the cap
+      (2.36 in the built-in case): forward and left in [-cap, cap], speed in [0, cap];
+    - target memory: the flag and the age in [0, 1]; the offsets join two points of the plane,
+      so they lie within +-(plane diagonal / sight distance).
+
+    The env clips observations into these bounds (contact impulses could in principle
+    overshoot the cap; no soak here has).
+    """
+    low = np.zeros(rays.size, dtype=np.float32)
+    high = np.ones(rays.size, dtype=np.float32)
+    low[1:rays.n_rays * VALUES_PER_RAY:VALUES_PER_RAY] = -1.0  # emission angles
+    lateral = case.simulation.lateral_velocity_m_s
+    types = case.crew_types.values()
+    cap = max(math.hypot(t.velocity_m_s, lateral) for t in types) / \
+        min(t.velocity_m_s for t in types)
+    at = rays.velocity_at
+    low[at:at + 2] = -cap
+    high[at:at + 3] = cap
+    if rays.memory:
+        reach = math.hypot(case.plane.width_m, case.plane.height_m) / rays.sight_m
+        low[at + 4:at + 6] = -reach
+        high[at + 4:at + 6] = reach
+    return low, high
+
+
 def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0.0) -> np.ndarray:
     """Cast the crew's rays and return its reaching observation (see the module doc); the
     memory features, if any, are left 0 (``remembered_target`` fills them). With the memory
@@ -177,6 +211,26 @@ EXPECTED_TIME_SCALE_S = 3600.0
 
 def evaluation_size(site: Site) -> int:
     return CREW_FEATURES + TARGET_FEATURES * site.n_targets
+
+
+def evaluation_bounds(site: Site) -> tuple[np.ndarray, np.ndarray]:
+    """The bounds of every float of ``evaluation_observation`` for this site's case.
+
+    All are in [-1, 1] but two columns of each target row: the congestion-area scale
+    (largest area distance / 3 m) and the expected action time (the longest task's mean
+    duration / 3600 s), whose highs come from the case.
+    """
+    case = site.case
+    area_high = max(t.area_distance_m for t in case.task_types.values()) / 3.0
+    time_high = max(case.crew_types[case.task_types[t.type].crew_type].mean_seconds(t.work)
+                    for t in site.tasks) / EXPECTED_TIME_SCALE_S
+    row_low = np.array([0, 0, 0, -1, -1, -1, 0, 0, 0, 0, 0, 0], dtype=np.float32)
+    row_high = np.array([1, 1, 1, 1, 1, 1, max(1.0, area_high), max(1.0, time_high), 1, 1, 1, 1],
+                        dtype=np.float32)
+    low = np.concatenate([np.array([-1, -1, -1, -1, 0], np.float32),
+                          np.tile(row_low, site.n_targets)])
+    high = np.concatenate([np.ones(CREW_FEATURES, np.float32), np.tile(row_high, site.n_targets)])
+    return low, high
 
 
 def evaluation_observation(site: Site, crew: CrewState, position, heading: float) -> np.ndarray:

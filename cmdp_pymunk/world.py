@@ -67,8 +67,7 @@ class RayCaster:
         self.fast = _lib is not None and not public and hasattr(space, "_space")
         self.tags: dict = {}
         if self.fast:
-            self._query = _lib.cpSpaceSegmentQueryFirst
-            self._info = _ffi.new("cpSegmentQueryInfo *")
+            self.cast = self._fast_cast()
 
     def register(self, shape: pymunk.Shape) -> None:
         if self.fast:
@@ -79,16 +78,35 @@ class RayCaster:
             del self.tags[shape._shape]
 
     def cast(self, start, end, shape_filter) -> tuple[float, int, int] | None:
-        if self.fast:
-            hit = self._query(self.space._space, start, end, 0.0, shape_filter, self._info)
-            if hit == _ffi.NULL:
-                return None
-            kind, target = self.tags[hit]
-            return self._info.alpha, kind, target
+        """The first hit of the segment start -> end as (alpha, kind, target), or None."""
         info = self.space.segment_query_first(start, end, 0.0, shape_filter)
         if info is None:
             return None
         return info.alpha, info.shape.kind, info.shape.target
+
+    def _fast_cast(self):
+        """``cast`` through cffi, as a closure over everything it reads (rays are the hottest
+        call of a step: 28 a deciding crew). cffi converts a ``ShapeFilter`` (a namedtuple)
+        to its C struct on every call, which cost as much as the query itself: the struct is
+        kept per filter."""
+        query, c_space = _lib.cpSpaceSegmentQueryFirst, self.space._space
+        info, null, tags = _ffi.new("cpSegmentQueryInfo *"), _ffi.NULL, self.tags
+        filters: dict = {}
+        owners: list = []  # each struct in ``filters`` lives in its owner's memory
+
+        def cast(start, end, shape_filter) -> tuple[float, int, int] | None:
+            c_filter = filters.get(shape_filter)
+            if c_filter is None:
+                owner = _ffi.new("cpShapeFilter *", tuple(shape_filter))
+                owners.append(owner)
+                c_filter = filters[shape_filter] = owner[0]
+            hit = query(c_space, start, end, 0.0, c_filter, info)
+            if hit == null:
+                return None
+            kind, target = tags[hit]
+            return info.alpha, kind, target
+
+        return cast
 
 
 class World:

@@ -550,9 +550,12 @@ def load_run_case(path: Path | None) -> Case:
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m media.charts RUN_DIR [--case PATH]``: redraw a saved run's charts."""
+    from cmdp_pymunk import add_version_flag
+
     parser = argparse.ArgumentParser(prog="python -m media.charts",
                                      description="Redraw Figs. 9-11 of a saved run from its "
                                                  "events.csv.")
+    add_version_flag(parser)
     parser.add_argument("run_dir", type=Path, help="run folder holding events.csv")
     parser.add_argument("--case", type=Path, default=None,
                         help="the run's case: a case file (TOML) or a resolved case.json; "

@@ -241,7 +241,8 @@ def test_material_not_defined(floor):
 def test_crew_type_with_two_materials(floor):
     # state.CrewState carries one material; a crew type needing two would silently get one
     floor["task_types"]["G"].update(crew_type="RC", material="templates")
-    floor["crews"].append({"id": "GC-2", "type": "RC", "start_x_m": 0.0, "start_y_m": 0.0})
+    floor["crews"].append({"id": "GC-2", "type": "RC", "start_x_m": -22.0,
+                           "start_y_m": 0.0})
     the_problem(floor, "crew_types.RC", "need different materials")
 
 

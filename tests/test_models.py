@@ -6,6 +6,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+import pytest
 from gymnasium import spaces
 
 from cmdp_pymunk import load_case
@@ -67,3 +68,58 @@ def test_stochastic_model_navigator_is_reproducible(tmp_path):
                        "--no-progress"])
         outs.append((out / "events.csv").read_text())
     assert outs[0] == outs[1] and "position" in outs[0]
+
+
+def test_both_low_levels_implement_the_protocol(tmp_path):
+    import cmdp_pymunk
+    from agents.models import PolicyNavigator
+    from agents.navigator import Navigator
+    from cmdp_pymunk.policy import LowLevel
+
+    env = cmdp_pymunk.parallel_env(case=TINY)
+    path = save_ppo(tmp_path / "reach.zip", 115, spaces.MultiDiscrete([4, 3, 3]))
+    for low in (Navigator(), PolicyNavigator(path, deterministic=False)):
+        assert isinstance(low, LowLevel)
+        low.bind(env)
+        observations, _ = env.reset(seed=2)
+        low.reset(2)
+        actions = low.actions(env, observations)
+        assert set(actions) == set(env.agents)
+        assert all(env.action_space(a).contains(np.asarray(v)) for a, v in actions.items())
+
+
+def test_a_model_navigator_samples_by_default_and_deterministic_opts_into_argmax(tmp_path):
+    navigator = save_ppo(tmp_path / "reach.zip", 115, spaces.MultiDiscrete([4, 3, 3]))
+    modes = {}
+    for name, extra in (("default", []), ("argmax", ["--deterministic"]),
+                        ("alias", ["--stochastic"])):
+        out = tmp_path / name
+        simulate.main(["--case", TINY, "--navigator", str(navigator), "--out", str(out),
+                       "--max-time-s", "60", "--no-charts", "--no-progress", *extra])
+        data = json.loads((out / "summary.json").read_text())
+        modes[name] = (data["navigator_sampling"], (out / "events.csv").read_text())
+    assert modes["default"][0] == modes["alias"][0] == "stochastic"
+    assert modes["argmax"][0] == "deterministic"
+    assert modes["default"][1] == modes["alias"][1] != modes["argmax"][1]
+
+
+def test_a_stuck_argmax_navigator_fails_fast_with_a_message(tmp_path, capsys):
+    """An argmax policy that gets nowhere stops after 3 step caps (here 3 x 20 s), not after
+    the stall guard's hour: the message names the crew, its targets and the fix."""
+    import tomllib
+
+    from agents.models import PolicyNavigator, PolicyStuck, check_not_stuck
+    from cmdp_pymunk import parallel_env
+    from cmdp_pymunk.case import case_from_dict
+
+    data = tomllib.loads(Path(TINY).read_text())
+    data.setdefault("simulation", {})["reevaluate_after_steps"] = 20
+    env = parallel_env(case=case_from_dict(data), stage=2)
+    env.reset(seed=0)
+    crew = next(c for c in env.site.crews if c.scope)
+    crew.steps_since_reach = 59
+    check_not_stuck(env, PolicyNavigator.stuck_after_caps)  # 59 < 60: not yet
+    crew.steps_since_reach = 60
+    with pytest.raises(PolicyStuck, match=f"{crew.id} has held its target.*drop "
+                                          "--deterministic"):
+        check_not_stuck(env, PolicyNavigator.stuck_after_caps)

@@ -66,18 +66,28 @@ def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch):
     from cmdp_pymunk.move import STAND_STILL
 
     class Frozen:  # a navigator that never moves: nobody reaches anything
-        def __init__(self, env):
+        def __init__(self, env=None):
+            pass
+
+        def reset(self, seed):
+            pass
+
+        def bind(self, env):
             pass
 
         def actions(self, env, observations=None):
             return {a: STAND_STILL for a in env.agents}
 
-    monkeypatch.setattr(simulate, "Navigator", Frozen)
+    import agents.specs
+
+    monkeypatch.setattr(agents.specs, "Navigator", Frozen)
     out = tmp_path / "stall"
     assert simulate.main(["--case", TINY, "--out", str(out), "--stall-s", "200",
                           "--no-charts", "--no-progress"]) == 1
     data = json.loads((out / "summary.json").read_text())
     assert data["stalled"]["after_s"] >= 200 and not data["all_finished"]
+    # the env's own stall guard (the one training uses) stopped it: at 200 s, not later
+    assert data["simulated_s"] == data["stalled"]["time_s"] == 200
     assert {c["crew"] for c in data["stalled"]["crews"]} == {"HIC-1", "RC-1"}
     assert "STALLED" in capsys.readouterr().err
 

@@ -123,4 +123,5 @@ def test_mixed_stage_env_mixes_in_stage2_after_its_start_step():
     half = stage1.MixedStageEnv(stage1.Stage1Config(stage2_share=0.5), case)
     stages = {half.reset(seed=s) and half.stage for s in range(40)}
     assert stages == {1, 2}  # both drawn
-    assert "stage2_share = 1.5" in " ".join(stage1.Stage1Config(stage2_share=1.5).problems())
+    with pytest.raises(ValueError, match="stage2_share = 1.5 is a share of the episodes"):
+        stage1.Stage1Config.load(None, ["stage2_share=1.5"])

@@ -17,6 +17,8 @@ import json
 import sys
 from pathlib import Path
 
+from cmdp_pymunk.rollout import makespan_stats
+
 
 def load_run(folder: Path) -> dict[int, dict]:
     """seed -> summary.json of one ``cmdp-simulate --episodes N`` folder."""
@@ -48,9 +50,9 @@ def compare(navigator: dict[int, dict], policy: dict[int, dict], max_ratio: floa
     all_done = all(policy[s]["all_finished"] for s in seeds)
     mean = {}
     for name, run in (("policy", policy), ("navigator", navigator)):
-        spans = [run[s]["makespan_s"] for s in seeds if run[s]["makespan_s"]]
-        mean[name] = sum(spans) / len(spans) if len(spans) == len(seeds) else None
-        mean[name + "_reach"] = sum(run[s]["reach_rate"] for s in seeds) / len(seeds)
+        stats = makespan_stats([run[s] for s in seeds])
+        mean[name] = stats["mean_s"] if stats["finished"] == len(seeds) else None
+        mean[name + "_reach"] = stats["mean_reach_rate"]
     lines.append(f"| mean | **{_seconds(mean['policy'])}** | "
                  f"{'all in every seed' if all_done else 'NOT all'} | "
                  f"**{mean['policy_reach']:.3f}** | **{_seconds(mean['navigator'])}** | "
@@ -70,7 +72,10 @@ def _seconds(value) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from cmdp_pymunk import add_version_flag
+
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    add_version_flag(parser)
     parser.add_argument("navigator_run", type=Path)
     parser.add_argument("policy_run", type=Path)
     parser.add_argument("--max-ratio", type=float, default=1.10)

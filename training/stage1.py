@@ -21,59 +21,80 @@ from __future__ import annotations
 import json
 import sys
 import time
-from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 import cmdp_pymunk
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.move import STAND_STILL
+from cmdp_pymunk.rollout import reach_rate, versions
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage1.toml"
-ZERO_ALLOWED = {"seed", "bc_samples", "bc_epochs", "stage2_share", "stage2_after_steps",
-                "ent_coef", "gamma", "gae_lambda", "clip_range", "vf_coef", "torch_threads"}
+
+# Scalars are strict, as in the case: a quoted "3" or a 2.5 for a count is a mistake to report.
+Count = Annotated[int, Strict(), Field(gt=0)]
+CountOrZero = Annotated[int, Strict(), Field(ge=0)]
+Rate = Annotated[float, Strict(), Field(gt=0, allow_inf_nan=False)]
+RateOrZero = Annotated[float, Strict(), Field(ge=0, allow_inf_nan=False)]
+Share = Annotated[float, Strict(), Field(ge=0, le=1, allow_inf_nan=False)]
+Sizes = Annotated[list[Count], Field(min_length=1)]
 
 
-@dataclass
-class Stage1Config:
+class Stage1Config(BaseModel):
     """Every setting of a stage-1 run; the TOML config file and ``--set`` override these."""
 
+    model_config = ConfigDict(extra="forbid")
+
     case: str | None = None  # case file; None: the built-in case
-    seed: int = 0
-    total_steps: int = 3_000_000  # agent-steps (every crew's step counts)
-    episode_time_s: float = 1500.0  # stage-1 episodes are cut here
-    n_envs: int = 8  # env copies (each gives one sample per crew per step)
-    num_cpus: int = 2  # processes stepping the copies (1: all in this process)
-    torch_threads: int = 1
+    seed: CountOrZero = 0
+    total_steps: Count = 3_000_000  # agent-steps (every crew's step counts)
+    episode_time_s: Rate = 1500.0  # stage-1 episodes are cut here
+    n_envs: Count = 8  # env copies (each gives one sample per crew per step)
+    num_cpus: Count = 2  # processes stepping the copies (1: all in this process)
+    torch_threads: Count = 1
     # PPO (Eq. 8 is SB3's ppo.py)
-    learning_rate: float = 3e-4
-    n_steps: int = 256  # per env copy and crew before each update
-    batch_size: int = 2048
-    n_epochs: int = 4
-    gamma: float = 0.99
-    gae_lambda: float = 0.95
-    clip_range: float = 0.2
-    ent_coef: float = 0.003
-    vf_coef: float = 0.5
-    net_arch: list = field(default_factory=lambda: [128, 128])
+    learning_rate: Rate = 3e-4
+    n_steps: Count = 256  # per env copy and crew before each update
+    batch_size: Count = 2048
+    n_epochs: Count = 4
+    gamma: RateOrZero = 0.99
+    gae_lambda: RateOrZero = 0.95
+    clip_range: RateOrZero = 0.2
+    ent_coef: RateOrZero = 0.003
+    vf_coef: RateOrZero = 0.5
+    net_arch: Sizes = [128, 128]
     # warm start: behaviour cloning from the scripted navigator
-    bc_samples: int = 300_000
-    bc_epochs: int = 6
-    bc_batch_size: int = 1024
-    bc_learning_rate: float = 1e-3
+    bc_samples: CountOrZero = 300_000
+    bc_epochs: CountOrZero = 6
+    bc_batch_size: Count = 1024
+    bc_learning_rate: Rate = 1e-3
     # stage-2 episodes in the mix (MixedStageEnv): their share of the resets, from which
     # agent-step of the run, and where they are cut
-    stage2_share: float = 0.0
-    stage2_after_steps: int = 0
-    stage2_episode_time_s: float = 20000.0
+    stage2_share: Share = 0.0
+    stage2_after_steps: CountOrZero = 0
+    stage2_episode_time_s: Rate = 20000.0
+    # the env's stall guard: an episode in which no task moves on for this long is cut and
+    # counted (cmdp/stalled_episodes); 0 turns it off
+    stall_s: RateOrZero = 3600.0
     # evaluation, checkpoints
-    eval_every_steps: int = 250_000
-    eval_seeds: list = field(default_factory=lambda: [1000, 1001])
-    checkpoint_every_steps: int = 250_000
+    eval_every_steps: Count = 250_000
+    eval_seeds: Sizes = [1000, 1001]
+    checkpoint_every_steps: Count = 250_000
+
+    @model_validator(mode="after")
+    def _cpus_within_copies(self) -> Stage1Config:
+        if self.num_cpus > self.n_envs:
+            raise ValueError(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; "
+                             "fix: lower num_cpus")
+        return self
 
     @classmethod
     def load(cls, path: Path | None, overrides: list[str] = ()) -> Stage1Config:
+        """The config file's settings with ``--set key=value`` overrides on top, validated;
+        a ``ValueError`` names the file (or ``--set``) and every bad setting with its fix."""
         import tomllib
 
         data = {}
@@ -83,7 +104,6 @@ class Stage1Config:
             except (OSError, tomllib.TOMLDecodeError) as err:
                 raise ValueError(f"{path}: cannot read the config ({err}); fix: check the "
                                  "path and the TOML syntax") from None
-        names = {f.name: f for f in fields(cls)}
         for item in overrides:
             key, sep, value = item.partition("=")
             if not sep:
@@ -92,39 +112,46 @@ class Stage1Config:
                 data[key] = tomllib.loads(f"v = {value}")["v"]
             except tomllib.TOMLDecodeError:
                 data[key] = value  # a bare string
-        unknown = sorted(set(data) - set(names))
+        where = path or "--set"
+        unknown = sorted(set(data) - set(cls.model_fields))
         if unknown:
-            raise ValueError(f"{path or '--set'}: unknown setting(s) {', '.join(unknown)}; "
-                             f"known: {', '.join(names)}")
-        config = cls(**data)
-        problems = config.problems()
-        if problems:
-            raise ValueError(f"{path or '--set'}: " + "; ".join(problems))
-        return config
+            raise ValueError(f"{where}: unknown setting(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(cls.model_fields)}")
+        try:
+            return cls.model_validate(data)
+        except ValidationError as err:
+            raise ValueError(f"{where}: " + "; ".join(_config_problems(err))) from None
 
-    def problems(self) -> list[str]:
-        """Every setting of the wrong type or out of range, each with its fix."""
-        out = []
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.type in ("int", "float"):
-                if isinstance(value, bool) or not isinstance(value, (int, float)) or \
-                        (f.type == "int" and not isinstance(value, int)):
-                    kind = "a whole number" if f.type == "int" else "a number"
-                    out.append(f"{f.name} = {value!r} must be {kind}")
-                elif value < 0 or (value == 0 and f.name not in ZERO_ALLOWED):
-                    out.append(f"{f.name} = {value!r} must be positive")
-            elif f.type == "list" and not (isinstance(value, list) and value and all(
-                    isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)):
-                out.append(f"{f.name} = {value!r} must be a non-empty list of positive whole "
-                           "numbers, e.g. [128, 128]")
-        if isinstance(self.stage2_share, (int, float)) and self.stage2_share > 1:
-            out.append(f"stage2_share = {self.stage2_share!r} is a share of the episodes; fix: "
-                       "give a number from 0 to 1")
-        if self.num_cpus > self.n_envs:
-            out.append(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; fix: "
-                       "lower num_cpus")
-        return out
+
+def _config_problems(error: ValidationError) -> list[str]:
+    """pydantic's errors as ``name = value must be ...; fix: ...``, one per bad setting."""
+    out = []
+    for err in error.errors():
+        loc = [str(k) for k in err["loc"]]
+        value = err.get("input")
+        kind, ctx = err["type"], err.get("ctx", {})
+        if not loc:  # a model validator's own message
+            out.append(err["msg"].removeprefix("Value error, "))
+            continue
+        name = loc[0] if len(loc) == 1 else f"{loc[0]}[{loc[1]}]"
+        if kind in ("int_type", "int_from_float", "int_parsing"):
+            text = "must be a whole number (without quotes or a decimal point)"
+        elif kind in ("float_type", "float_parsing"):
+            text = "must be a number (without quotes)"
+        elif kind in ("list_type", "too_short"):
+            text = "must be a non-empty list of positive whole numbers, e.g. [128, 128]"
+        elif kind == "greater_than" and ctx.get("gt") == 0:
+            text = "must be positive"
+        elif kind == "greater_than_equal" and ctx.get("ge") == 0:
+            text = "must be zero or positive"
+        elif kind == "finite_number":
+            text = "must be a finite number (not nan or inf)"
+        elif kind == "less_than_equal" and loc[0] == "stage2_share":
+            text = "is a share of the episodes; fix: give a number from 0 to 1"
+        else:
+            text = err["msg"]
+        out.append(f"{name} = {value!r} {text}")
+    return out
 
 
 # -- environment -------------------------------------------------------------------------------
@@ -152,7 +179,8 @@ class MixedStageEnv(cmdp_pymunk.CMDPEnv):
         from agents.priority import PriorityEvaluator
 
         super().__init__(case=case, stage=1, evaluator=PriorityEvaluator(),
-                         max_time_s=config.episode_time_s, lean_infos=True, **kwargs)
+                         max_time_s=config.episode_time_s, lean_infos=True,
+                         stall_s=config.stall_s or None, **kwargs)
         self.config = config
         self.run_steps = start_steps
         self.steps_per_call = config.n_envs * len(self.possible_agents)
@@ -283,7 +311,7 @@ def evaluate_reaching(model, config: Stage1Config, case, seeds, stage: int = 1) 
             steps += crew.stats.reaching_steps
         rewards.append(total)
         tasks.append(env.site.tasks_ended / len(env.site.tasks))
-    return {"reach_rate": reaches / max(1, reaches + timeouts),
+    return {"reach_rate": reach_rate(reaches, timeouts),
             "steps_per_reach": steps / max(1, reaches),
             "mean_reward": float(np.mean(rewards)), "tasks_done": float(np.mean(tasks))}
 
@@ -300,7 +328,7 @@ def make_callbacks(config: Stage1Config, case, run: Path):
 
         def _on_rollout_start(self) -> None:
             self.sums = dict.fromkeys(("reaches", "timeouts", "reaching", "collisions",
-                                       "congestion"), 0)
+                                       "congestion", "stalled"), 0)
 
         def _on_step(self) -> bool:
             for info in self.locals["infos"]:
@@ -308,17 +336,20 @@ def make_callbacks(config: Stage1Config, case, run: Path):
                 if s:
                     for k, v in s.items():
                         self.sums[k] += v
+                if info.get("stalled"):  # every crew of a stalled episode carries the flag
+                    self.sums["stalled"] += 1
             return True
 
         def _on_rollout_end(self) -> None:
             s = self.sums
             reaches = max(1, s["reaches"])
-            self.logger.record("cmdp/reach_rate", s["reaches"] / max(1, s["reaches"]
-                                                                     + s["timeouts"]))
+            self.logger.record("cmdp/reach_rate", reach_rate(s["reaches"], s["timeouts"]))
             self.logger.record("cmdp/steps_per_reach", s["reaching"] / reaches)
             self.logger.record("cmdp/collisions_per_reach", s["collisions"] / reaches)
             self.logger.record("cmdp/congestion_entries_per_reach", s["congestion"] / reaches)
             self.logger.record("cmdp/reaches", s["reaches"])
+            # episodes the env's stall guard cut short (no task moved on for stall_s)
+            self.logger.record("cmdp/stalled_episodes", s["stalled"] / n_agents)
 
     class Periodic(BaseCallback):
         """Checkpoints and evaluation on fixed seeds, keeping the best model."""
@@ -386,8 +417,6 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
     from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
     from stable_baselines3.common.utils import set_random_seed
 
-    from training.simulate import versions
-
     torch.set_num_threads(config.torch_threads)
     torch.distributions.Distribution.set_default_validate_args(False)
     case = cmdp_pymunk.load_case(config.case)
@@ -395,7 +424,7 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
     part = _next_part(run) if resume is not None else 0  # a resumed run adds files, never
     suffix = f"-{part}" if part else ""                   # overwrites the history
     write_atomic(run / f"config{suffix}.json", json.dumps(
-        {"config": asdict(config), "command": argv, "resumed_from": str(resume) if resume
+        {"config": config.model_dump(), "command": argv, "resumed_from": str(resume) if resume
          else None, "versions": versions()}, indent=2))
     write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
     set_random_seed(config.seed)
@@ -406,7 +435,9 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
         start_steps = load_from_zip_file(str(resume), device="cpu")[0]["num_timesteps"]
     venv = make_vec_env(config, case, start_steps)
     if resume is not None:
-        model = PPO.load(str(resume), env=venv, device="cpu")
+        # a checkpoint of the v0 env saved an unbounded observation space of the same shape
+        model = PPO.load(str(resume), env=venv, device="cpu",
+                         custom_objects={"observation_space": venv.observation_space})
         log(f"resumed from {resume} at {model.num_timesteps:,} steps")
     else:
         model = PPO("MlpPolicy", venv, learning_rate=config.learning_rate,
@@ -450,6 +481,7 @@ def main(argv: list[str] | None = None) -> int:
     import argparse
 
     parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(parser)
     sub = parser.add_subparsers(dest="stage", required=True)
     p = sub.add_parser("stage1", help="train the shared target-reaching policy")
     p.add_argument("--config", type=Path, default=DEFAULT_CONFIG)

@@ -1,0 +1,61 @@
+"""The env's variants in PettingZoo's registry (PettingZoo 1.27: ``pettingzoo.register`` /
+``pettingzoo.make``), registered when ``cmdp_pymunk`` is imported::
+
+    import cmdp_pymunk, pettingzoo
+    env = pettingzoo.make("parallel", "cmdp/PrecastFloor-v1")     # ParallelEnv
+    env = pettingzoo.make("aec", "cmdp/PrecastFloor-stage1-v1")   # AEC, via parallel_to_aec
+
+Every variant takes the env's arguments as keyword overrides (``seed``, ``render_mode``,
+``max_time_s``, ...). Targets are valued by the priority heuristic (Eq. 9) unless
+``evaluator`` says otherwise: ``"priority"``, ``"nearest"``, or an evaluator object.
+The version (``-v1``) follows the env's (``CMDPEnv.metadata["name"]``).
+"""
+
+from __future__ import annotations
+
+from pettingzoo import register
+from pettingzoo.utils.conversions import parallel_to_aec
+
+from .env import CMDPEnv
+from .evaluate import NearestFirstEvaluator
+
+STAGE1_EPISODE_S = 3000.0  # stage-1 episodes are cut here, as in training/configs/stage1.toml
+
+# id -> default keyword arguments of CMDPEnv (case None: the built-in case, the paper's)
+VARIANTS: dict[str, dict] = {
+    "cmdp/PrecastFloor-v1": {"stage": 2},
+    "cmdp/PrecastFloor-stage1-v1": {"stage": 1, "max_time_s": STAGE1_EPISODE_S},
+}
+
+
+def make_evaluator(evaluator):
+    """``"priority"`` (Eq. 9), ``"nearest"``, or an evaluator object as it is."""
+    if evaluator == "priority":
+        # The heuristic lives with the scripted policies (agents/); imported when an env is
+        # made, so importing the core registers the variants without loading them.
+        from agents.priority import PriorityEvaluator
+
+        return PriorityEvaluator()
+    if evaluator == "nearest":
+        return NearestFirstEvaluator()
+    if isinstance(evaluator, str):
+        raise ValueError(f'evaluator {evaluator!r}: give "priority", "nearest" or an object '
+                         "with target_values(crew, site, position)")
+    return evaluator
+
+
+def make_parallel(evaluator="priority", **kwargs) -> CMDPEnv:
+    """A registered variant as a PettingZoo ParallelEnv."""
+    return CMDPEnv(evaluator=make_evaluator(evaluator), **kwargs)
+
+
+def make_aec(evaluator="priority", **kwargs):
+    """A registered variant as a PettingZoo AEC env (``parallel_to_aec``)."""
+    return parallel_to_aec(make_parallel(evaluator, **kwargs))
+
+
+def register_variants(variants: dict[str, dict] | None = None) -> None:
+    """Register each variant under both APIs (``"parallel"`` and ``"aec"``)."""
+    for env_id, kwargs in (VARIANTS if variants is None else variants).items():
+        register("parallel", env_id, entry_point=f"{__name__}:make_parallel", kwargs=dict(kwargs))
+        register("aec", env_id, entry_point=f"{__name__}:make_aec", kwargs=dict(kwargs))

@@ -1,0 +1,177 @@
+"""Running episodes and summing them up: the library every command-line script calls.
+
+``run_episode`` drives an env with a low level to the end of an episode, a time-out or a stall
+(``stall_report`` says who and what was stuck); ``crew_summary``, ``reach_rate`` and
+``versions`` are what a run folder records. ``cmdp-simulate``, ``cmdp-train`` and the
+comparisons call these; none of them imports another script.
+
+The low level is a ``policy.LowLevel`` (``bind``, ``reset``, ``actions``; the implementations
+are in ``agents``); this module needs nothing from ``agents``.
+"""
+
+from __future__ import annotations
+
+import math
+import platform
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .decide import target_id
+from .policy import LowLevel
+from .state import CrewStatus, IdleCause, Pool, activity
+
+
+@dataclass
+class Episode:
+    """One finished (or stopped) episode: its seed, makespan (None unless every task ended),
+    wall-clock seconds, the stall report if it stalled, and any rendered frames."""
+
+    seed: int
+    makespan_s: float | None
+    wall_s: float
+    stalled: dict | None
+    frames: list = field(default_factory=list)
+
+
+def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
+                progress: bool = True,
+                frame_every_s: float | None = None) -> Episode:
+    """Run one episode to its end, a time-out or a stall; frames every ``frame_every_s``.
+
+    Args:
+        env: a ``CMDPEnv`` (reset here with ``seed``).
+        navigator: the low level, bound to ``env``; ``reset(seed)`` is called after the env's
+            reset.
+        seed: the episode's seed.
+        stall_s: stop when no task moves on for this many simulated seconds: sets the env's
+            own stall guard (``env.stall_s``, the one training uses); None keeps the env's.
+        progress: show a tqdm bar in simulated seconds.
+        frame_every_s: render a frame every this many simulated seconds (None: no frames).
+    """
+    from tqdm import tqdm
+
+    if stall_s is not None:
+        if not (math.isfinite(stall_s) and stall_s > 0):
+            raise ValueError(f"stall_s must be a positive finite number of seconds, not "
+                             f"{stall_s!r}")
+        env.stall_s = stall_s
+    observations, _ = env.reset(seed=seed)
+    navigator.reset(seed)
+    site = env.site
+    frames = []
+    next_frame = 0.0
+    bar = tqdm(total=int(env.max_time_s), unit="sim-s", disable=not progress, leave=False,
+               mininterval=1.0, desc=f"seed {seed}")
+    start = time.perf_counter()
+    while env.agents:
+        if frame_every_s is not None:
+            while site.time_s >= next_frame:  # a jump repeats the still frame: even time-lapse
+                frames.append(env.render())
+                next_frame += frame_every_s
+        before = site.time_s
+        observations, *_ = env.step(navigator.actions(env, observations))
+        bar.update(int(site.time_s - before))
+        bar.set_postfix_str(f"tasks {site.tasks_ended}/{len(site.tasks)}", refresh=False)
+    bar.close()
+    stalled = stall_report(env, env.stalled["after_s"]) if env.stalled else None
+    if frame_every_s is not None:
+        frames.append(env.render())
+    return Episode(seed, env.makespan_s, time.perf_counter() - start, stalled, frames)
+
+
+def stall_report(env, for_s: float) -> dict:
+    """The crews and tasks involved in an episode that stopped making progress."""
+    site = env.site
+    crews = []
+    for crew in site.crews:
+        if crew.status == CrewStatus.LEFT:
+            continue
+        x, y = env.world.bodies[crew.index].position
+        crews.append({"crew": crew.id, "activity": activity(crew),
+                      "position_m": [round(x, 2), round(y, 2)],
+                      "targets": sorted(target_id(site, t) for t in crew.scope),
+                      "task": site.tasks[crew.task].id if crew.task >= 0 else None,
+                      "steps_since_reach": crew.steps_since_reach})
+    return {"after_s": for_s, "time_s": site.time_s, "crews": crews,
+            "tasks_on": [t.id for t in site.tasks if t.pool == Pool.ON],
+            "tasks_queued": [t.id for t in site.tasks if t.pool == Pool.QUEUE]}
+
+
+def crew_summary(env) -> dict:
+    """Per crew: reaching steps, idle steps by cause, distance, trips, crane waits, contacts,
+    reaches and reach time-outs of the episode so far."""
+    out = {}
+    for crew in env.site.crews:
+        s = crew.stats
+        out[crew.id] = {
+            "type": crew.type,
+            "reaching_steps": s.reaching_steps,
+            "idle_steps": {"waiting_for_predecessor": s.idle_steps[IdleCause.PREDECESSOR],
+                           "blocked_by_task_area": s.idle_steps[IdleCause.AREA],
+                           "no_target": s.idle_steps[IdleCause.NO_TARGET]},
+            "distance_m": round(s.distance_m, 2),
+            "material_trips": s.material_trips,
+            "crane_waits": s.crane_waits,
+            "crane_wait_s": s.crane_wait_steps,
+            "collisions": s.collisions,
+            "congestion_entries": s.congestion_entries,
+            "reaches": s.reaches,
+            "reach_timeouts": s.reach_timeouts,
+        }
+    return out
+
+
+def reach_rate(reaches: int, timeouts: int) -> float:
+    """Targets reached over attempts: an attempt that holds a target for the step cap
+    (``reevaluate_after_steps``) without reaching counts as a miss each time (``timeouts``).
+    0 when there was no attempt."""
+    return reaches / max(1, reaches + timeouts)
+
+
+def episode_reach_rate(env) -> float:
+    """``reach_rate`` over every crew of the env's episode so far."""
+    crews = env.site.crews
+    return reach_rate(sum(c.stats.reaches for c in crews),
+                      sum(c.stats.reach_timeouts for c in crews))
+
+
+def makespan_stats(rows: list[dict]) -> dict:
+    """Mean and spread over episodes, from their summaries (``cmdp-simulate``'s
+    ``summary.json``: ``makespan_s`` None for an unfinished episode, ``reach_rate``,
+    ``lower_bound`` if known). Means are over the finished episodes; ``finished`` says how
+    many."""
+    done = [r["makespan_s"] for r in rows if r["makespan_s"]]
+    lower = rows[0].get("lower_bound", {}).get("lower_bound_s")
+    return {"episodes": len(rows), "finished": len(done),
+            "mean_s": float(np.mean(done)) if done else None,
+            "std_s": float(np.std(done)) if done else None,
+            "min_s": min(done, default=None), "max_s": max(done, default=None),
+            "lower_bound_s": lower,
+            "mean_over_lower_bound": float(np.mean(done)) / lower if done and lower else None,
+            "mean_reach_rate": float(np.mean([r["reach_rate"] for r in rows])),
+            "makespans_s": [r["makespan_s"] for r in rows]}
+
+
+def versions() -> dict:
+    """Versions of this package, Python and the simulation stack, and the git commit (None
+    outside a checkout), for every run folder."""
+    import gymnasium
+    import pettingzoo
+    import pymunk
+
+    from . import __version__
+
+    out = {"cmdp_pymunk": __version__, "python": platform.python_version(),
+           "pymunk": pymunk.version, "numpy": np.__version__, "gymnasium": gymnasium.__version__,
+           "pettingzoo": pettingzoo.__version__}
+    try:
+        out["commit"] = subprocess.run(
+            ["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5,
+            cwd=Path(__file__).resolve().parent).stdout.strip() or None
+    except (OSError, subprocess.SubprocessError):
+        out["commit"] = None
+    return out

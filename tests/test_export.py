@@ -1,0 +1,62 @@
+"""cmdp-export: the ONNX file, run by onnxruntime, gives SB3's own outputs."""
+
+from pathlib import Path
+
+import numpy as np
+import onnxruntime as ort  # the onnx extra, which make test installs
+import torch
+from gymnasium import spaces
+
+from tests.test_lean_actor import COMMITTED, observations, random_ppo
+from training import export
+
+
+def run(path, obs):
+    session = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+    names = [o.name for o in session.get_outputs()]
+    return dict(zip(names, session.run(None, {"obs": obs}), strict=True))
+
+
+def test_committed_reaching_model_exports_and_matches_sb3(tmp_path):
+    from stable_baselines3 import PPO
+
+    out = tmp_path / "reach.onnx"
+    assert export.main([str(COMMITTED), str(out)]) == 0
+    model = PPO.load(str(COMMITTED), device="cpu")
+    obs = observations(119, n=300) * 0.5
+    got = run(out, obs)
+    assert set(got) == {"logits", "action"} and got["action"].dtype == np.int64
+    with torch.no_grad():
+        dist = model.policy.get_distribution(torch.as_tensor(obs))
+    # the raw logits differ from torch's normalised ones by a constant per sub-action
+    start = 0
+    for k, n in enumerate((4, 3, 3)):
+        ours = got["logits"][:, start:start + n]
+        ours = ours - np.log(np.exp(ours).sum(axis=1, keepdims=True))
+        np.testing.assert_allclose(ours, dist.distribution[k].logits.numpy(), atol=1e-4)
+        start += n
+    expected, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(got["action"], expected)
+
+
+def test_box_policy_exports_mean_log_std_and_clipped_action(tmp_path):
+    model = random_ppo(7, spaces.Box(-1.0, 1.0, (2,), np.float32))
+    path = tmp_path / "eval.zip"
+    model.save(str(path))
+    out = tmp_path / "eval.onnx"
+    assert export.main([str(path), str(out)]) == 0
+    obs = observations(7, n=200)
+    got = run(out, obs)
+    with torch.no_grad():
+        dist = model.policy.get_distribution(torch.as_tensor(obs)).distribution
+    np.testing.assert_allclose(got["mean"], dist.mean.numpy(), atol=1e-5)
+    np.testing.assert_allclose(got["log_std"], model.policy.log_std.detach().numpy(),
+                               rtol=1e-6)
+    expected, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_allclose(got["action"], expected, atol=1e-5)
+
+
+def test_missing_model_is_reported(tmp_path, capsys):
+    assert export.main([str(tmp_path / "nope.zip"), str(tmp_path / "x.onnx")]) == 2
+    assert "no such model file" in capsys.readouterr().err
+    assert not Path(tmp_path / "x.onnx").exists()

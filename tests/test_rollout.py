@@ -1,0 +1,50 @@
+"""The rollout library: reach rate, makespan statistics, a whole tiny episode."""
+
+import pytest
+
+import cmdp_pymunk
+from agents.specs import make_evaluator, make_navigator, model_path
+from cmdp_pymunk.rollout import (
+    crew_summary,
+    episode_reach_rate,
+    makespan_stats,
+    reach_rate,
+    run_episode,
+)
+
+
+def test_reach_rate_counts_each_timeout_as_a_miss():
+    assert reach_rate(9, 1) == pytest.approx(0.9)  # 9 / (9 + 1)
+    assert reach_rate(3, 0) == 1.0
+    assert reach_rate(0, 0) == 0.0  # no attempt: no division by zero
+
+
+def test_makespan_stats_over_finished_episodes_only():
+    rows = [{"makespan_s": 100.0, "reach_rate": 1.0, "lower_bound": {"lower_bound_s": 50.0}},
+            {"makespan_s": 300.0, "reach_rate": 0.8, "lower_bound": {"lower_bound_s": 50.0}},
+            {"makespan_s": None, "reach_rate": 0.6, "lower_bound": {"lower_bound_s": 50.0}}]
+    stats = makespan_stats(rows)
+    # finished: 100 and 300 -> mean 200, population std 100, 200 / 50 = 4
+    assert stats["episodes"] == 3 and stats["finished"] == 2
+    assert stats["mean_s"] == 200.0 and stats["std_s"] == 100.0
+    assert stats["mean_over_lower_bound"] == 4.0
+    assert stats["mean_reach_rate"] == pytest.approx(0.8)  # (1 + 0.8 + 0.6) / 3
+    assert stats["makespans_s"] == [100.0, 300.0, None]
+
+
+def test_run_episode_finishes_the_tiny_case(tiny_case):
+    env = cmdp_pymunk.parallel_env(case=tiny_case, evaluator=make_evaluator("priority"))
+    navigator = make_navigator("scripted", env)
+    navigator.bind(env)
+    episode = run_episode(env, navigator, seed=1, stall_s=3600.0, progress=False)
+    assert episode.stalled is None and episode.makespan_s == env.site.time_s
+    summary = crew_summary(env)
+    assert set(summary) == {c.id for c in tiny_case.crews}
+    reaches = sum(c["reaches"] for c in summary.values())
+    misses = sum(c["reach_timeouts"] for c in summary.values())
+    assert reaches > 0 and episode_reach_rate(env) == reach_rate(reaches, misses)
+
+
+def test_a_missing_model_file_is_named(tmp_path):
+    with pytest.raises(ValueError, match="--navigator .*nope.zip.*no such model file"):
+        model_path(str(tmp_path / "nope.zip"), "--navigator")

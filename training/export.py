@@ -1,0 +1,146 @@
+"""Export a trained policy's actor to ONNX, for Unity (ML-Agents reads ONNX), a game engine or
+a web page (onnxruntime-web).
+
+    cmdp-export MODEL.zip model.onnx
+
+The file holds the actor only (no critic, no optimizer), built node by node from the weights
+``agents.models.LeanActor`` copies out of the SB3 zip, so it computes exactly what our
+simulations compute. Names:
+
+Input
+    ``obs``: float32 (batch, observation size), the observation as the env gives it (115 or
+    119 floats for the reaching policy, see ``cmdp_pymunk.observe``; O^e for the evaluation
+    policy). No normalisation is applied (our models are trained without any).
+
+Outputs, categorical actions (the reaching policy's ``MultiDiscrete([4, 3, 3])``)
+    ``logits``: float32 (batch, 4 + 3 + 3), unnormalised, the sub-actions side by side (a
+    softmax over each sub-action's slice gives its probabilities; sample from those for a
+    stochastic policy). ``action``: int64 (batch, 3), the argmax of each sub-action (the
+    deterministic action): forward {0, 0.3, 0.8, 1}, lateral {-1, 0, 1}, turn {-1, 0, 1}
+    as indices.
+
+Outputs, Gaussian actions (the evaluation policy's ``Box(2)``)
+    ``mean``: float32 (batch, dim). ``log_std``: float32 (dim,), the same for every row
+    (sample ``mean + exp(log_std) * N(0, 1)``). ``action``: float32 (batch, dim), the mean
+    clipped to the action space (the deterministic action).
+
+The model's metadata (``metadata_props``) records the observation size, the action space and
+the source file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+OPSET = 17
+
+
+def actor_to_onnx(actor, source: str = ""):
+    """An ``onnx.ModelProto`` computing the ``LeanActor``'s outputs (see the module doc)."""
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    inits, nodes = [], []
+
+    def const(name, value):
+        inits.append(numpy_helper.from_array(np.asarray(value), name))
+        return name
+
+    x = "obs"
+    for i, (w, b) in enumerate(actor.layers):
+        nodes.append(helper.make_node("MatMul", [x, const(f"w{i}", w)], [f"mm{i}"]))
+        nodes.append(helper.make_node("Add", [f"mm{i}", const(f"b{i}", b)], [f"pre{i}"]))
+        nodes.append(helper.make_node(actor.activation.replace("ReLU", "Relu"), [f"pre{i}"],
+                                      [f"h{i}"]))
+        x = f"h{i}"
+    head = "mean" if actor.gaussian else "logits"
+    w, b = actor.action_net
+    nodes.append(helper.make_node("MatMul", [x, const("w_action", w)], ["mm_action"]))
+    nodes.append(helper.make_node("Add", ["mm_action", const("b_action", b)], [head]))
+    batch = "batch"
+    outputs = [helper.make_tensor_value_info(head, TensorProto.FLOAT, [batch, w.shape[1]])]
+    if actor.gaussian:
+        nodes.append(helper.make_node("Identity", [const("log_std_value", actor.log_std)],
+                                      ["log_std"]))
+        nodes.append(helper.make_node("Max", ["mean", const("low", actor.low)], ["above_low"]))
+        nodes.append(helper.make_node("Min", ["above_low", const("high", actor.high)],
+                                      ["action"]))
+        outputs += [helper.make_tensor_value_info("log_std", TensorProto.FLOAT, [w.shape[1]]),
+                    helper.make_tensor_value_info("action", TensorProto.FLOAT,
+                                                  [batch, w.shape[1]])]
+        space = f"Box({w.shape[1]}, low={actor.low.tolist()}, high={actor.high.tolist()})"
+    else:
+        parts = [f"logits_{k}" for k in range(len(actor.nvec))]
+        nodes.append(helper.make_node("Split", ["logits", const("nvec", np.array(
+            actor.nvec, np.int64))], parts, axis=1))
+        for k, part in enumerate(parts):
+            nodes.append(helper.make_node("ArgMax", [part], [f"action_{k}"], axis=1,
+                                          keepdims=1))
+        nodes.append(helper.make_node("Concat", [f"action_{k}" for k in range(len(parts))],
+                                      ["action"], axis=1))
+        outputs.append(helper.make_tensor_value_info("action", TensorProto.INT64,
+                                                     [batch, len(actor.nvec)]))
+        space = f"MultiDiscrete({actor.nvec})"
+    graph = helper.make_graph(
+        nodes, "actor",
+        [helper.make_tensor_value_info("obs", TensorProto.FLOAT,
+                                       [batch, actor.observation_size])],
+        outputs, inits)
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)],
+                              producer_name="cmdp-pymunk")
+    model.ir_version = 8  # readable by older runtimes too (onnxruntime >= 1.15)
+    for key, value in (("observation_size", str(actor.observation_size)),
+                       ("action_space", space), ("source", source)):
+        model.metadata_props.add(key=key, value=value)
+    onnx.checker.check_model(model)
+    return model
+
+
+def export(model_path: str | Path, onnx_path: str | Path) -> Path:
+    """Write the actor of the SB3 zip at ``model_path`` to ``onnx_path`` (atomically)."""
+    from agents.models import LeanActor
+
+    actor = LeanActor.from_zip(model_path)
+    proto = actor_to_onnx(actor, source=Path(model_path).name)
+    onnx_path = Path(onnx_path)
+    onnx_path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=onnx_path.parent, suffix=".onnx.tmp")
+    with os.fdopen(fd, "wb") as f:
+        f.write(proto.SerializeToString())
+    os.replace(tmp, onnx_path)
+    return onnx_path
+
+
+def main(argv: list[str] | None = None) -> int:
+    import cmdp_pymunk
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(parser)
+    parser.add_argument("model", type=Path, help="a stable-baselines3 PPO .zip")
+    parser.add_argument("onnx", type=Path, help="the .onnx file to write")
+    args = parser.parse_args(argv)
+    if not args.model.is_file():
+        print(f"cmdp-export: {args.model}: no such model file; give a .zip saved by "
+              "stable-baselines3 (e.g. models/stage1_reaching.zip)", file=sys.stderr)
+        return 2
+    try:
+        out = export(args.model, args.onnx)
+    except ValueError as err:
+        print(f"cmdp-export: {err}", file=sys.stderr)
+        return 2
+    print(f"cmdp-export: wrote {out} (input 'obs'; outputs: see training/export.py)")
+    return 0
+
+
+def entry_point() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry_point()
