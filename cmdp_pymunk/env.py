@@ -68,33 +68,32 @@ Global state
     the layout is documented in ``cmdp_pymunk.global_state`` (``state_layout(case)``).
 
 One step, in the paper's order (section 3.2)
-    P_phy (move, physics), P_cons (construct), Pi_cons (the decision table), target
-    evaluation, observation, rewards.
+    The actions move the crews (P_phy), construction advances (P_cons), and the next second
+    is decided (Pi_cons), valued and rewarded: ``engine.Engine.step``; the crews then observe
+    it (Eq. 3) for their next action. ``reset`` decides, values and observes the first second.
+
+The dynamics are ``engine.Engine``'s; this module is the PettingZoo adapter over it (agents'
+names, spaces, dicts of arrays, infos).
 """
 
 from __future__ import annotations
 
-import math
+import importlib
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from . import construct, decide, events, move, observe, reward
+from . import move, observe
 from .case import Case, as_case
-from .evaluate import (
-    NearestFirstEvaluator,
-    TargetEvaluator,
-    assign_target_values,
-    crews_needing_values,
-)
+from .engine import Engine
+from .evaluate import NearestFirstEvaluator, TargetEvaluator
 from .global_state import global_state, state_bounds
-from .state import CrewStatus, Site, activity
-from .world import N_KINDS, World
 
-# per-agent counts of one step() call, in infos[agent]["step_stats"] (training metrics)
-STEP_STATS = ("reaches", "timeouts", "reaching", "collisions", "congestion")
+# The renderer used when none is injected: named, not imported (the core imports no pygame).
+DEFAULT_RENDERER = "media.render:draw_frame"
 
 
 class CMDPEnv(ParallelEnv):
@@ -107,52 +106,33 @@ class CMDPEnv(ParallelEnv):
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
                  park_idle: bool = False, lean_infos: bool = False,
                  external_values: bool = False,
-                 stall_s: float | None = None):
-        if stage not in (1, 2):
-            raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
-                             f"CMDP), not {stage!r}")
+                 stall_s: float | None = None,
+                 renderer: Callable[[CMDPEnv], np.ndarray] | None = None):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
-        self.case = as_case(case)
-        self.stage = stage
-        self.render_mode = render_mode
-        self.jump_idle = jump_idle
-        self.position_log_every_s = position_log_every_s
-        self.park_idle = park_idle
-        self.lean_infos = lean_infos
+        case = as_case(case)
         self.external_values = external_values
-        self._pending: list[int] = []
-        self.evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
-        sim = self.case.simulation
-        self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
-        if not math.isfinite(self.max_time_s) or self.max_time_s <= 0:
-            raise ValueError(f"max_time_s must be a positive finite number of seconds, not "
-                             f"{self.max_time_s!r}")
-        if stall_s is not None and not (math.isfinite(stall_s) and stall_s > 0):
-            raise ValueError(f"stall_s must be a positive finite number of seconds or None "
-                             f"(no stall guard), not {stall_s!r}")
-        self.stall_s = stall_s
-        self.stalled: dict | None = None
+        self._evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
+        self.engine = Engine(case, stage, None if external_values else self._evaluator, seed,
+                             max_time_s, park_idle, stall_s, position_log_every_s)
+        self.render_mode = render_mode
+        self.renderer = renderer
+        self.jump_idle = jump_idle
+        self.lean_infos = lean_infos
+        sim = case.simulation
         self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
                                      sim.field_of_view_deg, sim.sight_distance_m,
                                      sim.surrounding_distance_m, sim.target_memory,
                                      sim.reevaluate_after_steps * sim.step_s)
-        self.eta = reward.eta_by_kind(self.case.reaching_reward)
-        self._reach_cap = sim.reevaluate_after_steps
-        self.possible_agents = [c.id for c in self.case.crews]
+        self.possible_agents = [c.id for c in case.crews]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
-        self._obs_low, self._obs_high = observe.observation_bounds(self.rays, self.case)
+        self._obs_low, self._obs_high = observe.observation_bounds(self.rays, case)
         self._observation_space = spaces.Box(self._obs_low, self._obs_high, dtype=np.float32)
         self._action_space = spaces.MultiDiscrete(move.ACTION_NVEC)
         self._idle_obs = np.zeros(self.rays.size, dtype=np.float32)
-        self._state_low, self._state_high = state_bounds(self.case)
+        self._state_low, self._state_high = state_bounds(case)
         self.state_space = spaces.Box(self._state_low, self._state_high, dtype=np.float32)
-        self.rng = np.random.default_rng(seed)
-        self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
-        self.site: Site | None = None
-        self.world: World | None = None
-        self.log = events.EventLog()
 
     def observation_space(self, agent: str) -> spaces.Space:
         # one object, built in __init__, for every agent and every call (PettingZoo needs it)
@@ -161,148 +141,43 @@ class CMDPEnv(ParallelEnv):
     def action_space(self, agent: str) -> spaces.Space:
         return self._action_space
 
-    # -- episode ------------------------------------------------------------------------------
+    # -- the episode --------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
-        self.site = Site(self.case, self.stage)
-        self.world = World(self.case, self.site)
-        self.log = events.EventLog()
-        if self.stage == 1:  # unrestricted stockpiles (section 5.2): storages start full and
-            for storage in self.site.storages:  # are never drawn down; crews still fetch
-                storage.stock = storage.capacity
-        for crew in self.site.crews:
-            self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
-        self.activities = [""] * len(self.site.crews)
-        self._obs_cache = [None] * len(self.site.crews)
-        self._last_logged = [None] * len(self.site.crews)
-        self._no_contacts = [0] * N_KINDS
-        self._step_stats = [dict.fromkeys(STEP_STATS, 0) for _ in self.site.crews]
-        self._no_rewards = [0.0] * len(self.site.crews)
+        self.engine.reset(seed)                           # Pi_cons and V_Tar for t = 0
         self.agents = list(self.possible_agents)
-        self.positions = [tuple(b.position) for b in self.world.bodies]
-        self.steps = 0
-        self.stalled = None
-        self._progress_mark = (0.0, self._task_progress())
-        ctx = self._context()
-        decide.apply_decision_table(ctx)
-        self._pending = []
-        self._evaluate()
-        self._log_activities()
-        self._log_positions()
-        self._action_needed = any(self.needs_action(c) for c in self.site.crews)
-        observations = self._observe()
+        self._obs_cache = [None] * len(self.possible_agents)
+        observations = self._observe()                    # Eq. 3
         infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
         return observations, infos
 
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        if self._pending:
+        if self.engine.pending:
             raise RuntimeError(f"crews {self.pending_values} wait for target values; call "
                                "set_target_values(agent, values) for each before step()")
-        site = self.site
-        action_list = [actions.get(a, move.STAND_STILL) for a in self.possible_agents]
-        rewards = [0.0] * len(self.possible_agents)
-        terms = dict.fromkeys(reward.EVALUATION_TERMS, 0.0)
-        reaches_before = [c.stats.reaches for c in site.crews]
-        self._step_stats = [dict.fromkeys(STEP_STATS, 0) for _ in site.crews]
-        elapsed = 0
-        while True:
-            step_rewards, step_terms = self._one_step(action_list)
-            elapsed += 1
-            for i, r in enumerate(step_rewards):
-                rewards[i] += r
-            for k, v in step_terms.items():
-                terms[k] += v
-            truncated = site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
-            if site.done or truncated or not self.jump_idle or \
-                    self._action_needed or self._pending:
-                break
-        terminated = site.done
-        agents = self.agents
-        observations = self._observe()
-        eval_reward = sum(terms.values())
-        rew = {a: rewards[self.agent_index[a]] for a in agents}
-        terms_out = {a: terminated for a in agents}
-        truncs = {a: truncated and not terminated for a in agents}
-        for crew in site.crews:
-            self._step_stats[crew.index]["reaches"] = crew.stats.reaches - \
-                reaches_before[crew.index]
-        infos = {a: self._info(self.agent_index[a], terms, eval_reward, elapsed,
-                               truncated and not terminated) for a in agents}
-        if terminated or truncated:
+        engine, agents = self.engine, self.agents
+        # move, construct, decide, evaluate, reward; on through seconds where nothing is asked
+        run = engine.advance([actions.get(a, move.STAND_STILL) for a in self.possible_agents],
+                             until=engine.decision_due if self.jump_idle else None)
+        observations = self._observe()                    # Eq. 3, for the next actions
+        done, cut = run.terminated, run.truncated and not run.terminated
+        eval_reward = sum(run.terms.values())
+        rewards = {a: run.rewards[self.agent_index[a]] for a in agents}
+        infos = {a: self._info(self.agent_index[a], run.terms, eval_reward, run.elapsed, cut)
+                 for a in agents}
+        terminations, truncations = dict.fromkeys(agents, done), dict.fromkeys(agents, cut)
+        if run.terminated or run.truncated:
             self.agents = []
-        return observations, rew, terms_out, truncs, infos
+        return observations, rewards, terminations, truncations, infos
 
-    def _one_step(self, actions) -> tuple[list[float], dict[str, float]]:
-        """One second of the CMDP in the paper's order (section 3.2)."""
-        site, world, sim, clock = self.site, self.world, self.case.simulation, self.clock
-        if clock:
-            clock.start()
-        # Quiet: the plane is at rest and no crew needs a movement decision, so P_phy is void.
-        quiet = world.at_rest and not self._action_needed
-        moving = [c.moving for c in site.crews]
-        had_target = [c.moving and bool(c.scope) for c in site.crews]
-        if not quiet:
-            if self.park_idle:  # a parked crew stands still whatever its action
-                actions = [a if self.needs_action(c) else move.STAND_STILL
-                           for a, c in zip(actions, site.crews, strict=True)]
-            move.apply_reaching_actions(world, site, actions)                 # P_phy, Eq. 1
-            if any(moving):
-                world.step(sim.step_s, sim.physics_substeps)
-                self._update_positions(moving)
-        site.time_s += sim.step_s
-        self.steps += 1
-        if clock:
-            clock.lap("physics")
-        construct.advance(site, self.positions, self.log, sim.step_s)         # P_cons, Eq. 2
-        ctx = self._context()
-        if quiet and decide.only_execution_fires(ctx):
-            # Nothing but c2 (tasks progress) would fire: the decisions, the evaluation and the
-            # rewards would change nothing but the counters, so only those are kept.
-            for crew in site.crews:
-                self._count(crew, moving[crew.index], False, self._no_contacts)
-            self._log_activities()  # the crane may have woken a crew (waiting -> tasking)
-            if any(moving):
-                self._log_positions()
-            if clock:
-                clock.lap("decisions")
-            return self._no_rewards, reward.evaluation_reward_terms(
-                site, self.case.evaluation_reward)
-        decide.apply_decision_table(ctx)                                      # Table 1
-        self._evaluate()                                                      # Eq. 4 or Eq. 9
-        self._log_activities()
-        if any(moving):
-            self._log_positions()
-        if clock:
-            clock.lap("decisions")
-        rewards = []
-        weights = self.case.reaching_reward
-        for crew in site.crews:                                               # Eqs. 6-7
-            contacts = world.take_contacts(crew.index)
-            rewards.append(reward.reaching_reward(
-                contacts, self.eta, ctx.reached_value.get(crew.index), had_target[crew.index],
-                weights) if moving[crew.index] else 0.0)
-            self._count(crew, moving[crew.index], had_target[crew.index], contacts)
-        terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)
-        self._action_needed = any(self.needs_action(c) for c in site.crews)
-        if clock:
-            clock.lap("rewards")
-        return rewards, terms
-
-    def _evaluate(self) -> None:
-        """Target evaluation (section 3.6): by the injected evaluator, or left to the caller."""
-        if self.external_values:
-            self._pending = [c.index for c in crews_needing_values(self.site)]
-        else:
-            assign_target_values(self.site, self.evaluator, self.positions)
+    # -- target values from outside (external_values) -----------------------------------------
 
     @property
     def pending_values(self) -> list[str]:
         """Agents whose target scope waits for values (``external_values`` only)."""
-        return [self.possible_agents[i] for i in self._pending]
+        return [self.possible_agents[i] for i in self.engine.pending]
 
     def set_target_values(self, agent: str, values: dict[int, float]) -> None:
         """V_Tar for the agent's target scope, from outside (the stage-2 policy through Eq. 4).
@@ -310,143 +185,56 @@ class CMDPEnv(ParallelEnv):
         ``values`` maps every target of the crew's scope (target indices, ``crew.scope``'s
         keys) to its value; Eq. 3 puts them into the crew's rays.
         """
-        i = self.agent_index[agent]
-        crew = self.site.crews[i]
-        if values.keys() != crew.scope.keys():
-            raise ValueError(f"{agent}: values for targets {sorted(values)}, but its scope is "
-                             f"{sorted(crew.scope)}; fix: give one value per target in scope")
-        crew.values = dict(values)
-        if i in self._pending:
-            self._pending.remove(i)
+        self.engine.set_target_values(self.agent_index[agent], values)
 
     def observe(self) -> dict[str, np.ndarray]:
         """The reaching observations now (after ``set_target_values``, with the new values)."""
         return self._observe()
 
-    def _task_progress(self) -> tuple[int, float]:
-        """What the stall guard watches: tasks ended and the progress of those on."""
-        site = self.site
-        return site.tasks_ended, sum(site.tasks[t].progress for t in site.active_areas)
-
-    def _stall_check(self) -> bool:
-        """True once no task has moved on for ``stall_s``; records ``self.stalled``."""
-        if self.stall_s is None or self.site.done:
-            return False
-        now = self.site.time_s
-        progress = self._task_progress()
-        if progress != self._progress_mark[1]:
-            self._progress_mark = (now, progress)
-            return False
-        if now - self._progress_mark[0] < self.stall_s - 1e-9:
-            return False
-        self.stalled = {"after_s": now - self._progress_mark[0], "time_s": now}
-        return True
-
-    def _update_positions(self, moving) -> None:
-        for i, body in enumerate(self.world.bodies):
-            if moving[i]:
-                x, y = body.position
-                px, py = self.positions[i]
-                self.site.crews[i].stats.distance_m += math.hypot(x - px, y - py)
-                self.positions[i] = (x, y)
+    # -- observations and infos ---------------------------------------------------------------
 
     def needs_action(self, crew) -> bool:
         """Whether the crew's reaching action is used this step (section 3.6.2)."""
-        if not crew.moving:
-            return False
-        if self.park_idle and not crew.scope and crew.status == CrewStatus.REACHING:
-            return self.site.in_congestion_area(*self.positions[crew.index])
-        return True
-
-    def _log_activities(self) -> None:
-        """An ``activity`` event whenever a crew's Gantt category (Fig. 9) changes."""
-        for crew in self.site.crews:
-            now = activity(crew)
-            if now != self.activities[crew.index]:
-                self.activities[crew.index] = now
-                self.log.add(self.site.time_s, "activity", crew.id, now)
-
-    def _log_positions(self) -> None:
-        """``position`` events (subject "x,y,heading_deg") of crews that moved, for trajectories.
-
-        Every ``position_log_every_s`` (in whole steps); a crew standing still logs nothing.
-        """
-        every = self.position_log_every_s
-        if every is None or self.steps % max(1, round(every / self.case.simulation.step_s)):
-            return
-        for crew in self.site.crews:
-            if crew.moving:
-                body = self.world.bodies[crew.index]
-                x, y = body.position
-                last = self._last_logged[crew.index]
-                if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
-                    continue
-                self._last_logged[crew.index] = (x, y)
-                self.log.add(self.site.time_s, "position", crew.id,
-                             f"{x:.2f},{y:.2f},{math.degrees(body.angle) % 360:.0f}")
-
-    def _count(self, crew, was_moving: bool, had_target: bool, contacts) -> None:
-        """Per-crew counters; ``step_stats`` gathers this call's share for training metrics."""
-        stats, step = crew.stats, self._step_stats[crew.index]
-        if was_moving:
-            if had_target:
-                stats.reaching_steps += 1
-                step["reaching"] += 1
-                if crew.moving and crew.scope:  # still after it: one more step without a reach
-                    crew.steps_since_reach += 1
-                    if crew.steps_since_reach % self._reach_cap == 0:
-                        stats.reach_timeouts += 1  # over the step cap without reaching
-                        step["timeouts"] += 1
-            else:
-                crew.steps_since_reach = 0  # holding no target: no attempt under way
-                if crew.status == CrewStatus.REACHING and crew.idle_cause:
-                    stats.idle_steps[crew.idle_cause] += 1
-            collisions = contacts[1] + contacts[2] + contacts[3]
-            entries = contacts[4] + contacts[5]
-            stats.collisions += collisions
-            stats.congestion_entries += entries
-            step["collisions"] += collisions
-            step["congestion"] += entries
-        elif crew.status == CrewStatus.WAITING:
-            stats.crane_wait_steps += 1
-
-    def _context(self) -> decide.Context:
-        return decide.Context(self.site, self.world, self.positions, self.rng, self.log)
+        return self.engine.needs_action(crew)
 
     def _observe(self) -> dict[str, np.ndarray]:
         """Rays are cast only for crews that need a movement decision."""
-        if self.clock:
-            self.clock.start()
+        engine = self.engine
+        if engine.clock:
+            engine.clock.start()
         out = {}
-        version = self.world.motion_version
+        site, world = engine.site, engine.world
+        version = world.motion_version
         for agent in self.agents:
             i = self.agent_index[agent]
-            crew = self.site.crews[i]
-            if not self.needs_action(crew):
+            crew = site.crews[i]
+            if not engine.needs_action(crew):
                 out[agent] = self._idle_obs.copy()
                 continue
-            # Nothing moved and its scope and values are the same objects: the same rays.
+            # Nothing moved and its scope and values are the same objects (the stages replace
+            # them, never change them in place: ``state.CrewState``): the same rays.
             cached = self._obs_cache[i]
             if cached is None or cached[0] != version or cached[1] is not crew.scope \
                     or cached[2] is not crew.values:
                 cached = (version, crew.scope, crew.values,
-                          observe.observe_crew(self.world, self.rays, crew, self.site.time_s))
+                          observe.observe_crew(world, self.rays, crew, site.time_s))
                 self._obs_cache[i] = cached
             obs = out[agent] = cached[3].copy()
             if self.rays.memory:  # the age moves on even when nothing else does
-                x, y = self.positions[i]
+                x, y = engine.positions[i]
                 obs[-observe.MEMORY_FEATURES:] = observe.remembered_target(
-                    self.rays, crew, x, y, self.world.bodies[i].angle, self.site.time_s)
+                    self.rays, crew, x, y, world.bodies[i].angle, site.time_s)
             np.clip(obs, self._obs_low, self._obs_high, out=obs)  # the space's promise
-        if self.clock:
-            self.clock.lap("rays")
+        if engine.clock:
+            engine.clock.lap("rays")
         return out
 
     def _info(self, i: int, terms: dict, eval_reward: float, elapsed: int,
               time_limit: bool) -> dict:
+        window = self.engine.metrics.window[i]
         if self.lean_infos:
             info = {}
-            stats = {k: v for k, v in self._step_stats[i].items() if v}
+            stats = {k: v for k, v in window.items() if v}
             if stats:
                 info["step_stats"] = stats
             if time_limit:
@@ -456,9 +244,9 @@ class CMDPEnv(ParallelEnv):
             return info
         crew = self.site.crews[i]
         info = {"status": crew.status.name.lower(), "time_s": self.site.time_s,
-                "elapsed_s": elapsed, "needs_action": self.needs_action(crew),
+                "elapsed_s": elapsed, "needs_action": self.engine.needs_action(crew),
                 "evaluation_reward": eval_reward, "evaluation_terms": dict(terms),
-                "step_stats": self._step_stats[i]}
+                "step_stats": window}
         # Only when true: SuperSuit merges the next episode's reset infos over the last step's,
         # and a False there would hide the time-out from SB3 (no bootstrapping).
         if time_limit:
@@ -487,17 +275,82 @@ class CMDPEnv(ParallelEnv):
         out = global_state(self.site, self.positions, headings, self.max_time_s)
         return np.clip(out, self._state_low, self._state_high, out=out)
 
-    @property
-    def makespan_s(self) -> float | None:
-        """Simulated seconds until the last task ended, once every task has."""
-        return self.site.time_s if self.site is not None and self.site.done else None
-
     def render(self):
+        """A frame (H, W, 3) by the injected ``renderer``, by default ``DEFAULT_RENDERER``."""
         if self.render_mode is None:
             return None
-        from media.render import draw_frame  # the simulation core never imports pygame
-
-        return draw_frame(self)
+        if self.renderer is None:
+            module, name = DEFAULT_RENDERER.split(":")
+            self.renderer = getattr(importlib.import_module(module), name)
+        return self.renderer(self)
 
     def close(self) -> None:
         pass
+
+    # -- the engine's state, as the agents, scripts and media read it -------------------------
+
+    case = property(lambda self: self.engine.case)
+    site = property(lambda self: self.engine.site)
+    world = property(lambda self: self.engine.world)
+    log = property(lambda self: self.engine.log)
+    positions = property(lambda self: self.engine.positions)
+    steps = property(lambda self: self.engine.steps)
+    stalled = property(lambda self: self.engine.stalled)
+    activities = property(lambda self: self.engine.activities)
+    makespan_s = property(lambda self: self.engine.makespan_s,
+                          doc="Simulated seconds until the last task ended, once every task has.")
+    park_idle = property(lambda self: self.engine.park_idle)
+    position_log_every_s = property(lambda self: self.engine.position_log_every_s)
+
+    # settable: training (``MixedStageEnv``) switches stage and time limit between episodes,
+    # ``rollout.run_episode`` sets the stall guard, benchmarks a clock
+    @property
+    def evaluator(self) -> TargetEvaluator:
+        """Values the targets (section 3.6), unless ``external_values``."""
+        return self._evaluator
+
+    @evaluator.setter
+    def evaluator(self, value: TargetEvaluator) -> None:
+        self._evaluator = value
+        if not self.external_values:
+            self.engine.evaluator = value
+
+    @property
+    def stage(self) -> int:
+        return self.engine.stage
+
+    @stage.setter
+    def stage(self, value: int) -> None:
+        self.engine.stage = value
+
+    @property
+    def max_time_s(self) -> float:
+        return self.engine.max_time_s
+
+    @max_time_s.setter
+    def max_time_s(self, value: float) -> None:
+        self.engine.max_time_s = value
+
+    @property
+    def stall_s(self) -> float | None:
+        return self.engine.stall_s
+
+    @stall_s.setter
+    def stall_s(self, value: float | None) -> None:
+        self.engine.stall_s = value
+
+    @property
+    def rng(self) -> np.random.Generator:
+        return self.engine.rng
+
+    @rng.setter
+    def rng(self, value: np.random.Generator) -> None:
+        self.engine.rng = value
+
+    @property
+    def clock(self):
+        return self.engine.clock
+
+    @clock.setter
+    def clock(self, value) -> None:
+        self.engine.clock = value

@@ -1,0 +1,335 @@
+"""The CMDP engine: one episode of a case, advanced second by second (section 3.2).
+
+The engine knows nothing of PettingZoo, Gymnasium or SB3. Crews are indices (the case's
+order), a reaching action is a triple of ``move.ACTION_NVEC`` per crew, and the engine says
+what it needs from outside:
+
+- ``needs_action(crew)`` / ``action_needed``: which crews need a movement decision now;
+- ``pending``: which crews' target scopes wait for values, when no evaluator is injected
+  (``evaluator=None``); answer with ``set_target_values(i, values)``.
+
+``reset(seed)`` starts an episode (one ``numpy`` generator, made here); ``step(actions)`` runs
+one simulated second and returns what happened (``Second``); ``advance(actions, until)`` runs
+seconds until a condition holds, the episode ends or it is cut (the idle jump, generalised),
+and counts them for metrics (``metrics.Counters``, beside the dynamics). Observations are
+the adapters' business (``observe``): the PettingZoo env (``env.CMDPEnv``) casts the rays, the
+stage-2 env (``highlevel``) builds O^e.
+
+One second, in the paper's order (section 3.2)
+    At second t the crews decided (Pi_cons, Table 1), their scopes were valued (Eq. 4 or
+    Eq. 9) and they observed (Eq. 3) at the end of the previous second, or in ``reset``; the
+    reaching actions chosen on those observations then move the crews (P_phy, Eq. 1),
+    construction advances (P_cons, Eq. 2), and the state s_{t+1} is decided, valued and
+    rewarded (R_r, Eqs. 6-7; R_e's terms, Eq. 5).
+
+Arguments
+    ``case``, ``stage`` (1: section 4.2's simplified CMDP; 2: the full CMDP), ``evaluator``
+    (``evaluate.TargetEvaluator``; None: values come from outside), ``max_time_s`` (None: the
+    case's), ``park_idle`` and ``stall_s`` (see ``env``), ``position_log_every_s`` (position
+    events for trajectories; None: none).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import construct, decide, events, move, reward
+from .case import Case
+from .evaluate import TargetEvaluator, assign_target_values, crews_needing_values
+from .metrics import Counters
+from .state import CrewState, CrewStatus, Site, activity
+from .world import World
+
+
+@dataclass
+class Second:
+    """What one simulated second did, per crew: for rewards' and metrics' sake."""
+
+    moving: list[bool]  # moving (reaching or deregistered) when the second began
+    had_target: list[bool]  # moving with a target scope when the second began
+    contacts: list  # per crew, collisions and entries by object kind; None: none taken
+    distance_m: list[float]  # walked this second
+    rewards: list[float]  # R_r, Eqs. 6-7
+    terms: dict[str, float]  # R_e's terms, Eq. 5
+
+
+@dataclass
+class Advance:
+    """What ``Engine.advance`` did: seconds run, R_r per crew and R_e's terms summed over
+    them, and how the episode stands."""
+
+    elapsed: int = 0
+    rewards: list[float] = field(default_factory=list)
+    terms: dict[str, float] = field(default_factory=lambda: dict.fromkeys(
+        reward.EVALUATION_TERMS, 0.0))
+    terminated: bool = False  # every task has ended
+    truncated: bool = False  # the time limit or the stall guard cut the episode
+
+    def add(self, second: Second) -> None:
+        self.elapsed += 1
+        for i, r in enumerate(second.rewards):
+            self.rewards[i] += r
+        for k, v in second.terms.items():
+            self.terms[k] += v
+
+
+class Engine:
+    """One episode of the CMDP (see the module doc)."""
+
+    def __init__(self, case: Case, stage: int = 2, evaluator: TargetEvaluator | None = None,
+                 seed: int | None = None, max_time_s: float | None = None,
+                 park_idle: bool = False, stall_s: float | None = None,
+                 position_log_every_s: float | None = None):
+        if stage not in (1, 2):
+            raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
+                             f"CMDP), not {stage!r}")
+        self.case = case
+        self.stage = stage
+        self.evaluator = evaluator
+        sim = case.simulation
+        self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
+        if not math.isfinite(self.max_time_s) or self.max_time_s <= 0:
+            raise ValueError(f"max_time_s must be a positive finite number of seconds, not "
+                             f"{self.max_time_s!r}")
+        if stall_s is not None and not (math.isfinite(stall_s) and stall_s > 0):
+            raise ValueError(f"stall_s must be a positive finite number of seconds or None "
+                             f"(no stall guard), not {stall_s!r}")
+        self.stall_s = stall_s
+        self.stalled: dict | None = None
+        self.park_idle = park_idle
+        self.position_log_every_s = position_log_every_s
+        self.eta = reward.eta_by_kind(case.reaching_reward)
+        self.rng = np.random.default_rng(seed)
+        self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
+        self.site: Site | None = None
+        self.world: World | None = None
+        self.log = events.EventLog()
+        self.metrics: Counters | None = None
+        self.pending: list[int] = []
+        self.action_needed = False
+
+    # -- an episode ---------------------------------------------------------------------------
+
+    def reset(self, seed: int | None = None) -> None:
+        """A new episode; ``seed`` re-seeds the generator (None keeps it). The crews decide
+        and are valued for the first second."""
+        if seed is not None:
+            self.rng = np.random.default_rng(seed)
+        self.site = Site(self.case, self.stage)
+        self.world = World(self.case, self.site)
+        self.log = events.EventLog()
+        self.metrics = Counters(self.site)
+        if self.stage == 1:  # unrestricted stockpiles (section 5.2): storages start full and
+            for storage in self.site.storages:  # are never drawn down; crews still fetch
+                storage.stock = storage.capacity
+        for crew in self.site.crews:
+            self.log.add(0.0, "crew_state", crew.id, crew.status.name.lower())
+        n = len(self.site.crews)
+        self.activities = [""] * n
+        self._last_logged = [None] * n
+        self._no_rewards = [0.0] * n
+        self.positions = [tuple(b.position) for b in self.world.bodies]
+        self.steps = 0
+        self.stalled = None
+        self._progress_mark = (0.0, self._task_progress())
+        decide.apply_decision_table(self._context())
+        self.pending = []
+        self._evaluate()
+        self._log_activities()
+        self._log_positions()
+        self.action_needed = any(self.needs_action(c) for c in self.site.crews)
+
+    def step(self, actions) -> Second:
+        """One simulated second (see the module doc); ``actions[i]``: crew i's reaching action,
+        used only if it moves."""
+        site, clock = self.site, self.clock
+        if clock:
+            clock.start()
+        moving = [c.moving for c in site.crews]
+        had_target = [c.moving and bool(c.scope) for c in site.crews]
+        # Quiet: the plane is at rest and no crew needs a movement decision: P_phy is void.
+        quiet = self.world.at_rest and not self.action_needed
+        distance = self._move(actions, moving) if not quiet else [0.0] * len(moving)  # P_phy
+        site.time_s += self.case.simulation.step_s
+        self.steps += 1
+        if clock:
+            clock.lap("physics")
+        construct.advance(site, self.positions, self.log, self.case.simulation.step_s)  # P_cons
+        ctx = self._context()
+        # A quiet second where no row but c2 (tasks progress) would fire: the decisions, the
+        # evaluation and R_r would change nothing, so they are skipped.
+        skip = quiet and decide.only_execution_fires(ctx)
+        if not skip:
+            decide.apply_decision_table(ctx)                           # Pi_cons, Table 1
+            self._evaluate()                                            # V_Tar, Eq. 4 or 9
+        self._log_activities()  # the crane may also wake a crew (waiting -> tasking)
+        if any(moving):
+            self._log_positions()
+        if clock:
+            clock.lap("decisions")
+        if skip:  # no physics step, so no contacts; no reach, no target: R_r is 0
+            contacts, rewards = [None] * len(moving), self._no_rewards
+        else:
+            contacts = [self.world.take_contacts(c.index) for c in site.crews]
+            rewards = self._reaching_rewards(ctx, moving, had_target, contacts)  # Eqs. 6-7
+            self.action_needed = any(self.needs_action(c) for c in site.crews)
+        terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)  # Eq. 5
+        self._tick_reach_clocks(moving, had_target)
+        if clock:
+            clock.lap("rewards")
+        return Second(moving, had_target, contacts, distance, rewards, terms)
+
+    def advance(self, actions, until: Callable[[], bool] | None = None) -> Advance:
+        """Run seconds with ``actions`` until ``until()`` holds after one (None: one
+        second), every task has ended, or the time limit or the stall guard cuts the episode.
+        Each second is counted for metrics (``self.metrics``; its window covers this call)."""
+        if self.pending:
+            raise RuntimeError(f"crews {self.pending} wait for target values; call "
+                               "set_target_values for each first")
+        out = Advance(rewards=[0.0] * len(self.site.crews))
+        self.metrics.open_window()
+        while True:
+            second = self.step(actions)
+            self.metrics.count(second)
+            out.add(second)
+            truncated = self.site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
+            if self.site.done or truncated or until is None or until():
+                break
+        self.metrics.close_window()
+        out.terminated = self.site.done
+        out.truncated = truncated
+        return out
+
+    def decision_due(self) -> bool:
+        """A crew needs a movement decision or target values: where the idle jump stops."""
+        return self.action_needed or bool(self.pending)
+
+    # -- what the engine needs from outside ---------------------------------------------------
+
+    def needs_action(self, crew: CrewState) -> bool:
+        """Whether the crew's reaching action is used this step (section 3.6.2)."""
+        if not crew.moving:
+            return False
+        if self.park_idle and not crew.scope and crew.status == CrewStatus.REACHING:
+            return self.site.in_congestion_area(*self.positions[crew.index])
+        return True
+
+    def set_target_values(self, i: int, values: dict[int, float]) -> None:
+        """V_Tar for crew i's target scope, from outside (e.g. the stage-2 policy by Eq. 4):
+        one value per target of ``crew.scope``; Eq. 3 puts them into the crew's rays."""
+        crew = self.site.crews[i]
+        if values.keys() != crew.scope.keys():
+            raise ValueError(f"{crew.id}: values for targets {sorted(values)}, but its scope is "
+                             f"{sorted(crew.scope)}; fix: give one value per target in scope")
+        crew.values = dict(values)
+        if i in self.pending:
+            self.pending.remove(i)
+
+    @property
+    def makespan_s(self) -> float | None:
+        """Simulated seconds until the last task ended, once every task has."""
+        return self.site.time_s if self.site is not None and self.site.done else None
+
+    # -- the stages ---------------------------------------------------------------------------
+
+    def _context(self) -> decide.Context:
+        return decide.Context(self.site, self.world, self.positions, self.rng, self.log)
+
+    def _move(self, actions, moving: list[bool]) -> list[float]:
+        """P_phy: the moving crews' reaching actions through Eq. 1, then the physics; returns
+        the distance each crew walked."""
+        site, world, sim = self.site, self.world, self.case.simulation
+        distance = [0.0] * len(moving)
+        if self.park_idle:  # a parked crew stands still whatever its action
+            actions = [a if self.needs_action(c) else move.STAND_STILL
+                       for a, c in zip(actions, site.crews, strict=True)]
+        move.apply_reaching_actions(world, site, actions)
+        if any(moving):
+            world.step(sim.step_s, sim.physics_substeps)
+            for i, body in enumerate(world.bodies):
+                if moving[i]:
+                    x, y = body.position
+                    px, py = self.positions[i]
+                    distance[i] = math.hypot(x - px, y - py)
+                    self.positions[i] = (x, y)
+        return distance
+
+    def _evaluate(self) -> None:
+        """Target evaluation (section 3.6): by the injected evaluator, or left pending."""
+        if self.evaluator is None:
+            self.pending = [c.index for c in crews_needing_values(self.site)]
+        else:
+            assign_target_values(self.site, self.evaluator, self.positions)
+
+    def _reaching_rewards(self, ctx: decide.Context, moving, had_target,
+                          contacts) -> list[float]:
+        """R_r of every crew that moved this second, Eqs. 6-7 (0 for the others)."""
+        weights = self.case.reaching_reward
+        return [reward.reaching_reward(contacts[i], self.eta, ctx.reached_value.get(i),
+                                       had_target[i], weights) if moving[i] else 0.0
+                for i in range(len(moving))]
+
+    def _tick_reach_clocks(self, moving, had_target) -> None:
+        """Steps since the last reach, per crew still after a target (section 3.6 re-values
+        a scope every ``reevaluate_after_steps`` of them); a crew without a target has none."""
+        for crew in self.site.crews:
+            if moving[crew.index]:
+                if had_target[crew.index]:
+                    if crew.moving and crew.scope:
+                        crew.steps_since_reach += 1
+                else:
+                    crew.steps_since_reach = 0
+
+    # -- the stall guard ----------------------------------------------------------------------
+
+    def _task_progress(self) -> tuple[int, float]:
+        """What the stall guard watches: tasks ended and the progress of those on."""
+        site = self.site
+        return site.tasks_ended, sum(site.tasks[t].progress for t in site.active_areas)
+
+    def _stall_check(self) -> bool:
+        """True once no task has moved on for ``stall_s``; records ``self.stalled``."""
+        if self.stall_s is None or self.site.done:
+            return False
+        now = self.site.time_s
+        progress = self._task_progress()
+        if progress != self._progress_mark[1]:
+            self._progress_mark = (now, progress)
+            return False
+        if now - self._progress_mark[0] < self.stall_s - 1e-9:
+            return False
+        self.stalled = {"after_s": now - self._progress_mark[0], "time_s": now}
+        return True
+
+    # -- the event log ------------------------------------------------------------------------
+
+    def _log_activities(self) -> None:
+        """An ``activity`` event whenever a crew's Gantt category (Fig. 9) changes."""
+        for crew in self.site.crews:
+            now = activity(crew)
+            if now != self.activities[crew.index]:
+                self.activities[crew.index] = now
+                self.log.add(self.site.time_s, "activity", crew.id, now)
+
+    def _log_positions(self) -> None:
+        """``position`` events (subject "x,y,heading_deg") of crews that moved, for trajectories.
+
+        Every ``position_log_every_s`` (in whole steps); a crew standing still logs nothing.
+        """
+        every = self.position_log_every_s
+        if every is None or self.steps % max(1, round(every / self.case.simulation.step_s)):
+            return
+        for crew in self.site.crews:
+            if crew.moving:
+                body = self.world.bodies[crew.index]
+                x, y = body.position
+                last = self._last_logged[crew.index]
+                if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
+                    continue
+                self._last_logged[crew.index] = (x, y)
+                self.log.add(self.site.time_s, "position", crew.id,
+                             f"{x:.2f},{y:.2f},{math.degrees(body.angle) % 360:.0f}")

@@ -1,0 +1,80 @@
+"""Counting for metrics, beside the dynamics (as Mesa's DataCollector sits beside a model).
+
+The engine's ``step`` returns what happened in one simulated second (``engine.Second``);
+``Counters.count`` turns it into the per-crew counters of the episode (``crew.stats``: the
+summaries of ``rollout.crew_summary`` and the evaluation chapters) and into the counts of the
+current call (``window``: ``infos[agent]["step_stats"]``, the training metrics). Nothing here
+changes what the simulation does next.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from .state import CrewStatus, Site
+from .world import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
+
+if TYPE_CHECKING:
+    from .engine import Second
+
+# per-agent counts of one call (one adapter step, however many seconds it ran), for training
+STEP_STATS = ("reaches", "timeouts", "reaching", "collisions", "congestion")
+
+
+def collisions(contacts) -> int:
+    """Collisions of one crew in one second: walls, components and crews (section 3.6.2)."""
+    return contacts[WALL] + contacts[COMPONENT] + contacts[CREW]
+
+
+def congestion_entries(contacts) -> int:
+    """Entries into congestion areas of one crew in one second: task areas and storages."""
+    return contacts[TASK_AREA] + contacts[STORAGE]
+
+
+class Counters:
+    """The episode's per-crew counters and the counts of the current window (one call)."""
+
+    def __init__(self, site: Site):
+        self.site = site
+        self.reach_cap = site.case.simulation.reevaluate_after_steps
+        self.window = [dict.fromkeys(STEP_STATS, 0) for _ in site.crews]
+        self._reaches_before = [0] * len(site.crews)
+
+    def open_window(self) -> None:
+        """Start counting a new call's ``step_stats`` (a fresh dict per crew)."""
+        self.window = [dict.fromkeys(STEP_STATS, 0) for _ in self.site.crews]
+        self._reaches_before = [c.stats.reaches for c in self.site.crews]
+
+    def close_window(self) -> None:
+        """The reaches of the call (the decision table counts them in ``crew.stats``)."""
+        for crew in self.site.crews:
+            self.window[crew.index]["reaches"] = crew.stats.reaches - \
+                self._reaches_before[crew.index]
+
+    def count(self, second: Second) -> None:
+        """Add one simulated second: reaching and idle steps, reach time-outs (a step cap
+        held without reaching), collisions, congestion entries, crane waits, distance."""
+        for crew in self.site.crews:
+            i = crew.index
+            stats, window = crew.stats, self.window[i]
+            if second.moving[i]:
+                stats.distance_m += second.distance_m[i]
+                if second.had_target[i]:
+                    stats.reaching_steps += 1
+                    window["reaching"] += 1
+                    # still after it, and one more step cap without a reach (engine's clock)
+                    if crew.moving and crew.scope and \
+                            crew.steps_since_reach % self.reach_cap == 0:
+                        stats.reach_timeouts += 1
+                        window["timeouts"] += 1
+                elif crew.status == CrewStatus.REACHING and crew.idle_cause:
+                    stats.idle_steps[crew.idle_cause] += 1
+                contacts = second.contacts[i]
+                if contacts is not None:
+                    hits, entries = collisions(contacts), congestion_entries(contacts)
+                    stats.collisions += hits
+                    stats.congestion_entries += entries
+                    window["collisions"] += hits
+                    window["congestion"] += entries
+            elif crew.status == CrewStatus.WAITING:
+                stats.crane_wait_steps += 1
