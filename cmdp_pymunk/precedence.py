@@ -2,7 +2,20 @@
 
 from __future__ import annotations
 
-from .state import Pool, Site, TaskState
+from enum import IntEnum
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the site imports the pools from here, not the other way round
+    from .state import Site, TaskState
+
+
+class Pool(IntEnum):
+    """The four task pools of section 3.5."""
+
+    WAIT = 0
+    QUEUE = 1
+    ON = 2
+    END = 3
 
 
 def initial_pools(site: Site) -> None:

@@ -15,17 +15,9 @@ from enum import IntEnum
 import numpy as np
 
 from .case import Case, CrewType
+from .precedence import Pool, initial_pools
 
 Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
-
-
-class Pool(IntEnum):
-    """The four task pools of section 3.5."""
-
-    WAIT = 0
-    QUEUE = 1
-    ON = 2
-    END = 3
 
 
 class CrewStatus(IntEnum):
@@ -154,6 +146,12 @@ class CrewStats:
 
 @dataclass(eq=False)
 class CrewState:
+    """One crew: its status, load, task, and target scope with its values.
+
+    ``scope`` and ``values`` are replaced by new dicts, never changed in place: the reaching
+    observation is cached on their identity (``env.CMDPEnv._observe``).
+    """
+
     index: int
     id: str
     type: str
@@ -272,8 +270,6 @@ class Site:
         return self.tasks_ended == len(self.tasks)
 
     def reset_pools(self) -> None:
-        from .precedence import initial_pools
-
         initial_pools(self)
 
 
