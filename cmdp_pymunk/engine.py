@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import construct, decide, events, move, reward
-from .case import Case
+from .case_model import Case
 from .evaluate import TargetEvaluator, assign_target_values, crews_needing_values
 from .metrics import Counters
 from .state import CrewState, CrewStatus, Site, activity

@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from .case import Case
+from .case_model import Case
 from .state import Site
 
 CREW_FEATURES = 17

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .case import EvaluationReward, ReachingReward
+from .case_model import EvaluationReward, ReachingReward
 from .state import CrewStatus, IdleCause, Site
 from .world import COMPONENT, CREW, N_KINDS, STORAGE, TASK_AREA, WALL
 

@@ -13,7 +13,7 @@ import math
 
 import pymunk
 
-from .case import Case
+from .case_model import Case
 from .state import Rect, Site
 
 # Object kinds: ray type ids (observation), collision types and reward eta keys share them.

@@ -1,0 +1,240 @@
+"""The case data model: a floor's work plane, its crews, components, tasks and storages.
+
+Pydantic models, frozen and strict; loading a case file and checking it as a whole (every
+problem reported together, naming the file, the entry and the fix) is ``case``'s job.
+
+Coordinates: the plane's origin is its centre; x runs along ``width_m``, y along ``height_m``.
+So every point of the plane lies in ``[-width/2, width/2] x [-height/2, height/2]`` and Eq. 4's
+``x / x_max`` is in [-1, 1].
+
+Units are in the field names (``_m``, ``_s``, ``_min``, ``_m_s``, ``_deg_s``). Work and material
+quantities are in the unit named by the crew type's ``work_unit`` and the material's ``unit``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Annotated
+
+from pydantic import BaseModel, ConfigDict, Field, Strict, model_validator
+
+# Scalars are strict: a quoted "0.4" in a case file is a mistake to report, not to guess at.
+# (Strict floats still accept whole numbers, so ``width_m = 54`` is fine.) TOML has ``nan`` and
+# ``inf``: no quantity of a floor is either, and a NaN coordinate stalls a run.
+Number = Annotated[float, Strict(), Field(allow_inf_nan=False)]
+Positive = Annotated[float, Strict(), Field(gt=0, allow_inf_nan=False)]
+NonNegative = Annotated[float, Strict(), Field(ge=0, allow_inf_nan=False)]
+UnitIndex = Annotated[float, Strict(), Field(ge=0, le=1, allow_inf_nan=False)]
+Flag = Annotated[bool, Strict()]
+
+
+class _Model(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class CaseInfo(_Model):
+    name: str = "unnamed case"
+    description: str = ""
+
+
+class Plane(_Model):
+    """The work plane: a ``width_m`` x ``height_m`` rectangle centred on the origin, walled."""
+
+    width_m: Positive
+    height_m: Positive
+    outlet_x_m: Number
+    outlet_y_m: Number
+    outlet_radius_m: Positive = 1.5
+
+    @property
+    def half_extents(self) -> tuple[float, float]:
+        """``(x_max, y_max)`` of Eq. 4: half the plane's width and height."""
+        return self.width_m / 2.0, self.height_m / 2.0
+
+
+class Simulation(_Model):
+    """Section 5.1's settings and the ray perception model (Fig. 3)."""
+
+    step_s: Positive = 1.0
+    physics_substeps: Annotated[int, Strict(), Field(ge=1, le=20)] = 2
+    max_time_s: Positive = 60000.0
+    frontal_rays: Annotated[int, Strict(), Field(ge=1)] = 12
+    surrounding_rays: Annotated[int, Strict(), Field(ge=1)] = 16
+    field_of_view_deg: Annotated[float, Strict(), Field(gt=0, le=360, allow_inf_nan=False)] \
+        = 120.0
+    sight_distance_m: Positive = 30.0
+    surrounding_distance_m: Positive = 3.0
+    turning_rate_deg_s: Positive = 30.0
+    lateral_velocity_m_s: Positive = 0.1
+    reevaluate_after_steps: Annotated[int, Strict(), Field(ge=1)] = 300
+    # Beyond the paper (its section 6 names a "memory storage" as the remedy for blind spots):
+    # the reaching observation also carries where the crew last saw a target of its scope.
+    target_memory: Annotated[bool, Strict()] = False
+
+
+class ReachingReward(_Model):
+    """Eqs. 6-7: eta per object kind (collision or entry penalty), k, and the time penalty."""
+
+    eta_wall: NonNegative = 0.05
+    eta_component: NonNegative = 0.05
+    eta_storage: NonNegative = 0.05
+    eta_crew: NonNegative = 0.2
+    eta_task_area: NonNegative = 0.2
+    priority_scale_k: Positive = 1.0
+    time_penalty: NonNegative = 0.001
+
+
+class EvaluationReward(_Model):
+    """Eq. 5 weights: each term of R_e is one weight times one measured quantity per step."""
+
+    idle_predecessor: Number = -0.01  # per crew-step idle for want of a finished predecessor
+    idle_area: Number = -0.01  # per crew-step idle because task areas block its tasks
+    efficiency: Number = 0.01  # times the share of crews that are working (not idle)
+    episode: Number = -0.001  # per step of the episode's duration
+    path: Number = -0.001  # per crew-step of movement
+    completion: Number = 1.0  # once, when the last task ends
+
+
+class TaskType(_Model):
+    """One row of Table 2."""
+
+    name: str
+    crew_type: str
+    area_distance_m: NonNegative
+    congestion_index: UnitIndex
+    needs_crane: Flag = False
+    material: str | None = None
+
+
+class CrewType(_Model):
+    """One row of Table 3, plus section 5.1's carry deceleration c and invasion index I_agent.
+
+    A crew type gives either a duration per task (``duration_mean_min``, ``duration_sd_min``)
+    or an efficiency in its ``work_unit`` per minute (``efficiency_mean_per_min``,
+    ``efficiency_sd_per_min``). Table 3's "variance value" is read as a standard deviation.
+    """
+
+    name: str
+    work_unit: str = "task"
+    duration_mean_min: Positive | None = None
+    duration_sd_min: NonNegative | None = None
+    efficiency_mean_per_min: Positive | None = None
+    efficiency_sd_per_min: NonNegative | None = None
+    occupation_area_m2: Positive
+    velocity_m_s: Positive
+    carry_deceleration: UnitIndex = 1.0
+    invasion_index: UnitIndex = 0.0
+    carry_capacity: NonNegative = 0.0
+
+    @model_validator(mode="after")
+    def _one_pace(self) -> CrewType:
+        by_duration = self.duration_mean_min is not None
+        by_efficiency = self.efficiency_mean_per_min is not None
+        if by_duration == by_efficiency:
+            raise ValueError(
+                "a crew type needs exactly one pace, a duration or an efficiency; fix: give "
+                "either duration_mean_min (with duration_sd_min) or efficiency_mean_per_min "
+                "(with efficiency_sd_per_min), not both or neither"
+            )
+        stray = "efficiency_sd_per_min" if by_duration else "duration_sd_min"
+        if getattr(self, stray) is not None:
+            mean = "duration_mean_min" if by_duration else "efficiency_mean_per_min"
+            raise ValueError(
+                f"{stray} does not go with {mean}; fix: give the spread in the same kind as "
+                f"the mean ({mean.replace('mean', 'sd')})"
+            )
+        return self
+
+    @property
+    def by_duration(self) -> bool:
+        return self.duration_mean_min is not None
+
+    def mean_seconds(self, work: float) -> float:
+        """Expected working time for ``work`` units at Table 3's mean: a duration crew's
+        duration is per unit of work (a task of work 1 takes one duration)."""
+        if self.by_duration:
+            return self.duration_mean_min * 60.0 * work
+        return work / self.efficiency_mean_per_min * 60.0
+
+    @property
+    def radius_m(self) -> float:
+        """Radius of the disc whose area is the occupation area."""
+        return math.sqrt(self.occupation_area_m2 / math.pi)
+
+
+class Material(_Model):
+    """A material of Table 2 with its acquisition efficiency and the crane's lift batch."""
+
+    unit: str
+    acquire_per_min: Positive
+    crane_lift_quantity: Positive
+
+
+class Crane(_Model):
+    """The tower crane: a shared resource serving requests first come, first served."""
+
+    x_m: Number
+    y_m: Number
+    lift_time_s: NonNegative = 240.0  # one lift of material to a storage
+    assist_time_s: NonNegative = 180.0  # hoisting assistance for a task that needs the crane
+
+
+class Crew(_Model):
+    id: str
+    type: str
+    start_x_m: Number
+    start_y_m: Number
+    start_heading_deg: Number = 0.0
+
+
+class Component(_Model):
+    """A structural component: an axis-aligned rectangle, a static obstacle on the plane."""
+
+    id: str
+    kind: str = ""
+    x_m: Number
+    y_m: Number
+    width_m: Positive
+    height_m: Positive
+
+
+class Storage(_Model):
+    """A material storage area: a sensor rectangle whose congestion rises with its stock."""
+
+    id: str
+    material: str
+    x_m: Number
+    y_m: Number
+    width_m: Positive
+    height_m: Positive
+    capacity: Positive
+    congestion_index_full: UnitIndex = 0.5
+
+
+class Task(_Model):
+    """A construction task on a component; ``work`` in its crew's work unit."""
+
+    id: str
+    type: str
+    component: str
+    work: Positive = 1.0
+    material_quantity: NonNegative = 0.0
+    predecessors: tuple[str, ...] = ()
+
+
+class Case(_Model):
+    """A whole case, validated. Build one with :func:`load_case` or :func:`case_from_dict`."""
+
+    case: CaseInfo = CaseInfo()
+    plane: Plane
+    simulation: Simulation = Simulation()
+    reaching_reward: ReachingReward = ReachingReward()
+    evaluation_reward: EvaluationReward = EvaluationReward()
+    crane: Crane
+    task_types: dict[str, TaskType]
+    crew_types: dict[str, CrewType]
+    materials: dict[str, Material] = {}
+    crews: Annotated[tuple[Crew, ...], Field(min_length=1)]
+    components: tuple[Component, ...]
+    storages: tuple[Storage, ...] = ()
+    tasks: Annotated[tuple[Task, ...], Field(min_length=1)]
