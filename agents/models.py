@@ -24,7 +24,7 @@ import numpy as np
 
 from cmdp_pymunk.evaluate import DesiredPositionEvaluator
 from cmdp_pymunk.move import STAND_STILL
-from cmdp_pymunk.observe import evaluation_observation, evaluation_size
+from cmdp_pymunk.observe import evaluation_bounds, evaluation_observation, evaluation_size
 
 ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0, out=x)}
 
@@ -112,7 +112,8 @@ class LeanActor:
             why = "gSDE exploration"
         elif getattr(policy, "squash_output", False):
             why = "squashed outputs"
-        elif not isinstance(policy.pi_features_extractor, FlattenExtractor):
+        elif not isinstance(policy.pi_features_extractor, FlattenExtractor) and \
+                not hasattr(policy.pi_features_extractor, "actor_size"):
             why = f"the features extractor {type(policy.pi_features_extractor).__name__}"
         elif len(policy.observation_space.shape) != 1:
             why = f"the observation shape {policy.observation_space.shape}"
@@ -128,6 +129,11 @@ class LeanActor:
             else:
                 raise ValueError(f"LeanActor: mixed activations ({activation}, "
                                  f"{type(module).__name__}) are not supported")
+        # a centralized critic's actor (agents.central_critic.ActorView) reads the head of the
+        # observation only: keep the first layer's rows for it, the rest only ever met zeros
+        actor_size = getattr(policy.pi_features_extractor, "actor_size", None)
+        if actor_size is not None and layers:
+            layers[0] = (layers[0][0][:actor_size], layers[0][1])
         action_net = (_numpy(policy.action_net.weight).T, _numpy(policy.action_net.bias))
         log_std = _numpy(policy.log_std) if hasattr(policy, "log_std") else None
         return cls(layers, activation or "Tanh", action_net, policy.action_space, log_std)
@@ -284,11 +290,17 @@ class ModelEvaluator(DesiredPositionEvaluator):
 
         self.env = env
         site = env.site if env.site is not None else Site(env.case, env.stage)
-        _check_shape(self.model, evaluation_size(site), self.path, "the evaluation observation")
+        size = evaluation_size(site)
+        if self.actor.observation_size != size:
+            raise ValueError(f"{self.path}: the model's actor reads {self.actor.observation_size} "
+                             f"floats, but this case's evaluation observation has {size}; fix: "
+                             "use a stage-2 model trained on this case")
+        self.low, self.high = evaluation_bounds(site)
 
     def desired_position(self, crew, site, position) -> tuple[float, float]:
         heading = self.env.world.bodies[crew.index].angle
-        obs = evaluation_observation(site, crew, position, heading)
+        # clipped as the training env clips it (a crew pressed against the plane's edge)
+        obs = np.clip(evaluation_observation(site, crew, position, heading), self.low, self.high)
         desired = self.actor.act(obs[None], deterministic=True)[0]
         desired = np.clip(desired, -1.0, 1.0)
         return float(desired[0]), float(desired[1])

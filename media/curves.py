@@ -36,9 +36,19 @@ def read_progress(path: Path) -> dict[str, list[tuple[float, float]]]:
     return series
 
 
+STAGE2_CURVES = (
+    ("rollout/ep_rew_mean", "mean episode reward R_e (team)"),
+    ("cmdp/makespan_s", "makespan, s (rollouts)"),
+    ("eval/mean_makespan_s", "makespan, s (evaluation, fixed seeds)"),
+    ("cmdp/idle_steps_area", "idle crew-steps: task area blocked"),
+)
+
+
 def draw_training_curve(progress_csv, path: Path, title: str = "Stage 1: "
-                        "target-reaching policy") -> Path:
-    """Fig. 5: reward and reach rate against training steps; written atomically.
+                        "target-reaching policy", curves=CURVES, scale: float = 1e6,
+                        xlabel: str = "training steps (millions of agent-steps)") -> Path:
+    """Fig. 5 (stage 1) or Fig. 7 (stage 2): ``curves`` ((column, label) pairs) against
+    training steps over ``scale``; written atomically.
 
     ``progress_csv`` is one CSV or a list of them (a run and its resumed parts)."""
     from matplotlib.figure import Figure
@@ -52,19 +62,25 @@ def draw_training_curve(progress_csv, path: Path, title: str = "Stage 1: "
             series.setdefault(key, []).extend(points)
     for points in series.values():
         points.sort()
-    panels = [(k, label) for k, label in CURVES if k in series]
+    panels = [(k, label) for k, label in curves if k in series]
     if not panels:
-        raise ValueError(f"{progress_csv}: none of {', '.join(k for k, _ in CURVES)} logged")
+        raise ValueError(f"{progress_csv}: none of {', '.join(k for k, _ in curves)} logged")
     fig = Figure(figsize=(6.5, 2.4 * len(panels)), layout="constrained")
     axes = fig.subplots(len(panels), 1, sharex=True, squeeze=False)[:, 0]
     for ax, (key, label) in zip(axes, panels, strict=True):
         xs, ys = zip(*series[key], strict=True)
-        ax.plot([x / 1e6 for x in xs], ys, marker="." if len(xs) < 30 else None)
+        ax.plot([x / scale for x in xs], ys, marker="." if len(xs) < 30 else None)
         ax.set_ylabel(label, fontsize=8)
         ax.grid(alpha=0.3)
-    axes[-1].set_xlabel("training steps (millions of agent-steps)")
+    axes[-1].set_xlabel(xlabel)
     fig.suptitle(title)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)
     write_atomic(Path(path), buf.getvalue())
     return Path(path)
+
+
+def draw_stage2_curve(progress_csv, path: Path) -> Path:
+    """Fig. 7: the target-evaluation policy's reward and makespan against decisions."""
+    return draw_training_curve(progress_csv, path, "Stage 2: target-evaluation policy",
+                               STAGE2_CURVES, 1e3, "training steps (thousands of decisions)")

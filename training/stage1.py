@@ -22,31 +22,22 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
+from pydantic import model_validator
 
 import cmdp_pymunk
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.rollout import reach_rate, versions
 
+from .config import Count, CountOrZero, Rate, RateOrZero, RunConfig, Share, Sizes
+
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage1.toml"
 
-# Scalars are strict, as in the case: a quoted "3" or a 2.5 for a count is a mistake to report.
-Count = Annotated[int, Strict(), Field(gt=0)]
-CountOrZero = Annotated[int, Strict(), Field(ge=0)]
-Rate = Annotated[float, Strict(), Field(gt=0, allow_inf_nan=False)]
-RateOrZero = Annotated[float, Strict(), Field(ge=0, allow_inf_nan=False)]
-Share = Annotated[float, Strict(), Field(ge=0, le=1, allow_inf_nan=False)]
-Sizes = Annotated[list[Count], Field(min_length=1)]
 
-
-class Stage1Config(BaseModel):
+class Stage1Config(RunConfig):
     """Every setting of a stage-1 run; the TOML config file and ``--set`` override these."""
-
-    model_config = ConfigDict(extra="forbid")
 
     case: str | None = None  # case file; None: the built-in case
     seed: CountOrZero = 0
@@ -90,69 +81,6 @@ class Stage1Config(BaseModel):
             raise ValueError(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; "
                              "fix: lower num_cpus")
         return self
-
-    @classmethod
-    def load(cls, path: Path | None, overrides: list[str] = ()) -> Stage1Config:
-        """The config file's settings with ``--set key=value`` overrides on top, validated;
-        a ``ValueError`` names the file (or ``--set``) and every bad setting with its fix."""
-        import tomllib
-
-        data = {}
-        if path is not None:
-            try:
-                data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-            except (OSError, tomllib.TOMLDecodeError) as err:
-                raise ValueError(f"{path}: cannot read the config ({err}); fix: check the "
-                                 "path and the TOML syntax") from None
-        for item in overrides:
-            key, sep, value = item.partition("=")
-            if not sep:
-                raise ValueError(f"--set {item!r}: write key=value, e.g. --set seed=3")
-            try:
-                data[key] = tomllib.loads(f"v = {value}")["v"]
-            except tomllib.TOMLDecodeError:
-                data[key] = value  # a bare string
-        where = path or "--set"
-        unknown = sorted(set(data) - set(cls.model_fields))
-        if unknown:
-            raise ValueError(f"{where}: unknown setting(s) {', '.join(unknown)}; "
-                             f"known: {', '.join(cls.model_fields)}")
-        try:
-            return cls.model_validate(data)
-        except ValidationError as err:
-            raise ValueError(f"{where}: " + "; ".join(_config_problems(err))) from None
-
-
-def _config_problems(error: ValidationError) -> list[str]:
-    """pydantic's errors as ``name = value must be ...; fix: ...``, one per bad setting."""
-    out = []
-    for err in error.errors():
-        loc = [str(k) for k in err["loc"]]
-        value = err.get("input")
-        kind, ctx = err["type"], err.get("ctx", {})
-        if not loc:  # a model validator's own message
-            out.append(err["msg"].removeprefix("Value error, "))
-            continue
-        name = loc[0] if len(loc) == 1 else f"{loc[0]}[{loc[1]}]"
-        if kind in ("int_type", "int_from_float", "int_parsing"):
-            text = "must be a whole number (without quotes or a decimal point)"
-        elif kind in ("float_type", "float_parsing"):
-            text = "must be a number (without quotes)"
-        elif kind in ("list_type", "too_short"):
-            text = "must be a non-empty list of positive whole numbers, e.g. [128, 128]"
-        elif kind == "greater_than" and ctx.get("gt") == 0:
-            text = "must be positive"
-        elif kind == "greater_than_equal" and ctx.get("ge") == 0:
-            text = "must be zero or positive"
-        elif kind == "finite_number":
-            text = "must be a finite number (not nan or inf)"
-        elif kind == "less_than_equal" and loc[0] == "stage2_share":
-            text = "is a share of the episodes; fix: give a number from 0 to 1"
-        else:
-            text = err["msg"]
-        out.append(f"{name} = {value!r} {text}")
-    return out
-
 
 # -- environment -------------------------------------------------------------------------------
 
@@ -490,7 +418,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", type=Path, default=Path("runs/stage1"))
     p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
     p.add_argument("--no-progress", action="store_true")
+    p2 = sub.add_parser("stage2", help="train the target-evaluation policy (section 3.6.1)")
+    p2.add_argument("--config", type=Path, default=None,
+                    help="TOML settings (default: training/configs/stage2.toml)")
+    p2.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="override a config setting (repeatable)")
+    p2.add_argument("--out", type=Path, default=None, help="run folder (default: runs/stage2)")
+    p2.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
+    p2.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
+    if args.stage == "stage2":
+        from .stage2 import run_cli
+
+        return run_cli(args, argv if argv is not None else sys.argv[1:])
     try:
         config = Stage1Config.load(args.config, args.set)
         cmdp_pymunk.load_case(config.case)

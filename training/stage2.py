@@ -1,0 +1,510 @@
+"""Stage 2 (sections 3.6.1, 4.2, 5.2): train the target-evaluation policy with SB3 PPO.
+
+    cmdp-train stage2 [--config training/configs/stage2.toml] [--set key=value ...]
+                      [--out runs/stage2] [--resume CHECKPOINT.zip]
+
+Data flow: ``Stage2Env`` (``cmdp_pymunk.highlevel.TargetEvaluationEnv``: one step = one target
+evaluation; between two decisions the floor runs on with the low level, the scripted navigator
+or a stage-1 model whose actions are sampled) -> ``DummyVecEnv``/``SubprocVecEnv`` ->
+``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
+position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
+sequence, each rewarded with the team's R_e until the next decision) is written down in
+``cmdp_pymunk/highlevel.py``.
+
+With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
+global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
+
+Warm start (beyond the paper): behaviour cloning of the priority heuristic (Eq. 9), whose
+choice is expressed as the desired position at its best target, and the critic fitted to the
+heuristic episodes' discounted returns; PPO then improves on it. ``bc_episodes = 0`` starts
+from scratch.
+
+The run folder gets ``config.json`` (settings, command, versions), ``case.json``, TensorBoard
+logs (``tb/``: ``cmdp/makespan_s``, ``cmdp/finished``, ``cmdp/stalled``, ``cmdp/R_e_<term>``,
+``cmdp/idle_steps_<cause>`` per finished episode; ``eval/...`` on fixed seeds), ``progress.csv``,
+checkpoints, ``best_model.zip`` (lowest mean evaluation makespan with every floor finished),
+``final_model.zip`` and ``training_curve.png``. Ctrl-C saves ``checkpoints/interrupted.zip``.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from pydantic import model_validator
+
+import cmdp_pymunk
+from cmdp_pymunk import global_state as gs
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.highlevel import TargetEvaluationEnv
+from cmdp_pymunk.reward import EVALUATION_TERMS
+from cmdp_pymunk.rollout import versions
+
+from .config import Count, CountOrZero, Rate, RateOrZero, RunConfig, Sizes
+
+DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage2.toml"
+IDLE_CAUSES = ("predecessor", "area", "no_target")
+
+
+class Stage2Config(RunConfig):
+    """Every setting of a stage-2 run; the TOML config file and ``--set`` override these."""
+
+    case: str | None = None  # case file; None: the built-in case
+    seed: CountOrZero = 0
+    low_level: str = "scripted"  # "scripted" or a stage-1 model .zip (actions sampled)
+    total_steps: Count = 40_000  # decisions (real ones: a lone target is no decision)
+    n_envs: Count = 2  # env copies
+    num_cpus: Count = 1  # processes stepping the copies (1: all in this process)
+    torch_threads: Count = 1
+    stall_s: Rate = 3600.0  # truncate an episode in which no task moves on for this long
+    central_critic: bool = True  # MAPPO: the critic also sees the global state
+    # R_e (Eq. 5) weights for training; they replace the case's [evaluation_reward]
+    idle_predecessor: float = -0.0002
+    idle_area: float = -0.0002
+    efficiency: float = 0.0002
+    episode: float = -0.001  # per simulated second: the makespan term
+    path: float = 0.0
+    completion: float = 1.0
+    # PPO
+    learning_rate: Rate = 1e-4
+    n_steps: Count = 256  # decisions per env copy before each update
+    batch_size: Count = 128
+    n_epochs: Count = 5
+    gamma: RateOrZero = 0.995  # per decision
+    gae_lambda: RateOrZero = 0.95
+    clip_range: RateOrZero = 0.1
+    ent_coef: RateOrZero = 0.0
+    vf_coef: RateOrZero = 0.5
+    net_arch: Sizes = [128, 128]
+    log_std_init: float = -1.6  # the desired position's spread (std 0.2 of the plane's half)
+    # warm start: behaviour cloning of the priority heuristic
+    bc_episodes: CountOrZero = 24
+    bc_epochs: CountOrZero = 60
+    bc_batch_size: Count = 256
+    bc_learning_rate: Rate = 1e-3
+    # evaluation (actions: the policy's mean), checkpoints
+    eval_every_steps: Count = 4096
+    eval_seeds: Sizes = [2000, 2001, 2002, 2003]
+    checkpoint_every_steps: Count = 4096
+
+    @model_validator(mode="after")
+    def _cpus_within_copies(self) -> Stage2Config:
+        if self.num_cpus > self.n_envs:
+            raise ValueError(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; "
+                             "fix: lower num_cpus")
+        if self.low_level != "scripted" and not Path(self.low_level).is_file():
+            raise ValueError(f"low_level = {self.low_level!r}: no such stage-1 model; fix: give "
+                             '"scripted" or the path of a stage-1 .zip')
+        return self
+
+
+# -- environment -------------------------------------------------------------------------------
+
+def training_case(config: Stage2Config):
+    """The case with R_e's weights from the config."""
+    case = cmdp_pymunk.load_case(config.case)
+    weights = case.evaluation_reward.model_copy(update={
+        k: getattr(config, k) for k in ("idle_predecessor", "idle_area", "efficiency", "episode",
+                                        "path", "completion")})
+    return case.model_copy(update={"evaluation_reward": weights})
+
+
+def low_level_factory(spec: str):
+    """``make_low_level(env)`` for ``TargetEvaluationEnv``: the scripted navigator, or a
+    stage-1 model sampling its actions."""
+    def make(env):
+        from agents.specs import make_navigator
+
+        return make_navigator(spec, env, deterministic=False)
+
+    return make
+
+
+class Stage2Env(gym.Env):
+    """``TargetEvaluationEnv`` for training: its observation O^e, followed by the global state
+    when ``central_critic`` (bounds from both); ``teacher_action()`` is the priority
+    heuristic's choice as a desired position. Episode-end infos carry ``idle_steps`` by cause
+    and R_e's terms summed over the episode (``episode_terms``)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, config: Stage2Config, case=None):
+        self.config = config
+        case = case if case is not None else training_case(config)
+        self.inner = TargetEvaluationEnv(low_level_factory(config.low_level), case=case,
+                                         stall_s=config.stall_s,
+                                         park_idle=config.low_level == "scripted")
+        self.actor_size = self.inner.observation_space.shape[0]
+        low, high = self.inner.observation_space.low, self.inner.observation_space.high
+        if config.central_critic:
+            s_low, s_high = gs.state_bounds(case)
+            low, high = np.concatenate([low, s_low]), np.concatenate([high, s_high])
+        self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
+        self.action_space = self.inner.action_space
+        self._terms = dict.fromkeys(EVALUATION_TERMS, 0.0)
+
+    def _observe(self, obs: np.ndarray) -> np.ndarray:
+        if not self.config.central_critic:
+            return obs
+        return np.concatenate([obs, self.inner.env.state()])
+
+    def reset(self, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        if seed is None:
+            seed = int(self.np_random.integers(2**31))
+        obs, info = self.inner.reset(seed=seed)
+        self._terms = dict(info["evaluation_terms"])
+        return self._observe(obs), info
+
+    def step(self, action):
+        obs, rew, terminated, truncated, info = self.inner.step(action)
+        for k, v in info["evaluation_terms"].items():
+            self._terms[k] += v
+        if terminated or truncated:
+            info["episode_terms"] = dict(self._terms)
+            idle = dict.fromkeys(IDLE_CAUSES, 0)
+            for crew in self.inner.env.site.crews:
+                for cause, steps in crew.stats.idle_steps.items():
+                    idle[cause.name.lower()] += steps
+            info["idle_steps"] = idle
+            return np.zeros(self.observation_space.shape, np.float32), rew, terminated, \
+                truncated, info
+        return self._observe(obs), rew, terminated, truncated, info
+
+    def teacher_action(self) -> np.ndarray:
+        """The priority heuristic's choice for the deciding crew: the desired position at its
+        highest-valued target (Eq. 4 then values that target highest)."""
+        from agents.priority import PriorityEvaluator
+
+        env = self.inner.env
+        i = env.agent_index[self.inner.deciding_agent]
+        crew, site = env.site.crews[i], env.site
+        values = PriorityEvaluator().priorities(crew, site, env.positions[i])
+        best = max(sorted(values), key=values.get)  # sorted: ties go to the lowest target
+        x, y = site.target_xy[best]
+        hx, hy = site.case.plane.half_extents
+        return np.array([x / hx, y / hy], dtype=np.float32)
+
+
+def make_vec_env(config: Stage2Config, case, seed: int):
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+    def factory(k: int):
+        def make():
+            env = Stage2Env(config, case)
+            env.reset(seed=seed + 7919 * k)  # each copy its own seed sequence
+            return env
+        return make
+
+    fns = [factory(k) for k in range(config.n_envs)]
+    venv = SubprocVecEnv(fns, start_method="fork") if config.num_cpus > 1 else DummyVecEnv(fns)
+    venv.seed(seed)
+    return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
+
+
+# -- warm start ----------------------------------------------------------------------------------
+
+def heuristic_samples(config: Stage2Config, case, episodes: int, seed: int, log=print):
+    """(observations, teacher actions, discounted returns) of every decision of ``episodes``
+    floors driven by the priority heuristic (through Eq. 4 at its best target)."""
+    env = Stage2Env(config, case)
+    observations, actions, returns = [], [], []
+    for k in range(episodes):
+        obs, _ = env.reset(seed=seed + k)
+        rewards, done = [], False
+        while not done:
+            act = env.teacher_action()
+            observations.append(obs)
+            actions.append(act)
+            obs, rew, terminated, truncated, info = env.step(act)
+            rewards.append(rew)
+            done = terminated or truncated
+        g, back = 0.0, []
+        for r in reversed(rewards):
+            g = r + config.gamma * g
+            back.append(g)
+        returns.extend(reversed(back))
+        log(f"heuristic episode {k + 1}/{episodes}: {len(rewards)} decisions, makespan "
+            f"{info.get('makespan_s')}")
+    return (np.asarray(observations, np.float32), np.asarray(actions, np.float32),
+            np.asarray(returns, np.float32))
+
+
+def behaviour_clone(model, observations, actions, returns, config: Stage2Config,
+                    log=print) -> dict:
+    """Fit the actor's mean to the teacher's actions and the critic to the returns (MSE), then
+    set the action spread to ``log_std_init``. Returns the last losses and the share of
+    decisions whose first choice (the target Eq. 4 values highest) is the teacher's."""
+    import torch as th
+
+    policy = model.policy
+    obs_t = th.as_tensor(observations)
+    act_t = th.as_tensor(actions)
+    ret_t = th.as_tensor(returns)
+    params = [p for name, p in policy.named_parameters() if name != "log_std"]
+    optimizer = th.optim.Adam(params, lr=config.bc_learning_rate)
+    gen = th.Generator().manual_seed(config.seed)
+    n = len(obs_t)
+    for _ in range(config.bc_epochs):
+        order = th.randperm(n, generator=gen)
+        for start in range(0, n, config.bc_batch_size):
+            idx = order[start:start + config.bc_batch_size]
+            features = policy.extract_features(obs_t[idx])
+            if policy.share_features_extractor:
+                latent_pi, latent_vf = policy.mlp_extractor(features)
+            else:
+                latent_pi = policy.mlp_extractor.forward_actor(features[0])
+                latent_vf = policy.mlp_extractor.forward_critic(features[1])
+            actor_loss = ((policy.action_net(latent_pi) - act_t[idx]) ** 2).mean()
+            critic_loss = ((policy.value_net(latent_vf).squeeze(-1) - ret_t[idx]) ** 2).mean()
+            optimizer.zero_grad()
+            (actor_loss + config.vf_coef * critic_loss).backward()
+            optimizer.step()
+    with th.no_grad():
+        policy.log_std.fill_(config.log_std_init)
+        mean = policy.get_distribution(obs_t).distribution.mean.numpy()
+    actor_size = getattr(policy.pi_features_extractor, "actor_size", observations.shape[1])
+    agree = same_choice_share(observations[:, :actor_size], mean, actions)
+    result = {"actor_loss": actor_loss.item(), "critic_loss": critic_loss.item(),
+              "same_first_choice": agree}
+    log(f"behaviour cloning: actor loss {result['actor_loss']:.4f}, critic loss "
+        f"{result['critic_loss']:.3f}, same first choice as the heuristic {agree:.1%}")
+    return result
+
+
+def first_choice(observation: np.ndarray, desired) -> int:
+    """The target Eq. 4 values highest for ``desired`` among the targets in scope (O^e1 set),
+    read from O^e itself (x/x_max, y/y_max at row columns 4-5, the scope flag at 8)."""
+    from cmdp_pymunk.observe import CREW_FEATURES, TARGET_FEATURES
+
+    rows = observation[CREW_FEATURES:].reshape(-1, TARGET_FEATURES)
+    in_scope = np.flatnonzero(rows[:, 8] > 0.5)
+    d = np.hypot(rows[in_scope, 4] - desired[0], rows[in_scope, 5] - desired[1])
+    return int(in_scope[np.argmin(d)])
+
+
+def same_choice_share(observations, desired, teacher) -> float:
+    """The share of decisions (rows of O^e) where ``desired`` and ``teacher`` pick the same
+    first target."""
+    same = [first_choice(o, a) == first_choice(o, t)
+            for o, a, t in zip(observations, desired, teacher, strict=True)]
+    return float(np.mean(same)) if same else 0.0
+
+
+# -- evaluation ---------------------------------------------------------------------------------
+
+def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
+    """Floors on fixed seeds with the policy's mean action (``actor``: a ``LeanActor`` or an
+    SB3 model): makespans, how many finished, how many stalled."""
+    from agents.models import LeanActor
+
+    if not isinstance(actor, LeanActor):
+        actor = LeanActor.from_sb3(actor)
+    env = Stage2Env(config, case)
+    makespans, finished, stalled, decisions = [], 0, 0, 0
+    for seed in seeds:
+        obs, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            act = actor.act(obs[None, :env.actor_size], deterministic=True)[0]
+            obs, _, terminated, truncated, info = env.step(act)
+            decisions += 1
+            done = terminated or truncated
+        finished += info["makespan_s"] is not None
+        stalled += bool(info["stalled"])
+        makespans.append(info["makespan_s"] if info["makespan_s"] is not None
+                         else env.inner.env.site.time_s)
+    return {"mean_makespan_s": float(np.mean(makespans)), "finished": finished,
+            "stalled": stalled, "episodes": len(seeds), "decisions": decisions}
+
+
+# -- callbacks ----------------------------------------------------------------------------------
+
+def make_callbacks(config: Stage2Config, case, run: Path, log=print):
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Metrics(BaseCallback):
+        """Per finished or cut episode of the rollouts: makespan, R_e's terms, idle steps."""
+
+        def _on_rollout_start(self) -> None:
+            self.ends: list[dict] = []
+
+        def _on_step(self) -> bool:
+            for info, done in zip(self.locals["infos"], self.locals["dones"], strict=True):
+                if done and "episode_terms" in info:
+                    self.ends.append(info)
+            return True
+
+        def _on_rollout_end(self) -> None:
+            if not self.ends:
+                return
+            done = [e for e in self.ends if e["makespan_s"] is not None]
+            self.logger.record("cmdp/episodes", len(self.ends))
+            self.logger.record("cmdp/finished", len(done) / len(self.ends))
+            self.logger.record("cmdp/stalled", sum(bool(e["stalled"]) for e in self.ends))
+            if done:
+                self.logger.record("cmdp/makespan_s", float(np.mean([e["makespan_s"]
+                                                                     for e in done])))
+            for term in EVALUATION_TERMS:
+                self.logger.record(f"cmdp/R_e_{term}", float(np.mean(
+                    [e["episode_terms"][term] for e in self.ends])))
+            for cause in IDLE_CAUSES:
+                self.logger.record(f"cmdp/idle_steps_{cause}", float(np.mean(
+                    [e["idle_steps"][cause] for e in self.ends])))
+
+    class Periodic(BaseCallback):
+        """Checkpoints and evaluation on fixed seeds, keeping the best model."""
+
+        def __init__(self):
+            super().__init__()
+            self.best = float("inf")
+
+        def _init_callback(self) -> None:
+            done = self.model.num_timesteps
+            self.next_eval = done // config.eval_every_steps * config.eval_every_steps
+            if done:
+                self.next_eval += config.eval_every_steps
+            self.next_ckpt = (done // config.checkpoint_every_steps + 1) * \
+                config.checkpoint_every_steps
+            best_file = run / "best.json"
+            if best_file.exists():
+                self.best = json.loads(best_file.read_text())["mean_makespan_s"]
+
+        def _on_training_start(self) -> None:
+            if self.model.num_timesteps == 0:  # where the warm start stands
+                self._evaluate()
+
+        def _evaluate(self) -> None:
+            t = self.model.num_timesteps
+            self.next_eval = t - t % config.eval_every_steps + config.eval_every_steps
+            t0 = time.perf_counter()
+            result = evaluate_policy(self.model, config, case, config.eval_seeds)
+            for k, v in result.items():
+                self.logger.record(f"eval/{k}", v)
+            if t == 0:
+                self.logger.record("time/total_timesteps", 0)
+                self.logger.dump(0)
+            log(f"\nevaluation at {t:,} decisions: mean makespan "
+                f"{result['mean_makespan_s']:.0f} s, {result['finished']}/{result['episodes']} "
+                f"finished ({time.perf_counter() - t0:.0f} s)")
+            if result["finished"] == result["episodes"] and \
+                    result["mean_makespan_s"] < self.best:
+                self.best = result["mean_makespan_s"]
+                save_model(self.model, run / "best_model.zip")
+                write_atomic(run / "best.json", json.dumps({"step": t, **result}, indent=2))
+
+        def _on_step(self) -> bool:
+            t = self.model.num_timesteps
+            if t >= self.next_ckpt:
+                self.next_ckpt += config.checkpoint_every_steps
+                save_model(self.model, run / "checkpoints" / f"step_{t}.zip")
+            if t >= self.next_eval:
+                self._evaluate()
+            return True
+
+    return [Metrics(), Periodic()]
+
+
+def save_model(model, path: Path) -> None:
+    from .stage1 import save_model as save
+
+    save(model, path)
+
+
+# -- main ---------------------------------------------------------------------------------------
+
+def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None,
+          progress_bar: bool = True, log=print) -> Path:
+    """Train (or resume) a stage-2 run in ``run``; returns the final model's path."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
+    from stable_baselines3.common.utils import set_random_seed
+
+    from agents.central_critic import CentralCriticPolicy
+
+    from .stage1 import _next_part
+
+    torch.set_num_threads(config.torch_threads)
+    torch.distributions.Distribution.set_default_validate_args(False)
+    case = training_case(config)
+    run.mkdir(parents=True, exist_ok=True)
+    part = _next_part(run) if resume is not None else 0
+    suffix = f"-{part}" if part else ""
+    write_atomic(run / f"config{suffix}.json", json.dumps(
+        {"config": config.model_dump(), "command": argv, "resumed_from": str(resume) if resume
+         else None, "versions": versions()}, indent=2))
+    write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
+    set_random_seed(config.seed)
+    venv = make_vec_env(config, case, config.seed)
+    actor_size = venv.get_attr("actor_size", [0])[0]
+    if resume is not None:
+        model = PPO.load(str(resume), env=venv, device="cpu")
+        log(f"resumed from {resume} at {model.num_timesteps:,} decisions")
+    else:
+        policy_kwargs = {"net_arch": list(config.net_arch), "log_std_init": config.log_std_init}
+        policy = "MlpPolicy"
+        if config.central_critic:
+            policy = CentralCriticPolicy
+            policy_kwargs["actor_size"] = actor_size
+        model = PPO(policy, venv, learning_rate=config.learning_rate, n_steps=config.n_steps,
+                    batch_size=config.batch_size, n_epochs=config.n_epochs, gamma=config.gamma,
+                    gae_lambda=config.gae_lambda, clip_range=config.clip_range,
+                    ent_coef=config.ent_coef, vf_coef=config.vf_coef,
+                    policy_kwargs=policy_kwargs, seed=config.seed, device="cpu", verbose=0)
+        if config.bc_episodes > 0:
+            t0 = time.perf_counter()
+            obs, acts, rets = heuristic_samples(config, case, config.bc_episodes,
+                                                config.seed + 10_000, log=lambda *_: None)
+            log(f"behaviour cloning: {len(obs):,} heuristic decisions from "
+                f"{config.bc_episodes} floors in {time.perf_counter() - t0:.0f} s")
+            result = behaviour_clone(model, obs, acts, rets, config, log)
+            write_atomic(run / "behaviour_cloning.json", json.dumps(
+                {"decisions": len(obs), **result}, indent=2))
+    model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
+                                   TensorBoardOutputFormat(str(run / "tb"))]))
+    remaining = max(0, config.total_steps - model.num_timesteps)
+    try:
+        model.learn(remaining, callback=make_callbacks(config, case, run, log),
+                    reset_num_timesteps=resume is None, progress_bar=progress_bar)
+    except KeyboardInterrupt:
+        path = run / "checkpoints" / "interrupted.zip"
+        save_model(model, path)
+        log(f"\ninterrupted at {model.num_timesteps:,} decisions: saved {path}; "
+            f"resume with --resume {path}")
+        venv.close()
+        raise
+    final = run / "final_model.zip"
+    save_model(model, final)
+    venv.close()
+    try:
+        from media.curves import draw_stage2_curve
+
+        draw_stage2_curve(sorted(run.glob("progress*.csv")), run / "training_curve.png")
+    except (FileNotFoundError, ValueError) as err:
+        log(f"no training curve: {err}")
+    return final
+
+
+def run_cli(args, argv) -> int:
+    """``cmdp-train stage2`` after argument parsing (``training.stage1.main`` dispatches)."""
+    import sys
+
+    try:
+        config = Stage2Config.load(args.config or DEFAULT_CONFIG, args.set)
+        cmdp_pymunk.load_case(config.case)
+        if args.resume is not None and not args.resume.is_file():
+            raise ValueError(f"--resume {args.resume}: no such checkpoint")
+    except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
+        print(f"cmdp-train: {err}", file=sys.stderr)
+        return 2
+    try:
+        final = train(config, args.out or Path("runs/stage2"), args.resume, argv=argv,
+                      progress_bar=not args.no_progress)
+    except KeyboardInterrupt:
+        return 130
+    print(f"cmdp-train: final model {final}")
+    return 0
