@@ -65,3 +65,14 @@ class PriorityEvaluator:
         """Eq. 9's V' as V_Tar (``as_target_values``: a lone target without successors
         scores 0 in Eq. 9, which Eq. 3 would read as no target)."""
         return as_target_values(self.priorities(crew, site, position))
+
+
+def desired_position_of_first_choice(crew, site, position) -> tuple[float, float]:
+    """The heuristic's choice as a stage-2 action: the desired position (Eq. 4, over the
+    plane's half extents) at the target Eq. 9 ranks first (lowest index on ties, as
+    ``steering.best_target``), so that Eq. 4 ranks it first too."""
+    values = PriorityEvaluator().priorities(crew, site, position)
+    best = max(values, key=lambda t: (values[t], -t))
+    x, y = site.target_xy[best]
+    half_w, half_h = site.case.plane.half_extents
+    return x / half_w, y / half_h

@@ -5,7 +5,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from agents.navigator import Navigator
-from agents.priority import PriorityEvaluator
+from agents.priority import PriorityEvaluator, desired_position_of_first_choice
 from cmdp_pymunk import parallel_env
 from cmdp_pymunk.highlevel import TargetEvaluationEnv, decision_reward
 
@@ -16,12 +16,8 @@ def heuristic_action(hl: TargetEvaluationEnv) -> np.ndarray:
     """The desired position that makes Eq. 4 rank first the target Eq. 9 ranks first."""
     env = hl.env
     i = env.agent_index[hl.deciding_agent]
-    crew = env.site.crews[i]
-    values = PriorityEvaluator().target_values(crew, env.site, env.positions[i])
-    best = max(values, key=lambda t: (values[t], -t))  # steering.best_target's tie rule
-    x, y = env.site.target_xy[best]
-    half_w, half_h = env.case.plane.half_extents
-    return np.array([x / half_w, y / half_h], dtype=np.float32)
+    return np.array(desired_position_of_first_choice(env.site.crews[i], env.site,
+                                                     env.positions[i]), dtype=np.float32)
 
 
 def test_decision_reward_sums_every_term_of_every_step():

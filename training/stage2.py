@@ -175,18 +175,13 @@ class Stage2Env(gym.Env):
         return self._observe(obs), rew, terminated, truncated, info
 
     def teacher_action(self) -> np.ndarray:
-        """The priority heuristic's choice for the deciding crew: the desired position at its
-        highest-valued target (Eq. 4 then values that target highest)."""
-        from agents.priority import PriorityEvaluator
+        """The priority heuristic's choice for the deciding crew as a desired position."""
+        from agents.priority import desired_position_of_first_choice
 
         env = self.inner.env
         i = env.agent_index[self.inner.deciding_agent]
-        crew, site = env.site.crews[i], env.site
-        values = PriorityEvaluator().priorities(crew, site, env.positions[i])
-        best = max(sorted(values), key=values.get)  # sorted: ties go to the lowest target
-        x, y = site.target_xy[best]
-        hx, hy = site.case.plane.half_extents
-        return np.array([x / hx, y / hy], dtype=np.float32)
+        return np.array(desired_position_of_first_choice(env.site.crews[i], env.site,
+                                                         env.positions[i]), dtype=np.float32)
 
 
 def make_vec_env(config: Stage2Config, case, seed: int):
