@@ -13,7 +13,6 @@ from training import stage2
 from training.stage2 import Stage2Config, Stage2Env, first_choice
 
 
-
 def observation_with(targets: list[tuple[float, float, bool]]) -> np.ndarray:
     """O^e with only the columns ``first_choice`` reads: x, y and the scope flag per target."""
     obs = np.zeros(CREW_FEATURES + TARGET_FEATURES * len(targets), np.float32)

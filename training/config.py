@@ -83,8 +83,8 @@ def _config_problems(error: ValidationError) -> list[str]:
             text = "must be zero or positive"
         elif kind == "finite_number":
             text = "must be a finite number (not nan or inf)"
-        elif kind == "less_than_equal" and ctx.get("le") == 1 and ctx.get("ge", 0) == 0:
-            text = "is a share; fix: give a number from 0 to 1"
+        elif kind == "less_than_equal" and loc[0] == "stage2_share":
+            text = "is a share of the episodes; fix: give a number from 0 to 1"
         else:
             text = err["msg"]
         out.append(f"{name} = {value!r} {text}")
