@@ -1,0 +1,82 @@
+"""The engine alone, without PettingZoo: reset, one second, advance until, values from outside."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import cmdp_pymunk
+from agents.navigator import Navigator
+from cmdp_pymunk import parallel_env
+from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.evaluate import NearestFirstEvaluator
+from cmdp_pymunk.move import STAND_STILL
+
+
+def test_the_engine_imports_no_rl_framework():
+    # ``import cmdp_pymunk`` registers the PettingZoo variants, so the engine is loaded under a
+    # bare package object: what it imports itself is all that ends up in sys.modules
+    package = Path(cmdp_pymunk.__file__).parent
+    code = (f"import sys, types; pkg = types.ModuleType('cmdp_pymunk'); "
+            f"pkg.__path__ = [{str(package)!r}]; sys.modules['cmdp_pymunk'] = pkg; "
+            "import cmdp_pymunk.engine; "
+            "print(sorted(m for m in ('pettingzoo', 'gymnasium', 'stable_baselines3', 'torch', "
+            "'pygame', 'media') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() == "[]"
+
+
+def test_one_second_and_advance_until(tiny_case):
+    engine = Engine(tiny_case, stage=2, evaluator=NearestFirstEvaluator(), seed=0)
+    engine.reset(seed=0)
+    stand = [STAND_STILL] * len(tiny_case.crews)
+    run = engine.advance(stand)  # no condition: one second
+    assert (run.elapsed, engine.site.time_s, engine.steps) == (1, 1.0, 1)
+    assert len(run.rewards) == len(tiny_case.crews)
+    run = engine.advance(stand, until=lambda: engine.site.time_s >= 5.0)
+    assert (run.elapsed, engine.site.time_s) == (4, 5.0)
+    assert not run.terminated and not run.truncated
+
+
+def test_the_time_limit_cuts_an_advance(tiny_case):
+    engine = Engine(tiny_case, evaluator=NearestFirstEvaluator(), max_time_s=3.0)
+    engine.reset(seed=0)
+    run = engine.advance([STAND_STILL] * len(tiny_case.crews), until=lambda: False)
+    assert (run.elapsed, run.truncated, run.terminated) == (3, True, False)
+
+
+def test_without_an_evaluator_the_values_are_pending_until_given(tiny_case):
+    engine = Engine(tiny_case, evaluator=None)
+    engine.reset(seed=0)
+    assert engine.pending, "crews with a new scope wait for values after reset"
+    assert engine.decision_due()
+    stand = [STAND_STILL] * len(tiny_case.crews)
+    with pytest.raises(RuntimeError, match="set_target_values"):
+        engine.advance(stand)
+    i = engine.pending[0]
+    crew = engine.site.crews[i]
+    with pytest.raises(ValueError, match="one value per target"):
+        engine.set_target_values(i, {})
+    for i in list(engine.pending):
+        engine.set_target_values(i, dict.fromkeys(engine.site.crews[i].scope, 1.0))
+    assert not engine.pending and crew.values
+    engine.advance(stand)
+
+
+def test_the_adapter_runs_the_engines_schedule(tiny_case):
+    """The PettingZoo env adds agents' names, spaces and infos, nothing to the dynamics."""
+    env = parallel_env(case=tiny_case, seed=1, jump_idle=False, max_time_s=400)
+    navigator = Navigator(env)
+    obs, _ = env.reset(seed=1)
+    actions_log = []
+    while env.agents:
+        actions = navigator.actions(env, obs)
+        actions_log.append([actions.get(a, STAND_STILL) for a in env.possible_agents])
+        obs, *_ = env.step(actions)
+    engine = Engine(tiny_case, evaluator=NearestFirstEvaluator(), max_time_s=400)
+    engine.reset(seed=1)
+    for actions in actions_log:
+        engine.advance(actions)
+    assert engine.log.events == env.log.events
