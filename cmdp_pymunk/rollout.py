@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .decide import target_id
+from .interrupt import sigint_guard
 from .policy import LowLevel
 from .state import CrewStatus, IdleCause, Pool, activity
 
@@ -67,16 +68,16 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
     bar = tqdm(total=int(env.max_time_s), unit="sim-s", disable=not progress, leave=False,
                mininterval=1.0, desc=f"seed {seed}")
     start = time.perf_counter()
-    while env.agents:
-        if frame_every_s is not None:
-            while site.time_s >= next_frame:  # a jump repeats the still frame: even time-lapse
-                frames.append(env.render())
-                next_frame += frame_every_s
-        before = site.time_s
-        observations, *_ = env.step(navigator.actions(env, observations))
-        bar.update(int(site.time_s - before))
-        bar.set_postfix_str(f"tasks {site.tasks_ended}/{len(site.tasks)}", refresh=False)
-    bar.close()
+    with sigint_guard(), bar:  # Ctrl-C stops the loop even when it lands inside pymunk
+        while env.agents:
+            if frame_every_s is not None:
+                while site.time_s >= next_frame:  # a jump repeats the still frame: time-lapse
+                    frames.append(env.render())
+                    next_frame += frame_every_s
+            before = site.time_s
+            observations, *_ = env.step(navigator.actions(env, observations))
+            bar.update(int(site.time_s - before))
+            bar.set_postfix_str(f"tasks {site.tasks_ended}/{len(site.tasks)}", refresh=False)
     stalled = stall_report(env, env.stalled["after_s"]) if env.stalled else None
     if frame_every_s is not None:
         frames.append(env.render())

@@ -13,6 +13,7 @@ import math
 
 import pymunk
 
+from . import interrupt
 from .case_model import Case
 from .state import Rect, Site
 
@@ -234,8 +235,12 @@ class World:
         before = [b.position for b in self.bodies]
         angles = [b.angle for b in self.bodies]
         h = dt / substeps
-        for _ in range(substeps):
-            self.space.step(h)
+        interrupt.enter()  # a Ctrl-C inside pymunk's callbacks is held, then raised here
+        try:
+            for _ in range(substeps):
+                self.space.step(h)
+        finally:
+            interrupt.leave()
         self.at_rest = all(b.position == p and b.angle == a
                            for b, p, a in zip(self.bodies, before, angles, strict=True))
         if not self.at_rest:

@@ -20,24 +20,11 @@ from __future__ import annotations
 import json
 import math
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
-import cmdp_pymunk
-from agents.models import PolicyStuck
-from agents.specs import make_evaluator, make_navigator
-from cmdp_pymunk.bounds import lower_bound
-from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.rollout import (
-    Episode,
-    crew_summary,
-    episode_reach_rate,
-    makespan_stats,
-    run_episode,
-    versions,
-)
+# Only light modules at the top: Ctrl-C during the heavy imports (numpy, pymunk, PettingZoo,
+# torch) lands inside main(), which turns it into one line and exit 130.
 from training.cli import OneLineParser, non_negative_int, positive_int, positive_seconds
 
 GIF_SECONDS = 30.0
@@ -64,6 +51,8 @@ class SimulateArgs:
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
+    import cmdp_pymunk
+
     p = OneLineParser(prog="cmdp-simulate", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
@@ -92,7 +81,9 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                         a.deterministic)
 
 
-def summary(env, episode: Episode, args: SimulateArgs, case_label: str, lb) -> dict:
+def summary(env, episode, args: SimulateArgs, case_label: str, lb) -> dict:
+    from cmdp_pymunk.rollout import crew_summary, episode_reach_rate, versions
+
     site = env.site
     makespan = episode.makespan_s
     return {
@@ -115,10 +106,12 @@ def summary(env, episode: Episode, args: SimulateArgs, case_label: str, lb) -> d
 
 
 def write_json(path: Path, data) -> None:
+    from cmdp_pymunk.events import write_atomic
+
     write_atomic(path, json.dumps(data, indent=2) + "\n")
 
 
-def write_outputs(env, episode: Episode, folder: Path, args: SimulateArgs, case_label: str,
+def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: str,
                   lb) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
     data = summary(env, episode, args, case_label, lb)
@@ -145,13 +138,60 @@ def frame_interval(case, lb) -> float:
 
 
 def thin(frames: list, limit: int) -> list:
+    import numpy as np
+
     if len(frames) <= limit:
         return frames
     keep = np.linspace(0, len(frames) - 1, limit).round().astype(int)
     return [frames[i] for i in keep]
 
 
+@dataclass
+class Progress:
+    """What ``cmdp-simulate`` is doing and what it has kept, for the line Ctrl-C prints."""
+
+    doing: str = "while starting"
+    env: object = None  # the env of the episode under way, for its time
+    out: Path | None = None
+    kept: list[int] = field(default_factory=list)  # seeds whose folders are complete
+    resume: str = ""
+
+    def interrupted(self) -> str:
+        doing = self.doing
+        site = getattr(self.env, "site", None)
+        if site is not None:
+            doing += f" at t = {site.time_s:,.0f} s"
+        if not self.kept:
+            kept = "nothing kept" if self.out is None else \
+                f"no episode finished, nothing kept in {self.out} but case.json"
+        else:
+            seeds = (f"seed {self.kept[0]}" if len(self.kept) == 1
+                     else f"seeds {self.kept[0]}-{self.kept[-1]}")
+            kept = f"kept {seeds} in {self.out} (each folder complete)"
+        return f"interrupted {doing}; {kept}{self.resume}"
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The command; Ctrl-C at any moment ends it with one line and exit status 130."""
+    progress = Progress()
+    try:
+        from cmdp_pymunk.interrupt import sigint_guard
+
+        with sigint_guard():
+            return _main(argv, progress)
+    except KeyboardInterrupt:
+        print(f"\ncmdp-simulate: {progress.interrupted()}", file=sys.stderr)
+        return 130
+
+
+def _main(argv: list[str] | None, progress: Progress) -> int:
+    import cmdp_pymunk
+    from agents.models import PolicyStuck
+    from agents.specs import make_evaluator, make_navigator
+    from cmdp_pymunk import interrupt
+    from cmdp_pymunk.bounds import lower_bound
+    from cmdp_pymunk.rollout import run_episode
+
     args = parse_args(argv)
     try:
         case = cmdp_pymunk.load_case(args.case)
@@ -180,21 +220,34 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     write_json(args.out / "case.json", case.model_dump(mode="json"))
+    progress.out = args.out
     print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, {len(case.tasks)} "
           f"tasks), lower bound {lb.lower_bound_s:.0f} s, evaluator {args.evaluator}, "
-          f"navigator {args.navigator}")
+          f"navigator {args.navigator}", flush=True)
     rows, failed = [], False
     for k in range(args.episodes):
         seed = args.seed + k
         folder = args.out if args.episodes == 1 else args.out / f"seed-{seed}"
         every = frame_interval(case, lb) if args.gif and k == 0 else None
+        progress.doing = f"in seed {seed}"
+        progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
+                           f"{args.episodes - k}" if args.episodes > 1 else "")
+        progress.env = env
         try:
             episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every)
         except PolicyStuck as err:
             print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
             return 1
+        progress.env, progress.doing = None, f"while writing seed {seed}'s files"
         episode.frames = thin(episode.frames, int(GIF_SECONDS * GIF_FPS))
-        data = write_outputs(env, episode, folder, args, case_label, lb)
+        # A Ctrl-C while a seed's files are written is held until all of them are: a seed's
+        # folder is either complete or not started.
+        interrupt.enter()
+        try:
+            data = write_outputs(env, episode, folder, args, case_label, lb)
+        finally:
+            interrupt.leave()
+        progress.kept.append(seed)
         rows.append(data)
         if episode.stalled:
             failed = True
@@ -208,7 +261,8 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print(f"cmdp-simulate: seed {seed}: makespan {episode.makespan_s:.0f} s "
                   f"({data['makespan_over_lower_bound']:.2f} x lower bound), "
-                  f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}")
+                  f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}", flush=True)
+    progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
         write_makespans(args.out, rows)
     if args.gif:
@@ -219,6 +273,9 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def write_makespans(out: Path, rows: list[dict]) -> dict:
+    from cmdp_pymunk.events import write_atomic
+    from cmdp_pymunk.rollout import makespan_stats
+
     lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished,reach_rate"]
     lines += [f"{r['seed']},{r['makespan_s'] or ''},{r['makespan_over_lower_bound'] or ''},"
               f"{r['tasks_finished']},{r['all_finished']},{r['reach_rate']:.4f}" for r in rows]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -132,12 +133,15 @@ def make_vec_env(config: Stage1Config, case, start_steps: int = 0):
 
     env = MixedStageEnv(config, case, start_steps)  # not reset: its copies are pickled from it
     venv = ss.pettingzoo_env_to_vec_env_v1(env)
-    venv = ss.concat_vec_envs_v1(venv, config.n_envs, num_cpus=config.num_cpus,
-                                 base_class="stable_baselines3")
-    # SB3's PPO(seed=) does not reach SuperSuit's vector env; seed the copies directly
-    # (copy i gets seed + i).
-    venv.venv.reset(seed=config.seed)
-    return VecMonitor(venv)
+    with warnings.catch_warnings():
+        # SuperSuit's process pool has no render_mode for SB3 to read; training renders nothing
+        warnings.filterwarnings("ignore", "The `render_mode` attribute is not defined")
+        venv = ss.concat_vec_envs_v1(venv, config.n_envs, num_cpus=config.num_cpus,
+                                     base_class="stable_baselines3")
+        # SB3's PPO(seed=) does not reach SuperSuit's vector env; seed the copies directly
+        # (copy i gets seed + i).
+        venv.venv.reset(seed=config.seed)
+        return VecMonitor(venv)
 
 
 # -- behaviour cloning from the navigator -----------------------------------------------------
@@ -331,15 +335,30 @@ def save_model(model, path: Path) -> None:
 
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.tmp.zip")
-    model.save(str(tmp))
-    os.replace(tmp, path)
+    try:
+        model.save(str(tmp))
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+class TrainingInterrupted(KeyboardInterrupt):
+    """Ctrl-C during training; its message says what was under way, what was saved and how
+    to resume (``cmdp-train`` prints it as its one line)."""
 
 
 # -- main ---------------------------------------------------------------------------------------
 
 def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None,
           progress_bar: bool = True, log=print) -> Path:
-    """Train (or resume) a stage-1 run in ``run``; returns the final model's path."""
+    """Train (or resume) a stage-1 run in ``run``; returns the final model's path.
+
+    Ctrl-C raises ``TrainingInterrupted``: during PPO after saving
+    ``checkpoints/interrupted.zip`` to resume from; during behaviour cloning nothing can be
+    saved yet."""
+    import signal
+
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
@@ -361,41 +380,69 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
         from stable_baselines3.common.save_util import load_from_zip_file
 
         start_steps = load_from_zip_file(str(resume), device="cpu")[0]["num_timesteps"]
-    venv = make_vec_env(config, case, start_steps)
-    if resume is not None:
-        # a checkpoint of the v0 env saved an unbounded observation space of the same shape
-        model = PPO.load(str(resume), env=venv, device="cpu",
-                         custom_objects={"observation_space": venv.observation_space})
-        log(f"resumed from {resume} at {model.num_timesteps:,} steps")
-    else:
-        model = PPO("MlpPolicy", venv, learning_rate=config.learning_rate,
-                    n_steps=config.n_steps, batch_size=config.batch_size,
-                    n_epochs=config.n_epochs, gamma=config.gamma, gae_lambda=config.gae_lambda,
-                    clip_range=config.clip_range, ent_coef=config.ent_coef,
-                    vf_coef=config.vf_coef, policy_kwargs={"net_arch": list(config.net_arch)},
-                    device="cpu", verbose=0)
-        if config.bc_samples > 0:
-            t0 = time.perf_counter()
-            obs, acts = navigator_samples(config, case, config.bc_samples, config.seed + 10_000)
-            log(f"behaviour cloning: {len(obs):,} navigator samples in "
-                f"{time.perf_counter() - t0:.0f} s")
-            behaviour_clone(model, obs, acts, config, log)
-    model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
-                                   TensorBoardOutputFormat(str(run / "tb"))]))
-    remaining = max(0, config.total_steps - model.num_timesteps)
+    # The worker processes are forked with SIGINT blocked, so that Ctrl-C reaches only this
+    # process, which stops them in order (a worker's own KeyboardInterrupt would come back
+    # through SuperSuit's pipe as a printed traceback). Here it waits until they exist.
+    blocked = hasattr(signal, "pthread_sigmask")
+    if blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
-        model.learn(remaining, callback=make_callbacks(config, case, run),
-                    reset_num_timesteps=resume is None, progress_bar=progress_bar)
-    except KeyboardInterrupt:
-        path = run / "checkpoints" / "interrupted.zip"
-        save_model(model, path)
-        log(f"\ninterrupted at {model.num_timesteps:,} steps: saved {path}; "
-            f"resume with --resume {path}")
+        venv = make_vec_env(config, case, start_steps)
+    finally:
+        if blocked:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    try:
+        if resume is not None:
+            # a checkpoint of the v0 env saved an unbounded observation space of the same shape
+            model = PPO.load(str(resume), env=venv, device="cpu",
+                             custom_objects={"observation_space": venv.observation_space})
+            log(f"resumed from {resume} at {model.num_timesteps:,} steps")
+        else:
+            model = PPO("MlpPolicy", venv, learning_rate=config.learning_rate,
+                        n_steps=config.n_steps, batch_size=config.batch_size,
+                        n_epochs=config.n_epochs, gamma=config.gamma,
+                        gae_lambda=config.gae_lambda, clip_range=config.clip_range,
+                        ent_coef=config.ent_coef, vf_coef=config.vf_coef,
+                        policy_kwargs={"net_arch": list(config.net_arch)}, device="cpu",
+                        verbose=0)
+            if config.bc_samples > 0:
+                try:
+                    log(f"behaviour cloning: collecting {config.bc_samples:,} decisions of "
+                        "the scripted navigator")
+                    t0 = time.perf_counter()
+                    obs, acts = navigator_samples(config, case, config.bc_samples,
+                                                  config.seed + 10_000)
+                    log(f"behaviour cloning: {len(obs):,} navigator samples in "
+                        f"{time.perf_counter() - t0:.0f} s")
+                    behaviour_clone(model, obs, acts, config, log)
+                except KeyboardInterrupt:
+                    raise TrainingInterrupted(
+                        "interrupted during behaviour cloning (the warm start before PPO): "
+                        f"nothing could be saved yet, there is no model before it ends; "
+                        f"{run} holds only config{suffix}.json and case.json; start again "
+                        "with the same command (or --set bc_samples=0 to skip cloning)"
+                    ) from None
+        model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
+                                       TensorBoardOutputFormat(str(run / "tb"))]))
+        remaining = max(0, config.total_steps - model.num_timesteps)
+        log(f"PPO: {remaining:,} agent-steps to go (Ctrl-C saves a checkpoint to resume from)")
+        try:
+            model.learn(remaining, callback=make_callbacks(config, case, run),
+                        reset_num_timesteps=resume is None, progress_bar=progress_bar)
+        except KeyboardInterrupt:
+            path = run / "checkpoints" / "interrupted.zip"
+            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C waits
+            try:
+                save_model(model, path)
+            finally:
+                signal.signal(signal.SIGINT, previous)
+            raise TrainingInterrupted(
+                f"interrupted at {model.num_timesteps:,} agent-steps of PPO: saved {path}; "
+                f"resume with --resume {path}") from None
+        final = run / "final_model.zip"
+        save_model(model, final)
+    finally:
         venv.close()
-        raise
-    final = run / "final_model.zip"
-    save_model(model, final)
-    venv.close()
     try:
         from media.curves import draw_training_curve
 
@@ -407,6 +454,8 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
 
 def main(argv: list[str] | None = None) -> int:
     import argparse
+
+    from cmdp_pymunk.interrupt import sigint_guard
 
     parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(parser)
@@ -432,17 +481,23 @@ def main(argv: list[str] | None = None) -> int:
 
         return run_cli(args, argv if argv is not None else sys.argv[1:])
     try:
-        config = Stage1Config.load(args.config, args.set)
-        cmdp_pymunk.load_case(config.case)
-        if args.resume is not None and not args.resume.is_file():
-            raise ValueError(f"--resume {args.resume}: no such checkpoint")
-    except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
-        print(f"cmdp-train: {err}", file=sys.stderr)
-        return 2
-    try:
-        final = train(config, args.out, args.resume, argv=argv if argv is not None
-                      else sys.argv[1:], progress_bar=not args.no_progress)
+        with sigint_guard():  # a Ctrl-C inside pymunk's callbacks still stops training
+            try:
+                config = Stage1Config.load(args.config, args.set)
+                cmdp_pymunk.load_case(config.case)
+                if args.resume is not None and not args.resume.is_file():
+                    raise ValueError(f"--resume {args.resume}: no such checkpoint")
+            except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
+                print(f"cmdp-train: {err}", file=sys.stderr)
+                return 2
+            final = train(config, args.out, args.resume, argv=argv if argv is not None
+                          else sys.argv[1:], progress_bar=not args.no_progress)
+    except TrainingInterrupted as err:
+        print(f"\ncmdp-train: {err}", file=sys.stderr)
+        return 130
     except KeyboardInterrupt:
+        print("\ncmdp-train: interrupted while starting, before any training: nothing to "
+              "resume; start again with the same command", file=sys.stderr)
         return 130
     print(f"cmdp-train: final model {final}")
     return 0
