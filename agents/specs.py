@@ -1,8 +1,8 @@
 """The low level and the target evaluator named on a command line.
 
-``--evaluator priority|nearest|MODEL.zip`` and ``--navigator scripted|MODEL.zip`` in
-``cmdp-simulate`` and the other scripts; a model file needs stable-baselines3 (imported only
-then).
+``--evaluator priority|nearest|ga:PATH|cpsat|cpsat:PATH|MODEL.zip`` and
+``--navigator scripted|MODEL.zip`` in ``cmdp-simulate`` and the other scripts; a model file
+needs stable-baselines3 (imported only then).
 """
 
 from __future__ import annotations
@@ -15,13 +15,27 @@ from cmdp_pymunk.policy import LowLevel
 from .navigator import Navigator
 from .priority import PriorityEvaluator
 
+EVALUATOR_HELP = ("priority (Eq. 9), nearest, ga:PATH (a task-priority file, e.g. made by "
+                  "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
+                  "saved plan), or a stage-2 model .zip")
+
 
 def make_evaluator(spec: str):
-    """``priority`` (Eq. 9), ``nearest`` or a stage-2 model ``.zip``; ValueError otherwise."""
+    """``priority`` (Eq. 9), ``nearest``, ``ga:PATH`` or ``cpsat:PATH`` (a task-priority
+    file), ``cpsat`` (a plan solved when bound to the env), or a stage-2 model ``.zip``;
+    ValueError otherwise (naming the file and the fix)."""
     if spec == "priority":
         return PriorityEvaluator()
     if spec == "nearest":
         return NearestFirstEvaluator()
+    if spec.startswith(("ga:", "cpsat:")):
+        from .task_priority import load_priorities
+
+        return load_priorities(spec.split(":", 1)[1])
+    if spec == "cpsat":
+        from .cpsat import PlanEvaluator
+
+        return PlanEvaluator()
     from .models import ModelEvaluator  # needs stable-baselines3
 
     return ModelEvaluator(model_path(spec, "--evaluator"))
@@ -45,6 +59,8 @@ def model_path(spec: str, option: str) -> Path:
     """``spec`` as an existing file, or a ValueError naming ``option`` and the fix."""
     path = Path(spec)
     if not path.is_file():
+        names = ("priority, nearest, ga:PATH, cpsat, cpsat:PATH" if option == "--evaluator"
+                 else "scripted")
         raise ValueError(f"{option} {spec!r}: no such model file; give a .zip saved by "
-                         "stable-baselines3, or one of the built-in names")
+                         f"stable-baselines3, or one of {names}")
     return path

@@ -1,0 +1,169 @@
+"""Episodes as rows of numbers, in this process or in worker processes: what the GA and
+``cmdp-evaluate`` share.
+
+``episode_row`` sums up one finished (or stopped) episode: makespan, reaching steps, idle
+steps by cause, crane waits, whether it stalled or timed out. ``EpisodeRunner`` holds one env
+and low level per (evaluator, navigator) pair and runs seeds on them; ``Workers`` maps jobs
+over worker processes (each with its own runner, one torch thread) or in this process for
+``workers=1``, in job order either way, so results do not depend on the number of workers.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Callable, Iterable, Iterator
+
+import cmdp_pymunk
+from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
+
+from .models import PolicyStuck
+from .specs import make_evaluator, make_navigator
+
+ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished",
+              "simulated_s", "reaching_steps", "idle_waiting_for_predecessor",
+              "idle_blocked_by_task_area", "idle_no_target", "idle_steps", "crane_waits",
+              "crane_wait_s", "reach_rate", "wall_s", "stall_reason")
+
+
+def episode_row(env, episode: Episode | None, stall_reason: str = "") -> dict:
+    """One episode's numbers, summed over the crews (``ROW_FIELDS``). ``episode`` None: the
+    low level raised (``stall_reason`` says what); the episode counts as stalled."""
+    site = env.site
+    crews = site.crews
+    idle = {cause: sum(c.stats.idle_steps[cause] for c in crews) for cause in (1, 2, 3)}
+    stalled = episode is None or episode.stalled is not None
+    if episode is not None and episode.stalled is not None:
+        stall_reason = (f"no task moved on for {episode.stalled['after_s']:.0f} s "
+                        f"(t = {episode.stalled['time_s']:.0f} s)")
+    return {
+        "makespan_s": episode.makespan_s if episode is not None else None,
+        "finished": bool(site.done),
+        "stalled": stalled,
+        "timed_out": not site.done and not stalled,
+        "tasks_finished": site.tasks_ended,
+        "simulated_s": site.time_s,
+        "reaching_steps": sum(c.stats.reaching_steps for c in crews),
+        "idle_waiting_for_predecessor": idle[1],
+        "idle_blocked_by_task_area": idle[2],
+        "idle_no_target": idle[3],
+        "idle_steps": sum(idle.values()),
+        "crane_waits": sum(c.stats.crane_waits for c in crews),
+        "crane_wait_s": sum(c.stats.crane_wait_steps for c in crews),
+        "reach_rate": round(episode_reach_rate(env), 4),
+        "wall_s": round(episode.wall_s, 3) if episode is not None else None,
+        "stall_reason": stall_reason,
+    }
+
+
+def make_env(case, evaluator, navigator_spec: str, max_time_s: float | None = None):
+    """The stage-2 env as ``cmdp-simulate`` builds it: the scripted navigator lets the env skip
+    parked crews' seconds (``park_idle``); a trained navigator decides for every crew."""
+    env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
+                                   max_time_s=max_time_s,
+                                   park_idle=navigator_spec == "scripted")
+    if hasattr(evaluator, "bind"):
+        evaluator.bind(env)
+    return env
+
+
+class EpisodeRunner:
+    """Envs and low levels kept per (evaluator, navigator) pair; ``run`` plays one seed.
+
+    An evaluator is a spec (``agents.specs.make_evaluator``) or an evaluator object (the GA
+    passes its individuals); an object is swapped into a cached env of the same navigator.
+    """
+
+    def __init__(self, case, stall_s: float | None = 3600.0, max_time_s: float | None = None,
+                 deterministic: bool = False):
+        self.case = case
+        self.stall_s = stall_s
+        self.max_time_s = max_time_s
+        self.deterministic = deterministic
+        self._cache: dict = {}
+
+    def _env(self, evaluator, navigator_spec: str):
+        key = (evaluator if isinstance(evaluator, str) else "<object>", navigator_spec)
+        if key not in self._cache:
+            ev = make_evaluator(evaluator) if isinstance(evaluator, str) else evaluator
+            env = make_env(self.case, ev, navigator_spec, self.max_time_s)
+            self._cache[key] = (env, make_navigator(navigator_spec, env, self.deterministic))
+        env, navigator = self._cache[key]
+        if not isinstance(evaluator, str):
+            if hasattr(evaluator, "bind"):
+                evaluator.bind(env)
+            env.evaluator = evaluator
+        return env, navigator
+
+    def run(self, evaluator, navigator_spec: str, seed: int) -> dict:
+        env, navigator = self._env(evaluator, navigator_spec)
+        try:
+            episode = run_episode(env, navigator, seed, self.stall_s, progress=False)
+        except PolicyStuck as err:
+            return episode_row(env, None, str(err))
+        return episode_row(env, episode)
+
+
+# -- worker processes ---------------------------------------------------------------------------
+
+_RUNNER: EpisodeRunner | None = None
+_JOB: Callable | None = None
+
+
+def _init_worker(runner_args: tuple, job: Callable) -> None:
+    global _RUNNER, _JOB
+    try:  # two torch threads per worker oversubscribe the cores (shared/PITFALLS.md)
+        import torch
+
+        torch.set_num_threads(1)
+    except ImportError:
+        pass
+    _RUNNER, _JOB = EpisodeRunner(*runner_args), job
+
+
+def _call(args):
+    return _JOB(_RUNNER, *args)
+
+
+def default_workers() -> int:
+    """Every core this process may use."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+class Workers:
+    """``job(runner, *args)`` over worker processes, each with its own
+    ``EpisodeRunner(*runner_args)``; one process (no pool) for ``workers=1``. ``map`` returns
+    the results in job order. Use as a context manager (the pool lives until exit); ``job``
+    must be a module-level function (it is pickled by name)."""
+
+    def __init__(self, job: Callable, runner_args: tuple, workers: int):
+        self.job, self.runner_args, self.workers = job, runner_args, max(1, int(workers))
+        self._pool = self._runner = None
+
+    def __enter__(self) -> Workers:
+        if self.workers == 1:
+            self._runner = EpisodeRunner(*self.runner_args)
+        else:
+            ctx = multiprocessing.get_context("spawn")  # no forked torch or pygame state
+            self._pool = ctx.Pool(self.workers, _init_worker, (self.runner_args, self.job))
+        return self
+
+    def imap(self, jobs: Iterable[tuple]) -> Iterator:
+        """Results one at a time, in job order (for a progress bar)."""
+        if self._pool is None:
+            return (self.job(self._runner, *args) for args in jobs)
+        return self._pool.imap(_call, list(jobs), chunksize=1)
+
+    def map(self, jobs: Iterable[tuple]) -> list:
+        return list(self.imap(jobs))
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            if exc[0] is None:
+                self._pool.close()
+            else:
+                self._pool.terminate()
+            self._pool.join()

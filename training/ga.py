@@ -1,0 +1,120 @@
+"""``cmdp-ga``: search task priorities with a genetic algorithm (section 5.3's GA baseline).
+
+    cmdp-ga [--config training/configs/ga.toml] [--set key=value ...] [--workers N]
+            [--out DIR] [--resume]
+
+Writes into DIR: ``best.json`` (the best priority file so far: use it with
+``cmdp-simulate --evaluator ga:DIR/best.json``), ``history.csv`` (best, mean and worst
+fitness per generation), ``checkpoint.pkl`` (after every generation; ``--resume`` continues
+from it, exactly as if never stopped) and ``config.json`` (settings, case, versions, command).
+The settings are ``agents.ga.GAConfig``'s; a bad one exits with 2 naming it and the fix.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import cmdp_pymunk
+from agents.episodes import default_workers
+from agents.ga import GAConfig, run_ga
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.rollout import versions
+from training.cli import OneLineParser, positive_int
+
+DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
+
+
+@dataclass(frozen=True)
+class GAArgs:
+    config: Path
+    overrides: tuple[str, ...]
+    workers: int
+    out: Path
+    resume: bool
+    progress: bool
+
+
+def parse_args(argv: list[str] | None = None) -> GAArgs:
+    p = OneLineParser(prog="cmdp-ga", description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(p)
+    p.add_argument("--config", type=Path, default=DEFAULT_CONFIG)
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a setting of the config")
+    p.add_argument("--workers", type=positive_int, default=default_workers(),
+                   help="worker processes for the episodes (default: every core)")
+    p.add_argument("--out", type=Path, default=Path("runs/ga"))
+    p.add_argument("--resume", action="store_true",
+                   help="continue from DIR/checkpoint.pkl")
+    p.add_argument("--no-progress", action="store_true")
+    a = p.parse_args(argv)
+    return GAArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress)
+
+
+def load_config(path: Path, overrides: tuple[str, ...]) -> GAConfig:
+    """The config file with ``--set`` overrides, validated (ValueError naming each problem)."""
+    import tomllib
+
+    from pydantic import ValidationError
+
+    from training.stage1 import _config_problems
+
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise ValueError(f"{path}: cannot read the config ({err}); fix: check the path and the "
+                         "TOML syntax") from None
+    for item in overrides:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--set {item!r}: write key=value, e.g. --set generations=10")
+        try:
+            data[key] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            data[key] = value
+    unknown = sorted(set(data) - set(GAConfig.model_fields))
+    if unknown:
+        raise ValueError(f"{path}: unknown setting(s) {', '.join(unknown)}; known: "
+                         f"{', '.join(GAConfig.model_fields)}")
+    try:
+        return GAConfig.model_validate(data)
+    except ValidationError as err:
+        raise ValueError(f"{path}: " + "; ".join(_config_problems(err))) from None
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        config = load_config(args.config, args.overrides)
+        case = cmdp_pymunk.load_case(config.case)
+    except ValueError as err:  # CaseError is a ValueError
+        print(f"cmdp-ga: {err}", file=sys.stderr)
+        return 2
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_atomic(args.out / "config.json", json.dumps(
+        {"config": config.model_dump(), "case": case.model_dump(mode="json"),
+         "workers": args.workers, "command": sys.argv, "versions": versions()},
+        indent=2) + "\n")
+    print(f"cmdp-ga: case {case.case.name!r}, {len(case.tasks)} genes, population "
+          f"{config.population}, {config.generations} generations, training seeds "
+          f"{config.train_seeds}, {args.workers} worker(s)")
+    try:
+        state = run_ga(case, config, args.out, args.workers, args.resume, args.progress)
+    except ValueError as err:
+        print(f"cmdp-ga: {err}", file=sys.stderr)
+        return 2
+    for row in state.log:
+        print(f"cmdp-ga: generation {row['generation']}: best {row['best']:.0f}, mean "
+              f"{row['mean']:.0f} ({row['evaluations']} episodes so far)")
+    print(f"cmdp-ga: best fitness {state.best[1]:.0f} -> {args.out / 'best.json'}")
+    return 0
+
+
+def entry_point() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry_point()
