@@ -153,7 +153,7 @@ def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = F
            progress: bool = True) -> GAState:
     """Search, writing ``out/checkpoint.pkl`` after every generation, ``out/history.csv`` and
     ``out/best.json`` (the best priority file so far). ``resume`` continues from the
-    checkpoint (which must come from the same config)."""
+    checkpoint (which must come from the same config, up to ``generations``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -165,11 +165,13 @@ def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = F
             raise ValueError(f"{checkpoint}: no checkpoint to resume from; fix: drop --resume "
                              "or give the folder of an earlier run")
         state: GAState = pickle.loads(checkpoint.read_bytes())
-        if state.config != settings:
-            changed = sorted(k for k in settings if state.config.get(k) != settings[k])
+        changed = sorted(k for k in settings if k != "generations"  # more generations: fine
+                         and state.config.get(k) != settings[k])
+        if changed:
             raise ValueError(f"{checkpoint}: made with other settings ({', '.join(changed)}); "
                              "fix: resume with the same config, or start a new --out")
         random.setstate(state.random_state)
+        state.config = settings
     else:
         random.seed(config.seed)
         state = GAState(0, [], [], config=settings)

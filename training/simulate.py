@@ -1,11 +1,13 @@
 """``cmdp-simulate``: simulate a whole floor without training, and look at the result.
 
-    cmdp-simulate [--case FILE] [--evaluator priority|nearest|MODEL.zip]
+    cmdp-simulate [--case FILE] [--evaluator priority|nearest|ga:PATH|cpsat|MODEL.zip]
                   [--navigator scripted|MODEL.zip] [--seed N] [--episodes N] [--out DIR] [--gif]
+                  [--cpsat-s SECONDS]
 
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
 by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
-seed, case, versions), ``events.csv`` (the event log), ``gantt_agents.png``, ``gantt_tasks.png``,
+seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.py),
+``events.csv`` (the event log), ``gantt_agents.png``, ``gantt_tasks.png``,
 ``trajectories.png``, with ``--gif`` ``rollout.gif``, and ``case.json`` (the resolved case).
 With ``--episodes N`` each episode (seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and
 DIR gets ``makespans.csv`` and ``makespans.json`` (mean and spread).
@@ -48,16 +50,18 @@ class SimulateArgs:
     charts: bool = True
     progress: bool = True
     deterministic: bool = False
+    cpsat_s: float | None = None
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     import cmdp_pymunk
+    from agents.specs import EVALUATOR_HELP
 
     p = OneLineParser(prog="cmdp-simulate", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--evaluator", default="priority",
-                   help="priority (Eq. 9), nearest, or a stage-2 model .zip (default: priority)")
+                   help=EVALUATOR_HELP + " (default: priority)")
     p.add_argument("--navigator", default="scripted",
                    help="scripted, or a stage-1 reaching model .zip (default: scripted)")
     p.add_argument("--seed", type=non_negative_int, default=0)
@@ -73,20 +77,24 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     p.add_argument("--deterministic", action="store_true",
                    help="a model navigator takes its argmax action instead of sampling (it "
                         "stops with a message when a crew repeats a blocked move)")
+    p.add_argument("--cpsat-s", type=positive_seconds, default=None, metavar="SECONDS",
+                   help="also solve the case as a schedule with CP-SAT for this long and report "
+                        "its proven makespan bound in summary.json (and the plan that "
+                        "--evaluator cpsat replays; default for it: 20 s)")
     p.add_argument("--stochastic", action="store_true",
                    help="accepted for old scripts; sampling is the default now")
     a = p.parse_args(argv)
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
-                        a.deterministic)
+                        a.deterministic, a.cpsat_s)
 
 
-def summary(env, episode, args: SimulateArgs, case_label: str, lb) -> dict:
+def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
     from cmdp_pymunk.rollout import crew_summary, episode_reach_rate, versions
 
     site = env.site
     makespan = episode.makespan_s
-    return {
+    data = {
         "case": site.case.case.name, "case_file": case_label, "seed": episode.seed,
         "stage": env.stage, "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
@@ -103,6 +111,11 @@ def summary(env, episode, args: SimulateArgs, case_label: str, lb) -> dict:
         if episode.wall_s > 0 else None,
         "versions": versions(),
     }
+    if cpsat is not None:
+        data["cpsat"] = cpsat.as_dict()
+        data["makespan_over_cpsat_bound"] = makespan / cpsat.bound_s \
+            if makespan and cpsat.bound_s > 0 else None
+    return data
 
 
 def write_json(path: Path, data) -> None:
@@ -112,9 +125,9 @@ def write_json(path: Path, data) -> None:
 
 
 def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: str,
-                  lb) -> dict:
+                  lb, cpsat=None) -> dict:
     folder.mkdir(parents=True, exist_ok=True)
-    data = summary(env, episode, args, case_label, lb)
+    data = summary(env, episode, args, case_label, lb, cpsat)
     env.log.write_csv(folder / "events.csv")
     write_json(folder / "summary.json", data)
     if args.charts:
@@ -211,6 +224,16 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                                    max_time_s=args.max_time_s,
                                    position_log_every_s=POSITION_LOG_EVERY_S,
                                    park_idle=args.navigator == "scripted")
+    cpsat = None
+    if args.cpsat_s is not None or args.evaluator == "cpsat":
+        from agents.cpsat import DEFAULT_TIME_LIMIT_S, solve
+
+        cpsat = solve(case, args.cpsat_s or DEFAULT_TIME_LIMIT_S)
+        print(f"cmdp-simulate: CP-SAT schedule bound {cpsat.bound_s:.0f} s "
+              f"({'optimal' if cpsat.optimal else 'not proven optimal'}; best schedule "
+              f"{cpsat.makespan_s or float('nan'):.0f} s, {cpsat.wall_s:.1f} s)")
+        if args.evaluator == "cpsat":
+            evaluator.use(cpsat)
     try:
         if hasattr(evaluator, "bind"):
             evaluator.bind(env)
@@ -244,7 +267,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         # folder is either complete or not started.
         interrupt.enter()
         try:
-            data = write_outputs(env, episode, folder, args, case_label, lb)
+            data = write_outputs(env, episode, folder, args, case_label, lb, cpsat)
         finally:
             interrupt.leave()
         progress.kept.append(seed)

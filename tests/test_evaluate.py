@@ -1,0 +1,102 @@
+"""``cmdp-evaluate`` and its statistics (training/comparison.py), on the tiny example case."""
+
+import argparse
+import csv
+import json
+from pathlib import Path
+
+import pytest
+
+import cmdp_pymunk
+from agents.task_priority import save_priorities
+from training import evaluate
+from training.comparison import mean_ci, paired
+
+TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
+FILES = ("episodes.csv", "summary.csv", "summary.md", "summary.json", "settings.json",
+         "cpsat_plan.json", "fig12_makespan.png", "fig13_reaching_steps.png",
+         "fig14_idle_task_area.png")
+
+
+def test_seed_list():
+    assert evaluate.seed_list("0-3") == [0, 1, 2, 3]
+    assert evaluate.seed_list("5,0-1,9") == [5, 0, 1, 9]
+    for bad in ("3-1", "a", "-1", "1,1"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            evaluate.seed_list(bad)
+
+
+def test_mean_ci_by_hand():
+    # 1, 2, 3: mean 2, sample std 1, t(0.975, 2) = 4.3027 -> 4.3027 / sqrt(3) = 2.4841
+    mean, std, ci = mean_ci([1.0, 2.0, 3.0])
+    assert (mean, std) == (2.0, 1.0) and ci == pytest.approx(2.4841, abs=1e-4)
+    assert mean_ci([5.0]) == (5.0, None, None) and mean_ci([None]) == (None, None, None)
+
+
+def test_paired_difference_over_common_finished_seeds():
+    ref = [{"seed": s, "finished": True, "makespan_s": m} for s, m in ((0, 100), (1, 200),
+                                                                       (2, 300))]
+    mine = [{"seed": 0, "finished": True, "makespan_s": 90},
+            {"seed": 1, "finished": True, "makespan_s": 170},
+            {"seed": 2, "finished": False, "makespan_s": None}]
+    out = paired(mine, ref)
+    # seeds 0 and 1: differences -10 and -30 -> mean -20; ratio (90 + 170) / (100 + 200)
+    assert out["paired_seeds"] == 2 and out["diff_mean_s"] == -20.0
+    assert out["ratio"] == pytest.approx(260 / 300)
+
+
+def test_evaluate_writes_every_file(tmp_path, capsys):
+    case = cmdp_pymunk.load_case(TINY)
+    ga = save_priorities(tmp_path / "ga.json", case, {t.id: 0.5 for t in case.tasks}, 0.5, "ga")
+    out = tmp_path / "cmp"
+    assert evaluate.main(["--case", TINY, "--seeds", "0-1", "--strategies",
+                          f"priority,nearest,ga:{ga},cpsat", "--workers", "1", "--out",
+                          str(out), "--cpsat-s", "5", "--no-progress"]) == 0
+    for name in FILES:
+        assert (out / name).stat().st_size > 0, name
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert len(rows) == 8 and {r["strategy"] for r in rows} == {"priority", "nearest",
+                                                                f"ga:{ga}", "cpsat"}
+    assert all(r["finished"] == "True" and float(r["makespan_s"]) > 0 for r in rows)
+    summary = json.loads((out / "summary.json").read_text())
+    prio = summary[0]
+    assert prio["strategy"] == "priority" and prio["vs_priority_ratio"] == 1.0
+    settings = json.loads((out / "settings.json").read_text())
+    assert settings["cpsat"]["optimal"] and settings["seeds"] == [0, 1]
+    assert "| priority | scripted | 2/2 |" in (out / "summary.md").read_text()
+    assert "CP-SAT schedule bound" in capsys.readouterr().out
+
+
+def test_a_stalled_strategy_is_reported(tmp_path, capsys):
+    out = tmp_path / "stall"
+    # no task moves on in the first 5 s of walking: every episode stalls
+    assert evaluate.main(["--case", TINY, "--seeds", "0-1", "--strategies", "priority",
+                          "--workers", "1", "--out", str(out), "--stall-s", "5",
+                          "--cpsat-s", "5", "--no-progress", "--no-figures"]) == 1
+    summary = json.loads((out / "summary.json").read_text())[0]
+    assert summary["stalled"] == 2 and summary["stalled_seeds"] == [0, 1]
+    assert summary["finished"] == 0 and summary["makespan_mean_s"] is None
+    assert "priority / scripted: stalled on seed(s) 0, 1." in (out / "summary.md").read_text()
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert all(r["stalled"] == "True" and "no task moved on" in r["stall_reason"]
+               for r in rows)
+
+
+def test_bad_strategy_fails_before_any_episode(tmp_path, capsys):
+    assert evaluate.main(["--case", TINY, "--strategies", "priority,nope.zip", "--out",
+                          str(tmp_path / "x"), "--no-progress"]) == 2
+    assert "no such model file" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists()
+
+
+@pytest.mark.slow
+def test_two_workers_give_the_same_episodes(tmp_path):
+    outs = []
+    for w in ("1", "2"):
+        out = tmp_path / w
+        assert evaluate.main(["--case", TINY, "--seeds", "0-3", "--strategies",
+                              "priority,nearest", "--workers", w, "--out", str(out),
+                              "--cpsat-s", "5", "--no-progress", "--no-figures"]) == 0
+        rows = list(csv.DictReader((out / "episodes.csv").open()))
+        outs.append([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
+    assert outs[0] == outs[1]

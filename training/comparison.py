@@ -1,0 +1,135 @@
+"""Summing up a comparison of strategies: means with 95 % intervals, paired differences to the
+priority heuristic over the same seeds, and the table in Markdown and CSV.
+
+Rows are ``agents.episodes.episode_row`` dicts with ``strategy``, ``navigator`` and ``seed``
+added. Means of makespan are over the finished episodes; the other columns over every
+episode. A strategy's episodes that stalled or timed out are counted and listed, never
+dropped silently.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+REFERENCE = "priority"
+
+
+def mean_ci(values) -> tuple[float | None, float | None, float | None]:
+    """Mean, sample standard deviation and the half-width of the 95 % interval of the mean
+    (Student's t with n - 1 degrees of freedom); std and interval None for fewer than 2."""
+    from scipy import stats
+
+    x = np.asarray([v for v in values if v is not None], dtype=float)
+    if len(x) == 0:
+        return None, None, None
+    if len(x) == 1:
+        return float(x[0]), None, None
+    std = float(np.std(x, ddof=1))
+    return float(x.mean()), std, float(stats.t.ppf(0.975, len(x) - 1) * std / math.sqrt(len(x)))
+
+
+def paired(rows: list[dict], reference: list[dict]) -> dict:
+    """The strategy against the reference on the seeds both finished: mean difference of
+    makespan (strategy - reference) with its 95 % interval, and the ratio of the means."""
+    ref = {r["seed"]: r["makespan_s"] for r in reference if r["finished"]}
+    pairs = [(r["makespan_s"], ref[r["seed"]]) for r in rows
+             if r["finished"] and r["seed"] in ref]
+    if not pairs:
+        return {"paired_seeds": 0, "diff_mean_s": None, "diff_ci95_s": None, "ratio": None}
+    mine, theirs = np.array(pairs, dtype=float).T
+    diff, _, ci = mean_ci(mine - theirs)
+    return {"paired_seeds": len(pairs), "diff_mean_s": diff, "diff_ci95_s": ci,
+            "ratio": float(mine.mean() / theirs.mean())}
+
+
+def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | None) -> list[dict]:
+    """One entry per (strategy, navigator), in the order they first appear in ``rows``."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["strategy"], r["navigator"]), []).append(r)
+    out = []
+    for (strategy, navigator), group in groups.items():
+        finished = [r["makespan_s"] for r in group if r["finished"]]
+        mean, std, ci = mean_ci(finished)
+        entry = {
+            "strategy": strategy, "navigator": navigator, "episodes": len(group),
+            "finished": len(finished),
+            "stalled": sum(r["stalled"] for r in group),
+            "timed_out": sum(r["timed_out"] for r in group),
+            "stalled_seeds": [r["seed"] for r in group if r["stalled"]],
+            "timed_out_seeds": [r["seed"] for r in group if r["timed_out"]],
+            "makespan_mean_s": mean, "makespan_std_s": std, "makespan_ci95_s": ci,
+            "over_lower_bound": mean / lower_bound_s if mean else None,
+            "over_cpsat_bound": mean / cpsat_bound_s if mean and cpsat_bound_s else None,
+        }
+        for key in ("reaching_steps", "idle_waiting_for_predecessor",
+                    "idle_blocked_by_task_area", "idle_no_target", "crane_waits",
+                    "crane_wait_s"):
+            m, _, c = mean_ci([r[key] for r in group])
+            entry[f"{key}_mean"], entry[f"{key}_ci95"] = m, c
+        reference = groups.get((REFERENCE, navigator))
+        entry.update({f"vs_{REFERENCE}_{k}": v for k, v in
+                      paired(group, reference or []).items()})
+        out.append(entry)
+    return out
+
+
+def _num(value, digits: int = 0, pm: float | None = None) -> str:
+    if value is None:
+        return "-"
+    text = f"{value:,.{digits}f}"
+    return text + (f" ± {pm:,.{digits}f}" if pm is not None else "")
+
+
+def markdown_table(summary: list[dict], lower_bound_s: float,
+                   cpsat: dict | None) -> str:
+    """The comparison as Markdown: one row per strategy and low level, then the bounds and the
+    stalled or timed-out episodes."""
+    head = ("| strategy | low level | finished | makespan (s), mean ± 95 % CI | x lower bound "
+            "| x CP-SAT bound | vs priority: diff (s) ± 95 % CI | ratio | reaching steps "
+            "| idle: predecessor / task area / no target | crane waits |")
+    lines = [head, "|" + "---|" * 11]
+    for e in summary:
+        ref = e[f"vs_{REFERENCE}_diff_mean_s"]
+        vs = "-" if e["strategy"] == REFERENCE or ref is None else \
+            _num(ref, 0, e[f"vs_{REFERENCE}_diff_ci95_s"])
+        ratio = "-" if e["strategy"] == REFERENCE else _num(e[f"vs_{REFERENCE}_ratio"], 3)
+        idle = " / ".join(_num(e[f"{k}_mean"]) for k in (
+            "idle_waiting_for_predecessor", "idle_blocked_by_task_area", "idle_no_target"))
+        lines.append(
+            f"| {e['strategy']} | {e['navigator']} | {e['finished']}/{e['episodes']} | "
+            f"{_num(e['makespan_mean_s'], 0, e['makespan_ci95_s'])} | "
+            f"{_num(e['over_lower_bound'], 2)} | {_num(e['over_cpsat_bound'], 2)} | {vs} | "
+            f"{ratio} | {_num(e['reaching_steps_mean'])} | {idle} | "
+            f"{_num(e['crane_waits_mean'], 1)} |")
+    lines.append("")
+    lines.append(f"Lower bound (critical path or per-crew-type work): {lower_bound_s:,.0f} s.")
+    if cpsat:
+        state = "proven optimal" if cpsat["optimal"] else \
+            f"not proven optimal in {cpsat['time_limit_s']:g} s; best schedule " \
+            f"{_num(cpsat['makespan_s'])} s, gap {_num(100 * (cpsat['gap'] or 0), 1)} %"
+        lines.append(f"CP-SAT schedule bound (walking and material lifts left out): "
+                     f"{cpsat['bound_s']:,.0f} s ({state}).")
+    for e in summary:
+        for kind in ("stalled", "timed_out"):
+            if e[f"{kind}_seeds"]:
+                lines.append(f"{e['strategy']} / {e['navigator']}: {kind.replace('_', ' ')} "
+                             f"on seed(s) {', '.join(map(str, e[f'{kind}_seeds']))}.")
+    return "\n".join(lines) + "\n"
+
+
+def csv_text(rows: list[dict], fields: list[str]) -> str:
+    """Rows as CSV (numbers as they are, None empty, commas in text quoted)."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    writer = csv.DictWriter(buf, fields, extrasaction="ignore", lineterminator="\n")
+    writer.writeheader()
+    for r in rows:
+        writer.writerow({k: ("" if r.get(k) is None else
+                             ";".join(map(str, r[k])) if isinstance(r.get(k), list) else r[k])
+                         for k in fields})
+    return buf.getvalue()
