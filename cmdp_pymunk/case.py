@@ -43,6 +43,8 @@ from .case_model import (  # noqa: F401  (re-exported: the models are part of th
 )
 
 BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
+# the tiny case of the docs, the command-line tests and cmdp/TinyFloor-v1
+TINY_CASE = Path(__file__).with_name("cases") / "tiny_floor.toml"
 
 
 @dataclass
@@ -607,4 +609,5 @@ def as_case(case: Case | str | Path | dict | None) -> Case:
     return load_case(case)
 
 
-__all__ = ["Case", "CaseError", "load_case", "case_from_dict", "as_case", "BUILTIN_CASE"]
+__all__ = ["Case", "CaseError", "load_case", "case_from_dict", "as_case", "BUILTIN_CASE",
+           "TINY_CASE"]

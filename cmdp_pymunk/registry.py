@@ -5,6 +5,11 @@
     env = pettingzoo.make("parallel", "cmdp/PrecastFloor-v1")     # ParallelEnv
     env = pettingzoo.make("aec", "cmdp/PrecastFloor-stage1-v1")   # AEC, via parallel_to_aec
 
+``cmdp/PrecastFloor-v1`` (the paper's floor, full CMDP), ``cmdp/PrecastFloor-stage1-v1``
+(section 4.2's stage 1 on it), ``cmdp/TinyFloor-v1`` (the tiny case of the docs and tests),
+and the generated layouts' split ``cmdp/GeneratedFloor-train0-v1`` ... and
+``cmdp/GeneratedFloor-test0-v1`` ... (``cmdp_pymunk.layouts``).
+
 Every variant takes the env's arguments as keyword overrides (``seed``, ``render_mode``,
 ``max_time_s``, ...). Targets are valued by the priority heuristic (Eq. 9) unless
 ``evaluator`` says otherwise: ``"priority"``, ``"nearest"``, or an evaluator object.
@@ -16,8 +21,10 @@ from __future__ import annotations
 from pettingzoo import register
 from pettingzoo.utils.conversions import parallel_to_aec
 
+from .case import TINY_CASE
 from .env import CMDPEnv
 from .evaluate import NearestFirstEvaluator
+from .layouts import layout_files
 
 STAGE1_EPISODE_S = 3000.0  # stage-1 episodes are cut here, as in training/configs/stage1.toml
 
@@ -25,7 +32,14 @@ STAGE1_EPISODE_S = 3000.0  # stage-1 episodes are cut here, as in training/confi
 VARIANTS: dict[str, dict] = {
     "cmdp/PrecastFloor-v1": {"stage": 2},
     "cmdp/PrecastFloor-stage1-v1": {"stage": 1, "max_time_s": STAGE1_EPISODE_S},
+    # the tiny case of the docs and the tests: 2 crews, 3 tasks, episodes of seconds
+    "cmdp/TinyFloor-v1": {"stage": 2, "case": str(TINY_CASE)},
 }
+# the published split of generated layouts (cmdp_pymunk.layouts): train on the first,
+# measure generalisation to an unseen floor on the second
+GENERATED = {f"cmdp/GeneratedFloor-{split}{k}-v1": {"stage": 2, "case": str(path)}
+             for split in ("train", "test") for k, path in enumerate(layout_files(split))}
+VARIANTS.update(GENERATED)
 
 
 def make_evaluator(evaluator):

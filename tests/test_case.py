@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from cmdp_pymunk.case import BUILTIN_CASE, CaseError, case_from_dict, load_case
+from cmdp_pymunk.case import BUILTIN_CASE, TINY_CASE, CaseError, case_from_dict, load_case
 
 ROOT = Path(__file__).resolve().parent.parent
 BUILTIN = tomllib.loads(BUILTIN_CASE.read_text(encoding="utf-8"))
@@ -467,7 +467,7 @@ def test_builtin_case_paper_values():
 
 
 def test_documented_tiny_case_loads():
-    case = load_case(ROOT / "docs" / "examples" / "tiny_case.toml")
+    case = load_case(TINY_CASE)
     assert (len(case.components), len(case.tasks), len(case.crews)) == (3, 3, 2)
     assert [t.predecessors for t in case.tasks] == [(), ("HI-P-1",), ("HI-P-1",)]
 
@@ -479,7 +479,7 @@ def test_docs_example_is_the_example_file():
     text = (ROOT / "docs" / "case-study.md").read_text(encoding="utf-8")
     block = re.search(r"```toml\n(.*?)```", text, re.S)[1]
     printed = case_from_dict(tomllib.loads(block), "case-study.md")
-    example = load_case(ROOT / "docs" / "examples" / "tiny_case.toml")
+    example = load_case(TINY_CASE)
     assert printed.model_dump(exclude={"case"}) == example.model_dump(exclude={"case"})
 
 

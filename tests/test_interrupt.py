@@ -18,7 +18,7 @@ from cmdp_pymunk.case import case_from_dict
 from cmdp_pymunk.interrupt import sigint_guard
 
 ROOT = Path(__file__).resolve().parents[1]
-TINY = str(ROOT / "docs" / "examples" / "tiny_case.toml")
+TINY = str(cmdp_pymunk.TINY_CASE)
 
 
 def world_with_a_callback_that_gets_sigint():

@@ -9,12 +9,13 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 
+import cmdp_pymunk
 from cmdp_pymunk import load_case
 from cmdp_pymunk.observe import evaluation_size
 from cmdp_pymunk.state import Site
 from training import simulate
 
-TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
+TINY = str(cmdp_pymunk.TINY_CASE)
 
 
 class Shape(gym.Env):

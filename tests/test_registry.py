@@ -9,7 +9,7 @@ from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, see
 from pettingzoo.test.state_test import state_test
 
 import cmdp_pymunk
-from cmdp_pymunk.registry import VARIANTS, make_evaluator
+from cmdp_pymunk.registry import GENERATED, VARIANTS, make_evaluator
 
 # warnings we accept, each by design: MultiDiscrete actions (section 3.6.2), the constant
 # all-zero observation of a crew that needs no movement decision, crew ids as agent names
@@ -21,7 +21,10 @@ ACCEPTED = ("Action space for each agent probably should be",
 def test_variants_are_registered_under_both_apis():
     for env_id in VARIANTS:
         assert env_id in pettingzoo.parallel_registry and env_id in pettingzoo.aec_registry
-    assert {"cmdp/PrecastFloor-v1", "cmdp/PrecastFloor-stage1-v1"} <= set(VARIANTS)
+    assert {"cmdp/PrecastFloor-v1", "cmdp/PrecastFloor-stage1-v1", "cmdp/TinyFloor-v1",
+            "cmdp/GeneratedFloor-train0-v1", "cmdp/GeneratedFloor-test0-v1"} <= set(VARIANTS)
+    tiny = pettingzoo.make("parallel", "cmdp/TinyFloor-v1")
+    assert tiny.case == cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE)
     env = pettingzoo.make("parallel", "cmdp/PrecastFloor-v1", seed=3)
     assert isinstance(env, cmdp_pymunk.CMDPEnv) and env.stage == 2
     assert env.metadata["name"] == "cmdp_pymunk_v1"
@@ -35,7 +38,12 @@ def test_variants_are_registered_under_both_apis():
         make_evaluator("best")
 
 
-@pytest.mark.parametrize("env_id", sorted(VARIANTS))
+# every variant; of the generated layouts, one of each split in the fast tests
+FAST = [v for v in VARIANTS if v not in GENERATED or v.endswith(("-train0-v1", "-test0-v1"))]
+
+
+@pytest.mark.parametrize("env_id", [pytest.param(v, marks=[] if v in FAST else pytest.mark.slow)
+                                    for v in VARIANTS])
 def test_pettingzoo_tests_pass_without_space_warnings(env_id):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

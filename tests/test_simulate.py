@@ -1,13 +1,13 @@
 """``cmdp-simulate`` in-process through ``main([...])``, on the tiny example case."""
 
 import json
-from pathlib import Path
 
 import pytest
 
+import cmdp_pymunk
 from training import simulate
 
-TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
+TINY = str(cmdp_pymunk.TINY_CASE)
 
 
 def test_simulate_writes_summary_events_and_charts(tmp_path, capsys):

@@ -2,14 +2,13 @@
 the committed model and its evaluation show that)."""
 
 import json
-from pathlib import Path
 
 import pytest
 
 import cmdp_pymunk
 from training import stage1
 
-TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
+TINY = str(cmdp_pymunk.TINY_CASE)
 SMALL = ["--set", f"case='{TINY}'", "--set", "total_steps=2048", "--set", "n_envs=2",
          "--set", "num_cpus=1", "--set", "n_steps=128", "--set", "batch_size=256",
          "--set", "n_epochs=1", "--set", "bc_samples=600", "--set", "bc_epochs=1",

@@ -1,0 +1,213 @@
+"""Generated floors and the published split of training and held-out test layouts.
+
+The built-in case stays the paper's floor. To measure how a policy does on a floor it never
+saw, ``generate_layout(seed)`` draws a precast floor of the same kind from a seed: a grid of
+precast components (3-6 columns, 2-4 rows, 8-12 m apart; JC -> HI -> G on each), the
+cast-in-place joints between neighbours (R -> F, R waiting for the installation of the
+components it joins) less 0-2 openings, 5-7 crews (one JCC, HIC and GC, one or two RC and FC)
+and the three storages at distinct places along the top and bottom edges. Task and crew
+types, materials, quantities and every setting are the built-in case's (Tables 2-3), so a
+policy trained there reads the same observation on every layout. Every layout passes the
+case check (``case_from_dict``), time limits included.
+
+The split is published as case files in ``cmdp_pymunk/cases/layouts/`` (``train-K.toml``
+from seeds ``TRAIN_SEEDS``, ``test-K.toml`` from ``TEST_SEEDS``) and registered as
+``cmdp/GeneratedFloor-trainK-v1`` and ``cmdp/GeneratedFloor-testK-v1``. Train on the first,
+report on the second. Rewrite the files after changing a rule (a test checks they match)::
+
+    python -m cmdp_pymunk.layouts            # writes cmdp_pymunk/cases/layouts/*.toml
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from .case import BUILTIN_CASE, case_from_dict
+
+LAYOUT_DIR = Path(__file__).with_name("cases") / "layouts"
+TRAIN_SEEDS = tuple(range(6))
+TEST_SEEDS = (1000, 1001, 1002)
+
+MARGIN_X_M = 7.0  # open floor beside the outer components: crews start and leave there
+MARGIN_Y_M = 8.0  # room for the storages along the top and bottom edges
+PRECAST_M = 2.0
+JOINT_LONG_M, JOINT_SHORT_M = 2.0, 1.2
+REBAR_M3_PER_JOINT = 0.5
+FORMWORK_M2_PER_JOINT = 12.0
+STRUT_SETS_PER_PRECAST = 1.0
+STORAGES = (("ST-rebars", "rebars", 6.0, 3.0, 3.0, 0.5),  # id, material, w, h, capacity, I
+            ("ST-templates", "templates", 6.0, 3.0, 80.0, 0.5),
+            ("ST-struts", "struts", 5.0, 3.0, 12.0, 0.6))
+SLOT_M = 8.0  # storages sit in distinct slots this wide along an edge
+TIME_LIMIT_S_PER_TASK = 1000.0  # max_time_s: the built-in case allows 80,000 s for 87 tasks
+
+
+def layout_files(split: str) -> list[Path]:
+    """The published layouts of ``split`` ("train" or "test"), in seed order."""
+    seeds = {"train": TRAIN_SEEDS, "test": TEST_SEEDS}[split]
+    return [LAYOUT_DIR / f"{split}-{k}.toml" for k in range(len(seeds))]
+
+
+def generate_layout(seed: int, name: str | None = None) -> dict:
+    """A precast floor drawn from ``seed`` as case data (see the module doc).
+
+    Coordinates are metres from the plane's centre; x runs along the width."""
+    rng = np.random.default_rng(seed)
+    base = tomllib.loads(BUILTIN_CASE.read_text(encoding="utf-8"))
+    cols, rows = int(rng.integers(3, 7)), int(rng.integers(2, 5))
+    sx, sy = float(rng.choice([8.0, 10.0, 12.0])), float(rng.choice([8.0, 10.0]))
+    xs = [(c - (cols - 1) / 2) * sx for c in range(cols)]
+    ys = [((rows - 1) / 2 - r) * sy for r in range(rows)]
+    half_w = (cols - 1) * sx / 2 + MARGIN_X_M
+    half_h = (rows - 1) * sy / 2 + MARGIN_Y_M
+
+    crews = [("JCC-1", "JCC"), ("HIC-1", "HIC"), ("GC-1", "GC")]
+    crews += [(f"RC-{k + 1}", "RC") for k in range(int(rng.integers(1, 3)))]
+    crews += [(f"FC-{k + 1}", "FC") for k in range(int(rng.integers(1, 3)))]
+    start_x = -half_w + 2.5
+    spread = min(3.0, (2 * half_h - 6.0) / (len(crews) - 1))
+    crew_rows = [{"id": cid, "type": ctype, "start_x_m": start_x,
+                  "start_y_m": round((k - (len(crews) - 1) / 2) * spread, 3),
+                  "start_heading_deg": 0.0} for k, (cid, ctype) in enumerate(crews)]
+
+    # storages: distinct slots along the top and bottom edges, clear of the crews' corner
+    slots = [(edge, x) for edge in (1, -1)
+             for x in np.arange(-half_w + SLOT_M, half_w - SLOT_M / 2 + 1e-9, SLOT_M)]
+    picks = rng.choice(len(slots), size=len(STORAGES), replace=False)
+    storages = []
+    for (sid, material, w, h, capacity, index), pick in zip(STORAGES, picks, strict=True):
+        edge, x = slots[int(pick)]
+        storages.append({"id": sid, "material": material, "x_m": float(x),
+                         "y_m": edge * (half_h - 1.0 - h / 2), "width_m": w, "height_m": h,
+                         "capacity": capacity, "congestion_index_full": index})
+
+    precast = {}
+    components, tasks = [], []
+    for r, y in enumerate(ys):
+        for c, x in enumerate(xs):
+            pid = f"P-{r + 1}{c + 1}"
+            precast[(r, c)] = pid
+            components.append({"id": pid, "kind": "precast", "x_m": x, "y_m": y,
+                               "width_m": PRECAST_M, "height_m": PRECAST_M})
+    joints = []
+    for r, y in enumerate(ys):
+        for c in range(cols - 1):
+            joints.append((f"H-{r + 1}{c + 1}", (xs[c] + xs[c + 1]) / 2, y, JOINT_LONG_M,
+                           JOINT_SHORT_M, (precast[(r, c)], precast[(r, c + 1)])))
+    for r in range(rows - 1):
+        for c, x in enumerate(xs):
+            joints.append((f"V-{r + 1}{c + 1}", x, (ys[r] + ys[r + 1]) / 2, JOINT_SHORT_M,
+                           JOINT_LONG_M, (precast[(r, c)], precast[(r + 1, c)])))
+    openings = rng.choice(len(joints), size=int(rng.integers(0, 3)), replace=False)
+    joints = [j for k, j in enumerate(joints) if k not in set(openings.tolist())]
+    for jid, x, y, w, h, _ in joints:
+        components.append({"id": jid, "kind": "cast-in-place", "x_m": x, "y_m": y,
+                           "width_m": w, "height_m": h})
+    for pid in precast.values():
+        tasks.append({"id": f"JC-{pid}", "type": "JC", "component": pid})
+        tasks.append({"id": f"HI-{pid}", "type": "HI", "component": pid,
+                      "material_quantity": STRUT_SETS_PER_PRECAST,
+                      "predecessors": [f"JC-{pid}"]})
+        tasks.append({"id": f"G-{pid}", "type": "G", "component": pid,
+                      "predecessors": [f"HI-{pid}"]})
+    for jid, *_, ends in joints:
+        tasks.append({"id": f"R-{jid}", "type": "R", "component": jid,
+                      "work": REBAR_M3_PER_JOINT, "material_quantity": REBAR_M3_PER_JOINT,
+                      "predecessors": [f"HI-{p}" for p in ends]})
+        tasks.append({"id": f"F-{jid}", "type": "F", "component": jid,
+                      "work": FORMWORK_M2_PER_JOINT, "material_quantity": FORMWORK_M2_PER_JOINT,
+                      "predecessors": [f"R-{jid}"]})
+
+    simulation = dict(base["simulation"])
+    simulation["max_time_s"] = max(simulation["max_time_s"],
+                                   TIME_LIMIT_S_PER_TASK * len(tasks))
+    return {
+        "case": {"name": name or f"generated-{seed}",
+                 "description": f"generated layout, seed {seed}: {cols} x {rows} precast "
+                                f"components {sx:g} x {sy:g} m apart, {len(joints)} joints, "
+                                f"{len(crews)} crews, {len(tasks)} tasks"},
+        "plane": {"width_m": 2 * half_w, "height_m": 2 * half_h, "outlet_x_m": -half_w + 1.0,
+                  "outlet_y_m": 0.0, "outlet_radius_m": 1.5},
+        "simulation": simulation,
+        "reaching_reward": base["reaching_reward"],
+        "crane": {**base["crane"], "x_m": 0.0, "y_m": half_h - 1.5},
+        "task_types": base["task_types"], "materials": base["materials"],
+        "crew_types": base["crew_types"],
+        "crews": crew_rows, "storages": storages, "components": components, "tasks": tasks,
+    }
+
+
+# -- TOML -------------------------------------------------------------------------------------
+
+def _value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"{v!r} has no place in a case")
+        return repr(round(v, 6))
+    return repr(v)
+
+
+def to_toml(data: dict, header: str = "") -> str:
+    """Case data as TOML: tables, named tables (``[task_types.JC]``) and arrays of tables."""
+    out = [header] if header else []
+    for key, value in data.items():
+        if isinstance(value, dict) and all(isinstance(v, dict) for v in value.values()):
+            for name, table in value.items():
+                out.append(f"[{key}.{name}]")
+                out += [f"{k} = {_value(v)}" for k, v in table.items()]
+                out.append("")
+        elif isinstance(value, dict):
+            out.append(f"[{key}]")
+            out += [f"{k} = {_value(v)}" for k, v in value.items()]
+            out.append("")
+        else:  # a list of tables
+            for table in value:
+                out.append(f"[[{key}]]")
+                out += [f"{k} = {_value(v)}" for k, v in table.items()]
+                out.append("")
+    return "\n".join(out)
+
+
+def layout_toml(split: str, k: int) -> str:
+    """The published file ``{split}-{k}.toml`` as the generator writes it."""
+    seed = {"train": TRAIN_SEEDS, "test": TEST_SEEDS}[split][k]
+    data = generate_layout(seed, name=f"generated-{split}-{k}")
+    case_from_dict(data, f"{split}-{k}.toml")  # every published layout passes the case check
+    header = (f"# Generated layout {split}-{k} (seed {seed}) of the published split; written "
+              "by\n# `python -m cmdp_pymunk.layouts` (cmdp_pymunk/layouts.py holds the rules). "
+              "Do not edit by hand.\n")
+    return to_toml(data, header)
+
+
+def write_split(folder: Path = LAYOUT_DIR) -> list[Path]:
+    """Write every layout of the split into ``folder``; returns the files."""
+    from .events import write_atomic
+
+    written = []
+    for split, seeds in (("train", TRAIN_SEEDS), ("test", TEST_SEEDS)):
+        for k in range(len(seeds)):
+            path = folder / f"{split}-{k}.toml"
+            write_atomic(path, layout_toml(split, k))
+            written.append(path)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    for path in write_split():
+        print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

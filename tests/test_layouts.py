@@ -1,0 +1,70 @@
+"""The layout generator writes valid cases, the published split is what it writes, and the
+held-out test layouts finish under the priority heuristic and the scripted navigator."""
+
+import numpy as np
+import pettingzoo
+import pytest
+
+import cmdp_pymunk
+from cmdp_pymunk import layouts
+from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.registry import GENERATED
+
+
+def test_published_layouts_are_what_the_generator_writes():
+    for split, seeds in (("train", layouts.TRAIN_SEEDS), ("test", layouts.TEST_SEEDS)):
+        files = layouts.layout_files(split)
+        assert len(files) == len(seeds)
+        for k, path in enumerate(files):
+            assert path.read_text(encoding="utf-8") == layouts.layout_toml(split, k), \
+                f"{path} differs from the generator: run python -m cmdp_pymunk.layouts"
+    assert not set(layouts.TRAIN_SEEDS) & set(layouts.TEST_SEEDS)
+
+
+def test_every_layout_passes_the_case_check_and_seeds_vary_them():
+    shapes = set()
+    for seed in range(25):
+        data = layouts.generate_layout(seed)
+        case = case_from_dict(data, f"seed {seed}")  # raises CaseError on any problem
+        assert data == layouts.generate_layout(seed)  # one seed, one layout
+        types = [c.type for c in case.crews]
+        assert types[:3] == ["JCC", "HIC", "GC"] and 1 <= types.count("RC") <= 2
+        assert 1 <= types.count("FC") <= 2
+        assert {s.material for s in case.storages} == {"rebars", "templates", "struts"}
+        shapes.add((case.plane.width_m, case.plane.height_m, len(case.tasks), len(case.crews)))
+    assert len(shapes) >= 15  # the seeds draw different floors
+
+
+def test_toml_round_trip_keeps_the_case():
+    import tomllib
+
+    data = layouts.generate_layout(7)
+    assert case_from_dict(tomllib.loads(layouts.to_toml(data))) == case_from_dict(data)
+
+
+def test_generated_variants_are_registered_with_their_layout():
+    assert len(GENERATED) == len(layouts.TRAIN_SEEDS) + len(layouts.TEST_SEEDS)
+    env = pettingzoo.make("parallel", "cmdp/GeneratedFloor-test0-v1", seed=0)
+    assert env.case.case.name == "generated-test-0"
+    observations, _ = env.reset(seed=0)
+    built_in = cmdp_pymunk.parallel_env(seed=0)
+    # the same observation as on the built-in floor: a stage-1 policy reads every layout
+    assert env.observation_space(env.agents[0]).shape == \
+        built_in.observation_space(built_in.possible_agents[0]).shape
+    assert all(np.isfinite(o).all() for o in observations.values())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("path", layouts.layout_files("test"), ids=lambda p: p.stem)
+def test_held_out_layouts_finish_with_the_heuristic_and_the_navigator(path):
+    from agents.navigator import Navigator
+    from agents.priority import PriorityEvaluator
+    from cmdp_pymunk.rollout import run_episode
+
+    env = cmdp_pymunk.parallel_env(case=path, stage=2, evaluator=PriorityEvaluator(),
+                                   park_idle=True)
+    navigator = Navigator(env)
+    for seed in range(5):
+        episode = run_episode(env, navigator, seed, stall_s=3600.0, progress=False)
+        assert episode.stalled is None, (path.name, seed, episode.stalled)
+        assert env.site.done and episode.makespan_s, (path.name, seed)
