@@ -9,11 +9,14 @@ export PYGAME_HIDE_SUPPORT_PROMPT := 1
 .PHONY: demo test test-slow lint bench clean
 
 # torch is pinned first and on its own: an unpinned torch (pulled by stable-baselines3)
-# would fetch a CUDA build of several GB.
+# would fetch a CUDA build of several GB. On a machine with only the public package index,
+# PyPI's torch wheel for Linux pulls CUDA libraries too: take the CPU build from PyTorch's
+# index with `make test TORCH_INDEX=https://download.pytorch.org/whl/cpu` (README, Installing).
+TORCH_INDEX ?=
 $(VENV)/.installed: setup.cfg pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet torch==2.13.0
+	$(PY) -m pip install --quiet torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
 	$(PY) -m pip install --quiet -e '.[dev,onnx]'
 	touch $@
 
