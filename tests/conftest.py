@@ -2,6 +2,11 @@
 
 Component A (precast, left) takes X then K (crane); component B (right) takes X; C (a joint
 in the middle) takes M, which needs material "bars" and waits for K on A.
+
+It stays beside the packaged tiny case (``cmdp_pymunk/cases/tiny_floor.toml``, the docs' and
+the command-line tests' case, ``cmdp/TinyFloor-v1``) because the unit tests check numbers
+worked out by hand on it (a non-square plane, four crew types with round velocities) and edit
+it per test through ``tiny_dict()``.
 """
 
 from __future__ import annotations
