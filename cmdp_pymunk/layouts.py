@@ -204,7 +204,17 @@ def write_split(folder: Path = LAYOUT_DIR) -> list[Path]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    for path in write_split():
+    import argparse
+
+    from . import add_version_flag
+
+    parser = argparse.ArgumentParser(prog="python -m cmdp_pymunk.layouts",
+                                     description="Write the published split of generated layouts.")
+    add_version_flag(parser)
+    parser.add_argument("--out", type=Path, default=LAYOUT_DIR,
+                        help=f"folder for the case files (default: {LAYOUT_DIR})")
+    args = parser.parse_args(argv)
+    for path in write_split(args.out):
         print(f"wrote {path}")
     return 0
 

@@ -21,7 +21,7 @@ def console_scripts() -> list[str]:
 
 def cli_modules() -> list[str]:
     found = set(console_scripts())
-    for folder in ("training", "media", "benchmarks", "tools"):
+    for folder in ("training", "media", "benchmarks", "tools", "cmdp_pymunk"):
         for path in (ROOT / folder).glob("*.py"):
             text = path.read_text(encoding="utf-8")
             if "ArgumentParser(" in text and "def main(" in text:

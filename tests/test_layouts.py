@@ -35,6 +35,13 @@ def test_every_layout_passes_the_case_check_and_seeds_vary_them():
     assert len(shapes) >= 15  # the seeds draw different floors
 
 
+def test_the_command_writes_the_split(tmp_path):
+    assert layouts.main(["--out", str(tmp_path)]) == 0
+    assert sorted(p.name for p in tmp_path.glob("*.toml")) == sorted(
+        p.name for p in layouts.layout_files("train") + layouts.layout_files("test"))
+    assert (tmp_path / "test-0.toml").read_text() == layouts.layout_toml("test", 0)
+
+
 def test_toml_round_trip_keeps_the_case():
     import tomllib
 
