@@ -27,7 +27,8 @@ from cmdp_pymunk.timing import StageClock
 def run(seed: int, navigator_path: str | None, park: bool):
     """One episode: (env, step calls, wall s, CPU s, stage clock)."""
     env = cmdp_pymunk.parallel_env(seed=seed, evaluator=PriorityEvaluator(),
-                                   park_idle=park and navigator_path is None)
+                                   park_idle=park and navigator_path is None,
+                                   blind=navigator_path is None)  # it reads no rays
     if navigator_path is None:
         navigator = Navigator(env)
     else:

@@ -142,6 +142,7 @@ class Engine:
         self._log_activities()
         self._log_positions()
         self.action_needed = any(self.needs_action(c) for c in self.site.crews)
+        self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
 
     def step(self, actions) -> Second:
         """One simulated second (see the module doc); ``actions[i]``: crew i's reaching action,
@@ -158,6 +159,7 @@ class Engine:
         self.steps += 1
         if clock:
             clock.lap("physics")
+        logged = len(self.log.events)
         construct.advance(site, self.positions, self.log, self.case.simulation.step_s)  # P_cons
         ctx = self._context()
         # A quiet second where no row but c2 (tasks progress) would fire: the decisions, the
@@ -166,7 +168,11 @@ class Engine:
         if not skip:
             decide.apply_decision_table(ctx)                           # Pi_cons, Table 1
             self._evaluate()                                            # V_Tar, Eq. 4 or 9
-        self._log_activities()  # the crane may also wake a crew (waiting -> tasking)
+        # What the activities and R_e read (statuses, scopes, idle causes, tasks ended) changed
+        # only if the table ran or P_cons logged a change (the crane wakes a waiting crew).
+        changed = not skip or len(self.log.events) != logged
+        if changed:
+            self._log_activities()
         if any(moving):
             self._log_positions()
         if clock:
@@ -177,7 +183,9 @@ class Engine:
             contacts = [self.world.take_contacts(c.index) for c in site.crews]
             rewards = self._reaching_rewards(ctx, moving, had_target, contacts)  # Eqs. 6-7
             self.action_needed = any(self.needs_action(c) for c in site.crews)
-        terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)  # Eq. 5
+        if changed:
+            self._terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)
+        terms = self._terms                                             # R_e's terms, Eq. 5
         self._tick_reach_clocks(moving, had_target)
         if clock:
             clock.lap("rewards")

@@ -60,6 +60,11 @@ Arguments
     ``"stalled": True`` and ``"TimeLimit.truncated": True``, and ``env.stalled`` holds
     ``{"after_s", "time_s"}``. ``None`` (the default) turns it off; then only ``max_time_s``
     ends an episode that never finishes.
+    ``blind``: no rays are cast; every observation is all zeros. For a low level that reads
+    the state instead of the rays (the scripted navigator): the ray casts are a fifth of such
+    a floor's time. The schedule is the same (rays change nothing but observations). Default
+    False. ``renderer``: draws ``render()``'s frame from the env (default
+    ``media.render.draw_frame``).
 
 Global state
     ``state()`` and ``state_space``: one fixed-size float32 vector (578 floats in the built-in
@@ -107,7 +112,8 @@ class CMDPEnv(ParallelEnv):
                  park_idle: bool = False, lean_infos: bool = False,
                  external_values: bool = False,
                  stall_s: float | None = None,
-                 renderer: Callable[[CMDPEnv], np.ndarray] | None = None):
+                 renderer: Callable[[CMDPEnv], np.ndarray] | None = None,
+                 blind: bool = False):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
         case = as_case(case)
@@ -119,6 +125,7 @@ class CMDPEnv(ParallelEnv):
         self.renderer = renderer
         self.jump_idle = jump_idle
         self.lean_infos = lean_infos
+        self.blind = blind
         sim = case.simulation
         self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
                                      sim.field_of_view_deg, sim.sight_distance_m,
@@ -208,7 +215,7 @@ class CMDPEnv(ParallelEnv):
         for agent in self.agents:
             i = self.agent_index[agent]
             crew = site.crews[i]
-            if not engine.needs_action(crew):
+            if self.blind or not engine.needs_action(crew):
                 out[agent] = self._idle_obs.copy()
                 continue
             # Nothing moved and its scope and values are the same objects (the stages replace

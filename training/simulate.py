@@ -217,13 +217,15 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         return 2
     case_label = str(args.case) if args.case else "built-in (precast_floor.toml)"
     lb = lower_bound(case)
-    # The scripted navigator only parks idle crews: let the env skip their seconds (park_idle).
+    # The scripted navigator only parks idle crews: let the env skip their seconds (park_idle);
+    # it reads the state, not the rays, so none are cast (blind).
     # A trained navigator gets every crew's decision, as in the paper.
     env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
                                    render_mode="rgb_array" if args.gif else None,
                                    max_time_s=args.max_time_s,
                                    position_log_every_s=POSITION_LOG_EVERY_S,
-                                   park_idle=args.navigator == "scripted")
+                                   park_idle=args.navigator == "scripted",
+                                   blind=args.navigator == "scripted")
     cpsat = None
     if args.cpsat_s is not None or args.evaluator == "cpsat":
         from agents.cpsat import DEFAULT_TIME_LIMIT_S, solve
