@@ -134,9 +134,12 @@ class Stage2Env(gym.Env):
     def __init__(self, config: Stage2Config, case=None):
         self.config = config
         case = case if case is not None else training_case(config)
+        # the scripted navigator reads the state, not the rays: idle crews are parked and no
+        # rays are cast (as cmdp-simulate does; the schedules are the same)
+        scripted = config.low_level == "scripted"
         self.inner = TargetEvaluationEnv(low_level_factory(config.low_level), case=case,
                                          stall_s=config.stall_s,
-                                         park_idle=config.low_level == "scripted")
+                                         park_idle=scripted, blind=scripted)
         self.actor_size = self.inner.observation_space.shape[0]
         low, high = self.inner.observation_space.low, self.inner.observation_space.high
         if config.central_critic:
