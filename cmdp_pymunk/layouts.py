@@ -2,26 +2,29 @@
 
 The built-in case stays the paper's floor. To measure how a policy does on a floor it never
 saw, ``generate_layout(seed)`` draws a precast floor of the same kind from a seed: a grid of
-precast components (3-6 columns, 2-4 rows, 8-12 m apart; JC -> HI -> G on each), the
+precast components (3-6 columns, 2-4 rows, 10 or 12 m apart; JC -> HI -> G on each), the
 cast-in-place joints between neighbours (R -> F, R waiting for the installation of the
 components it joins) less 0-2 openings, 5-7 crews (one JCC, HIC and GC, one or two RC and FC)
 and the three storages at distinct places along the top and bottom edges. Task and crew
 types, materials, quantities and every setting are the built-in case's (Tables 2-3), so a
 policy trained there reads the same observation on every layout. Every layout passes the
-case check (``case_from_dict``), time limits included.
+case check (``case_from_dict``), time limits included, and every lane between a component and
+the joint beside it is wider than the widest crew (``lane_width_m``): with 8 m spacing the
+lanes were 2 m, narrower than the HIC (2.5 m across) and the JCC (2.3 m), and the stage-1
+policy wedged crews in them for hours (9 stalls in 9 episodes on two such layouts), while the
+scripted navigator, which plans round them, finished. A site keeps such lanes passable.
 
 The split is published as case files in ``cmdp_pymunk/cases/layouts/`` (``train-K.toml``
 from seeds ``TRAIN_SEEDS``, ``test-K.toml`` from ``TEST_SEEDS``) and registered as
 ``cmdp/GeneratedFloor-trainK-v1`` and ``cmdp/GeneratedFloor-testK-v1``. Train on the first,
 report on the second. Rewrite the files after changing a rule (a test checks they match)::
 
-    python -m cmdp_pymunk.layouts            # writes cmdp_pymunk/cases/layouts/*.toml
+    python tools/make_layouts.py             # writes cmdp_pymunk/cases/layouts/*.toml
 """
 
 from __future__ import annotations
 
 import math
-import sys
 import tomllib
 from pathlib import Path
 
@@ -44,6 +47,8 @@ STORAGES = (("ST-rebars", "rebars", 6.0, 3.0, 3.0, 0.5),  # id, material, w, h, 
             ("ST-templates", "templates", 6.0, 3.0, 80.0, 0.5),
             ("ST-struts", "struts", 5.0, 3.0, 12.0, 0.6))
 SLOT_M = 8.0  # storages sit in distinct slots this wide along an edge
+SPACINGS_M = (10.0, 12.0)  # between component centres, either axis
+LANE_CLEARANCE_M = 0.4  # a lane is at least the widest crew's diameter plus this
 TIME_LIMIT_S_PER_TASK = 1000.0  # max_time_s: the built-in case allows 80,000 s for 87 tasks
 
 
@@ -53,6 +58,17 @@ def layout_files(split: str) -> list[Path]:
     return [LAYOUT_DIR / f"{split}-{k}.toml" for k in range(len(seeds))]
 
 
+def lane_width_m(spacing_m: float) -> float:
+    """The open lane between a precast component and the joint beside it, along the axis
+    in which components are ``spacing_m`` apart (a joint is ``JOINT_LONG_M`` long there)."""
+    return (spacing_m - PRECAST_M - JOINT_LONG_M) / 2
+
+
+def widest_crew_m(crew_types: dict) -> float:
+    """The widest crew's diameter (a disc of its occupation area)."""
+    return max(2 * math.sqrt(ct["occupation_area_m2"] / math.pi) for ct in crew_types.values())
+
+
 def generate_layout(seed: int, name: str | None = None) -> dict:
     """A precast floor drawn from ``seed`` as case data (see the module doc).
 
@@ -60,7 +76,9 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
     rng = np.random.default_rng(seed)
     base = tomllib.loads(BUILTIN_CASE.read_text(encoding="utf-8"))
     cols, rows = int(rng.integers(3, 7)), int(rng.integers(2, 5))
-    sx, sy = float(rng.choice([8.0, 10.0, 12.0])), float(rng.choice([8.0, 10.0]))
+    sx, sy = float(rng.choice(SPACINGS_M)), float(rng.choice(SPACINGS_M))
+    assert lane_width_m(min(SPACINGS_M)) >= widest_crew_m(base["crew_types"]) + \
+        LANE_CLEARANCE_M, "lanes narrower than a crew trap it: raise SPACINGS_M"
     xs = [(c - (cols - 1) / 2) * sx for c in range(cols)]
     ys = [((rows - 1) / 2 - r) * sy for r in range(rows)]
     half_w = (cols - 1) * sx / 2 + MARGIN_X_M
@@ -185,7 +203,7 @@ def layout_toml(split: str, k: int) -> str:
     data = generate_layout(seed, name=f"generated-{split}-{k}")
     case_from_dict(data, f"{split}-{k}.toml")  # every published layout passes the case check
     header = (f"# Generated layout {split}-{k} (seed {seed}) of the published split; written "
-              "by\n# `python -m cmdp_pymunk.layouts` (cmdp_pymunk/layouts.py holds the rules). "
+              "by\n# `python tools/make_layouts.py` (cmdp_pymunk/layouts.py holds the rules). "
               "Do not edit by hand.\n")
     return to_toml(data, header)
 
@@ -208,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from . import add_version_flag
 
-    parser = argparse.ArgumentParser(prog="python -m cmdp_pymunk.layouts",
+    parser = argparse.ArgumentParser(prog="make_layouts.py",
                                      description="Write the published split of generated layouts.")
     add_version_flag(parser)
     parser.add_argument("--out", type=Path, default=LAYOUT_DIR,
@@ -218,6 +236,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {path}")
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

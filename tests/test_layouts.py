@@ -17,7 +17,7 @@ def test_published_layouts_are_what_the_generator_writes():
         assert len(files) == len(seeds)
         for k, path in enumerate(files):
             assert path.read_text(encoding="utf-8") == layouts.layout_toml(split, k), \
-                f"{path} differs from the generator: run python -m cmdp_pymunk.layouts"
+                f"{path} differs from the generator: run python tools/make_layouts.py"
     assert not set(layouts.TRAIN_SEEDS) & set(layouts.TEST_SEEDS)
 
 
@@ -33,6 +33,24 @@ def test_every_layout_passes_the_case_check_and_seeds_vary_them():
         assert {s.material for s in case.storages} == {"rebars", "templates", "struts"}
         shapes.add((case.plane.width_m, case.plane.height_m, len(case.tasks), len(case.crews)))
     assert len(shapes) >= 15  # the seeds draw different floors
+
+
+def test_lanes_between_components_let_the_widest_crew_through():
+    """HIC: 5 m2 -> diameter 2 sqrt(5 / pi) = 2.52 m; 10 m spacing leaves (10 - 2 - 2) / 2 =
+    3 m lanes; 8 m would leave 2 m, where the stage-1 policy wedged crews."""
+    assert layouts.lane_width_m(10.0) == 3.0 and layouts.lane_width_m(8.0) == 2.0
+    import tomllib
+
+    types = tomllib.loads(cmdp_pymunk.BUILTIN_CASE.read_text())["crew_types"]
+    assert layouts.widest_crew_m(types) == pytest.approx(2.523, abs=1e-3)
+    for seed in range(25):
+        case = case_from_dict(layouts.generate_layout(seed))
+        precast = [c for c in case.components if c.kind == "precast"]
+        xs = sorted({c.x_m for c in precast})
+        ys = sorted({c.y_m for c in precast})
+        for axis in (xs, ys):
+            for a, b in zip(axis[:-1], axis[1:], strict=True):
+                assert layouts.lane_width_m(b - a) >= 2.523 + layouts.LANE_CLEARANCE_M
 
 
 def test_the_command_writes_the_split(tmp_path):
