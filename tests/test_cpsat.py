@@ -69,11 +69,11 @@ def test_plan_evaluator_prefers_the_earliest_planned_task(tiny_env):
 
 def test_simulate_reports_the_cpsat_bound_and_replays_the_plan(tmp_path):
     import json
-    from pathlib import Path
 
+    import cmdp_pymunk
     from training import simulate
 
-    tiny = Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml"
+    tiny = cmdp_pymunk.TINY_CASE
     out = tmp_path / "run"
     assert simulate.main(["--case", str(tiny), "--evaluator", "cpsat", "--cpsat-s", "5",
                           "--out", str(out), "--no-charts", "--no-progress"]) == 0

@@ -3,7 +3,6 @@
 import argparse
 import csv
 import json
-from pathlib import Path
 
 import pytest
 
@@ -12,7 +11,7 @@ from agents.task_priority import save_priorities
 from training import evaluate
 from training.comparison import mean_ci, paired
 
-TINY = str(Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml")
+TINY = str(cmdp_pymunk.TINY_CASE)
 FILES = ("episodes.csv", "summary.csv", "summary.md", "summary.json", "settings.json",
          "cpsat_plan.json", "fig12_makespan.png", "fig13_reaching_steps.png",
          "fig14_idle_task_area.png")

@@ -63,11 +63,11 @@ def test_priority_file_round_trip_and_errors(tmp_path, tiny_case):
 
 
 def test_simulate_with_a_ga_file(tmp_path):
-    from pathlib import Path
 
+    import cmdp_pymunk
     from training import simulate
 
-    tiny = Path(__file__).resolve().parent.parent / "docs" / "examples" / "tiny_case.toml"
+    tiny = cmdp_pymunk.TINY_CASE
     case = __import__("cmdp_pymunk").load_case(tiny)
     path = save_priorities(tmp_path / "g.json", case, {t.id: 0.5 for t in case.tasks}, 0.5, "ga")
     out = tmp_path / "run"
