@@ -145,51 +145,34 @@ class Engine:
         self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
 
     def step(self, actions) -> Second:
-        """One simulated second (see the module doc); ``actions[i]``: crew i's reaching action,
-        used only if it moves."""
-        site, clock = self.site, self.clock
-        if clock:
-            clock.start()
-        moving = [c.moving for c in site.crews]
-        had_target = [c.moving and bool(c.scope) for c in site.crews]
+        """One simulated second in the paper's order (see the module doc); ``actions[i]``:
+        crew i's reaching action, used only if it moves."""
+        if self.clock:
+            self.clock.start()
+        crews = self.site.crews
+        moving = [c.moving for c in crews]
+        had_target = [c.moving and bool(c.scope) for c in crews]
         # Quiet: the plane is at rest and no crew needs a movement decision: P_phy is void.
         quiet = self.world.at_rest and not self.action_needed
-        distance = self._move(actions, moving) if not quiet else [0.0] * len(moving)  # P_phy
-        site.time_s += self.case.simulation.step_s
-        self.steps += 1
-        if clock:
-            clock.lap("physics")
-        logged = len(self.log.events)
-        construct.advance(site, self.positions, self.log, self.case.simulation.step_s)  # P_cons
-        ctx = self._context()
+        distance = self._move(actions, moving) if not quiet else [0.0] * len(crews)  # P_phy
+        ctx = self._construct()                                         # P_cons, Eq. 2
         # A quiet second where no row but c2 (tasks progress) would fire: the decisions, the
         # evaluation and R_r would change nothing, so they are skipped.
         skip = quiet and decide.only_execution_fires(ctx)
         if not skip:
-            decide.apply_decision_table(ctx)                           # Pi_cons, Table 1
+            decide.apply_decision_table(ctx)                            # Pi_cons, Table 1
             self._evaluate()                                            # V_Tar, Eq. 4 or 9
         # What the activities and R_e read (statuses, scopes, idle causes, tasks ended) changed
         # only if the table ran or P_cons logged a change (the crane wakes a waiting crew).
-        changed = not skip or len(self.log.events) != logged
-        if changed:
-            self._log_activities()
-        if any(moving):
-            self._log_positions()
-        if clock:
-            clock.lap("decisions")
-        if skip:  # no physics step, so no contacts; no reach, no target: R_r is 0
-            contacts, rewards = [None] * len(moving), self._no_rewards
-        else:
-            contacts = [self.world.take_contacts(c.index) for c in site.crews]
-            rewards = self._reaching_rewards(ctx, moving, had_target, contacts)  # Eqs. 6-7
-            self.action_needed = any(self.needs_action(c) for c in site.crews)
-        if changed:
-            self._terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)
-        terms = self._terms                                             # R_e's terms, Eq. 5
-        self._tick_reach_clocks(moving, had_target)
-        if clock:
-            clock.lap("rewards")
-        return Second(moving, had_target, contacts, distance, rewards, terms)
+        changed = not skip or self._construct_logged
+        self._log_events(moving, changed)
+        contacts, rewards = self._reaching_rewards(ctx, moving, had_target, skip)  # Eqs. 6-7
+        if changed:                                                     # R_e's terms, Eq. 5
+            self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
+        self._tick_reach_clocks(moving, had_target)                     # section 3.6's clock
+        if self.clock:
+            self.clock.lap("rewards")
+        return Second(moving, had_target, contacts, distance, rewards, self._terms)
 
     def advance(self, actions, until: Callable[[], bool] | None = None) -> Advance:
         """Run seconds with ``actions`` until ``until()`` holds after one (None: one
@@ -266,6 +249,27 @@ class Engine:
                     self.positions[i] = (x, y)
         return distance
 
+    def _construct(self) -> decide.Context:
+        """The clock moves on one step and P_cons advances the tasks, fetches and the crane;
+        returns the context the decision table will read."""
+        logged = len(self.log.events)
+        self.site.time_s += self.case.simulation.step_s
+        self.steps += 1
+        if self.clock:
+            self.clock.lap("physics")
+        construct.advance(self.site, self.positions, self.log, self.case.simulation.step_s)
+        self._construct_logged = len(self.log.events) != logged
+        return self._context()
+
+    def _log_events(self, moving, changed: bool) -> None:
+        """Activity changes (if anything they read changed) and moving crews' positions."""
+        if changed:
+            self._log_activities()
+        if any(moving):
+            self._log_positions()
+        if self.clock:
+            self.clock.lap("decisions")
+
     def _evaluate(self) -> None:
         """Target evaluation (section 3.6): by the injected evaluator, or left pending."""
         if self.evaluator is None:
@@ -274,12 +278,19 @@ class Engine:
             assign_target_values(self.site, self.evaluator, self.positions)
 
     def _reaching_rewards(self, ctx: decide.Context, moving, had_target,
-                          contacts) -> list[float]:
-        """R_r of every crew that moved this second, Eqs. 6-7 (0 for the others)."""
+                          skip: bool) -> tuple[list, list[float]]:
+        """Every crew's contacts and R_r this second, Eqs. 6-7 (0 for a crew that did not
+        move); then who needs a movement decision next. In a skipped second nothing moved
+        (no contacts), nothing was reached and no crew held a target: R_r is 0."""
+        if skip:
+            return [None] * len(moving), self._no_rewards
+        contacts = [self.world.take_contacts(c.index) for c in self.site.crews]
         weights = self.case.reaching_reward
-        return [reward.reaching_reward(contacts[i], self.eta, ctx.reached_value.get(i),
-                                       had_target[i], weights) if moving[i] else 0.0
-                for i in range(len(moving))]
+        rewards = [reward.reaching_reward(contacts[i], self.eta, ctx.reached_value.get(i),
+                                          had_target[i], weights) if moving[i] else 0.0
+                   for i in range(len(moving))]
+        self.action_needed = any(self.needs_action(c) for c in self.site.crews)
+        return contacts, rewards
 
     def _tick_reach_clocks(self, moving, had_target) -> None:
         """Steps since the last reach, per crew still after a target (section 3.6 re-values
