@@ -49,7 +49,7 @@ class GAConfig(BaseModel):
     case: str | None = None  # case file; None: the built-in case
     seed: CountOrZero = 0  # the GA's own randomness
     population: Count = 16
-    generations: Count = 6  # after the initial population
+    generations: CountOrZero = 6  # after the initial population (0: only that one)
     elite: CountOrZero = 1  # best individuals copied unchanged into the next generation
     tournament_size: Count = 3
     crossover_prob: Share = 0.7  # per pair of offspring

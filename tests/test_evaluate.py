@@ -99,3 +99,25 @@ def test_two_workers_give_the_same_episodes(tmp_path):
         rows = list(csv.DictReader((out / "episodes.csv").open()))
         outs.append([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
     assert outs[0] == outs[1]
+
+
+@pytest.mark.slow
+def test_a_stage2_model_is_a_strategy(tmp_path):
+    """An (untrained) stage-2 model .zip goes through make_evaluator like any strategy."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from training.stage2 import Stage2Config, Stage2Env
+
+    env = Stage2Env(Stage2Config(case=TINY, central_critic=False))
+    model = PPO("MlpPolicy", DummyVecEnv([lambda: env]), n_steps=8, batch_size=8,
+                policy_kwargs={"net_arch": [8]}, device="cpu", seed=0)
+    path = tmp_path / "stage2.zip"
+    model.save(path)
+    out = tmp_path / "cmp"
+    code = evaluate.main(["--case", TINY, "--seeds", "0", "--strategies", f"priority,{path}",
+                          "--workers", "1", "--out", str(out), "--cpsat-s", "5",
+                          "--no-progress", "--no-figures"])
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert [r["strategy"] for r in rows] == ["priority", str(path)]
+    assert code == (0 if all(r["finished"] == "True" for r in rows) else 1)

@@ -125,3 +125,24 @@ def test_workers_give_the_same_search(tmp_path):
     one = run_ga(case, config, tmp_path / "one", workers=1, progress=False)
     two = run_ga(case, config, tmp_path / "two", workers=2, progress=False)
     assert one.population == two.population
+
+
+def test_cmdp_ga_config_errors_and_a_tiny_run(tmp_path, capsys):
+    from training import ga
+
+    assert ga.main(["--set", "population=0", "--set", "elite=x", "--out",
+                    str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err
+    assert "population = 0 must be positive" in err and "elite" in err
+    tiny = str(__import__("pathlib").Path(__file__).resolve().parent.parent / "docs"
+               / "examples" / "tiny_case.toml")
+    out = tmp_path / "run"
+    assert ga.main(["--set", f"case='{tiny}'", "--set", "population=3", "--set",
+                    "generations=1", "--set", "train_seeds=[0]", "--workers", "1", "--out",
+                    str(out), "--no-progress"]) == 0
+    for name in ("best.json", "history.csv", "checkpoint.pkl", "config.json"):
+        assert (out / name).is_file(), name
+    assert ga.main(["--set", f"case='{tiny}'", "--set", "population=3", "--set",
+                    "generations=2", "--set", "train_seeds=[0]", "--workers", "1", "--out",
+                    str(out), "--no-progress", "--resume"]) == 0
+    assert (out / "history.csv").read_text().count("\n") == 4  # header + generations 0-2

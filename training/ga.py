@@ -23,6 +23,7 @@ from agents.ga import GAConfig, run_ga
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.rollout import versions
 from training.cli import OneLineParser, positive_int
+from training.config import RunConfig
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
 
@@ -53,35 +54,14 @@ def parse_args(argv: list[str] | None = None) -> GAArgs:
     return GAArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress)
 
 
+class GARunConfig(GAConfig, RunConfig):
+    """``agents.ga.GAConfig`` read like every run config (``training.config.RunConfig.load``:
+    the TOML file, then ``--set`` overrides, every bad setting named with its fix)."""
+
+
 def load_config(path: Path, overrides: tuple[str, ...]) -> GAConfig:
     """The config file with ``--set`` overrides, validated (ValueError naming each problem)."""
-    import tomllib
-
-    from pydantic import ValidationError
-
-    from training.stage1 import _config_problems
-
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError) as err:
-        raise ValueError(f"{path}: cannot read the config ({err}); fix: check the path and the "
-                         "TOML syntax") from None
-    for item in overrides:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise ValueError(f"--set {item!r}: write key=value, e.g. --set generations=10")
-        try:
-            data[key] = tomllib.loads(f"v = {value}")["v"]
-        except tomllib.TOMLDecodeError:
-            data[key] = value
-    unknown = sorted(set(data) - set(GAConfig.model_fields))
-    if unknown:
-        raise ValueError(f"{path}: unknown setting(s) {', '.join(unknown)}; known: "
-                         f"{', '.join(GAConfig.model_fields)}")
-    try:
-        return GAConfig.model_validate(data)
-    except ValidationError as err:
-        raise ValueError(f"{path}: " + "; ".join(_config_problems(err))) from None
+    return GARunConfig.load(path, list(overrides))
 
 
 def main(argv: list[str] | None = None) -> int:
