@@ -24,7 +24,7 @@ import pickle
 import random
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict
@@ -57,8 +57,12 @@ class GAConfig(BaseModel):
     mutation_prob: Share = 0.4  # per offspring
     gene_mutation_prob: Share = 0.1  # per gene of a mutated offspring
     mutation_eta: Positive = 20.0  # polynomial mutation's crowding
-    # the initial population: one individual whose genes are Eq. 9's successor term
-    # (all successors / the most of any task), the rest uniform in [0, 1]
+    # what the genes add to: "none" (task priority plus distance_weight times closeness) or
+    # "priority" (Eq. 9's V' plus the task priority: equal genes rank as the heuristic does)
+    base: Literal["none", "priority"] = "none"
+    # the initial population: one individual that plays the heuristic's part (base "none":
+    # Eq. 9's successor term, all successors / the most of any task; base "priority": every
+    # gene 0.5, which is the heuristic itself), the rest uniform in [0, 1]
     seed_successors: bool = True
     train_seeds: Annotated[list[CountOrZero], Field(min_length=1)] = [0, 1, 2]
     idle_weight: NonNegative = 0.01  # seconds of fitness per idle crew-step
@@ -91,9 +95,9 @@ def successor_genes(case) -> list[float]:
 
 
 def _evaluate_job(runner: EpisodeRunner, genes: tuple, seed: int, distance_weight: float,
-                  navigator: str) -> dict:
+                  navigator: str, base: str = "none") -> dict:
     evaluator = TaskPriorityEvaluator.from_genes([t.id for t in runner.case.tasks], genes,
-                                                 distance_weight)
+                                                 distance_weight, base)
     return runner.run(evaluator, navigator, seed)
 
 
@@ -184,7 +188,7 @@ def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = F
 
     def evaluate(genes_list: list[tuple], pool: Workers) -> list[float]:
         todo = [g for g in dict.fromkeys(genes_list) if g not in state.cache]
-        jobs = [(g, s, config.distance_weight, config.navigator)
+        jobs = [(g, s, config.distance_weight, config.navigator, config.base)
                 for g in todo for s in config.train_seeds]
         rows = []
         for row in pool.imap(jobs):
@@ -201,7 +205,8 @@ def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = F
 
     with Workers(_evaluate_job, runner_args, workers) as pool:
         if not state.population:
-            genes = [tuple(successor_genes(case))] if config.seed_successors else []
+            first = successor_genes(case) if config.base == "none" else [0.5] * len(task_ids)
+            genes = [tuple(first)] if config.seed_successors else []
             while len(genes) < config.population:
                 genes.append(tuple(random.random() for _ in task_ids))
             state.population = list(zip(genes, evaluate(genes, pool), strict=True))
@@ -235,7 +240,7 @@ def _record(state: GAState, out: Path, case, config: GAConfig, bar) -> None:
     write_atomic(out / "history.csv", "\n".join(lines) + "\n")
     ids = [t.id for t in case.tasks]
     save_priorities(out / "best.json", case, dict(zip(ids, best_genes, strict=True)),
-                    config.distance_weight, "ga", fitness=round(best, 1),
+                    config.distance_weight, "ga", config.base, fitness=round(best, 1),
                     generation=state.generation, train_seeds=config.train_seeds,
                     navigator=config.navigator)
     state.random_state = random.getstate()

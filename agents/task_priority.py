@@ -7,13 +7,21 @@ target wins:
 
     V' = p_task + w * (1 - d / d_max)
 
+or, with ``base = "priority"``, on top of the priority heuristic (Eq. 9's V', which already
+holds distance, successors and space conflicts):
+
+    V' = V'_Eq9 + p_task
+
+so that equal priorities rank the targets exactly as the heuristic does, and the GA searches
+for the tasks to move up or down from there.
+
 mapped onto [0.5, 1] over the scope by ``as_target_values`` (Eq. 3 reserves 0 for objects
 outside the scope). Storages and the outlet have no task: nearest first.
 
 A priority file is a small JSON object::
 
     {"format": "cmdp-task-priorities/1", "case": "precast-floor", "source": "ga",
-     "distance_weight": 0.5, "priorities": {"JC-P01": 0.73, ...}}
+     "distance_weight": 0.5, "base": "none", "priorities": {"JC-P01": 0.73, ...}}
 
 ``cmdp-simulate --evaluator ga:PATH`` (``agents.specs``) loads one; ``bind(env)`` checks that
 it names every task of the env's case and nothing else.
@@ -30,6 +38,7 @@ from cmdp_pymunk.evaluate import as_target_values
 from cmdp_pymunk.events import write_atomic
 
 FORMAT = "cmdp-task-priorities/1"
+BASES = ("none", "priority")
 
 
 def task_priority_value(priority: float, distance: float, max_distance: float,
@@ -44,18 +53,27 @@ class TaskPriorityEvaluator:
     """V_Tar from one priority per task id (a GA individual or a replayed plan)."""
 
     def __init__(self, priorities: Mapping[str, float], distance_weight: float = 0.0,
-                 source: str = "<priorities>"):
+                 source: str = "<priorities>", base: str = "none"):
+        if base not in BASES:
+            raise ValueError(f"{source}: base {base!r} is not one of {', '.join(BASES)}")
         self.priorities = dict(priorities)
         self.distance_weight = float(distance_weight)
         self.source = source
+        self.base = base
+        self._heuristic = None
+        if base == "priority":
+            from .priority import PriorityEvaluator
+
+            self._heuristic = PriorityEvaluator()
 
     @classmethod
     def from_genes(cls, task_ids: Sequence[str], genes: Sequence[float],
-                   distance_weight: float = 0.0) -> TaskPriorityEvaluator:
+                   distance_weight: float = 0.0, base: str = "none") -> TaskPriorityEvaluator:
         """Genes in the case's task order (``case.tasks``)."""
         if len(task_ids) != len(genes):
             raise ValueError(f"{len(genes)} genes for {len(task_ids)} tasks")
-        return cls(dict(zip(task_ids, map(float, genes), strict=True)), distance_weight, "<genes>")
+        return cls(dict(zip(task_ids, map(float, genes), strict=True)), distance_weight,
+                   "<genes>", base)
 
     def check_case(self, case) -> None:
         """ValueError naming the file, the entries and the fix unless the priorities cover
@@ -81,7 +99,11 @@ class TaskPriorityEvaluator:
     def target_values(self, crew, site, position):
         dist = {t: math.dist(position, site.target_xy[t]) for t in crew.scope}
         d_max = max(dist.values(), default=0.0)
-        if any(task >= 0 for task in crew.scope.values()):
+        if self._heuristic is not None and any(task >= 0 for task in crew.scope.values()):
+            base = self._heuristic.priorities(crew, site, position)
+            scores = {t: base[t] + (self.priorities[site.tasks[task].id] if task >= 0 else 0.0)
+                      for t, task in crew.scope.items()}
+        elif any(task >= 0 for task in crew.scope.values()):
             scores = {t: task_priority_value(
                 self.priorities[site.tasks[task].id] if task >= 0 else 0.0, dist[t], d_max,
                 self.distance_weight) for t, task in crew.scope.items()}
@@ -91,10 +113,11 @@ class TaskPriorityEvaluator:
 
 
 def save_priorities(path: str | Path, case, priorities: Mapping[str, float],
-                    distance_weight: float, source: str, **extra) -> Path:
+                    distance_weight: float, source: str, base: str = "none",
+                    **extra) -> Path:
     """Write a priority file (atomically); ``extra`` keys (how it was made) go in as they are."""
     data = {"format": FORMAT, "case": case.case.name, "source": source,
-            "distance_weight": distance_weight,
+            "distance_weight": distance_weight, "base": base,
             "priorities": {t.id: round(float(priorities[t.id]), 6) for t in case.tasks}}
     data.update(extra)
     path = Path(path)
@@ -130,4 +153,7 @@ def load_priorities(path: str | Path) -> TaskPriorityEvaluator:
     if isinstance(weight, bool) or not isinstance(weight, (int, float)) \
             or not math.isfinite(weight) or weight < 0:
         raise ValueError(f"{path}: \"distance_weight\" is {weight!r}; fix: give a number >= 0")
-    return TaskPriorityEvaluator(priorities, weight, str(path))
+    base = data.get("base", "none")
+    if base not in BASES:
+        raise ValueError(f"{path}: \"base\" is {base!r}; fix: give one of {', '.join(BASES)}")
+    return TaskPriorityEvaluator(priorities, weight, str(path), base)

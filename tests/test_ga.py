@@ -146,3 +146,20 @@ def test_cmdp_ga_config_errors_and_a_tiny_run(tmp_path, capsys):
                     "generations=2", "--set", "train_seeds=[0]", "--workers", "1", "--out",
                     str(out), "--no-progress", "--resume"]) == 0
     assert (out / "history.csv").read_text().count("\n") == 4  # header + generations 0-2
+
+
+def test_equal_genes_on_the_priority_base_rank_as_the_heuristic(tiny_env):
+    from agents.priority import PriorityEvaluator
+
+    site = tiny_env.site
+    crew = site.crews[0]
+    position = tiny_env.positions[0]
+    heuristic = PriorityEvaluator().target_values(crew, site, position)
+    same = TaskPriorityEvaluator({t.id: 0.5 for t in site.tasks}, base="priority")
+    assert same.target_values(crew, site, position) == pytest.approx(heuristic)
+    # a gene of 1 against 0 outweighs the heuristic's preference (Eq. 9's V' within 1.5)
+    worst = min(heuristic, key=heuristic.get)
+    genes = {t.id: 0.0 for t in site.tasks}
+    genes[site.tasks[crew.scope[worst]].id] = 2.0
+    moved = TaskPriorityEvaluator(genes, base="priority").target_values(crew, site, position)
+    assert max(moved, key=moved.get) == worst
