@@ -30,6 +30,7 @@ def measure(case, seeds: list[int], workers: int) -> tuple[float, list]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=int, default=4, help="episodes per measurement")
     p.add_argument("--rounds", type=int, default=2)
     a = p.parse_args()
