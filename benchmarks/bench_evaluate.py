@@ -28,12 +28,12 @@ def measure(case, seeds: list[int], workers: int) -> tuple[float, list]:
     return len(seeds) / (time.perf_counter() - start), [r["makespan_s"] for r in rows]
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=int, default=4, help="episodes per measurement")
     p.add_argument("--rounds", type=int, default=2)
-    a = p.parse_args()
+    a = p.parse_args(argv)
     case = cmdp_pymunk.load_case(None)
     seeds = list(range(a.seeds))
     speed: dict[int, list[float]] = {1: [], 2: []}

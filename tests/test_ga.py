@@ -134,8 +134,7 @@ def test_cmdp_ga_config_errors_and_a_tiny_run(tmp_path, capsys):
                     str(tmp_path / "bad")]) == 2
     err = capsys.readouterr().err
     assert "population = 0 must be positive" in err and "elite" in err
-    tiny = str(__import__("pathlib").Path(__file__).resolve().parent.parent / "docs"
-               / "examples" / "tiny_case.toml")
+    tiny = str(__import__("cmdp_pymunk").TINY_CASE)
     out = tmp_path / "run"
     assert ga.main(["--set", f"case='{tiny}'", "--set", "population=3", "--set",
                     "generations=1", "--set", "train_seeds=[0]", "--workers", "1", "--out",
