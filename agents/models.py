@@ -97,6 +97,13 @@ class LeanActor:
                              "supported: Box, Discrete, MultiDiscrete")
         if self.nvec is not None:
             self._splits = np.cumsum(self.nvec)[:-1]
+            # the logits of every sub-action side by side, padded to the widest with -inf (a
+            # category of probability 0): one set of numpy calls samples them all
+            width, starts = max(self.nvec), np.concatenate([[0], self._splits])
+            self._pad_index = np.array([[start + min(j, n - 1) for j in range(width)]
+                                        for start, n in zip(starts, self.nvec, strict=True)])
+            self._pad_mask = np.array([[j < n for j in range(width)] for n in self.nvec])
+            self._last = np.array(self.nvec) - 1
 
     # -- loading --------------------------------------------------------------------------------
 
@@ -176,21 +183,21 @@ class LeanActor:
                 out = out + self.std * rng.standard_normal(out.shape).astype(np.float32)
             return np.clip(out, self.low, self.high)
         n = out.shape[0]
-        actions = np.empty((n, len(self.nvec)), dtype=np.int64)
-        u = None if deterministic else rng.random((n, len(self.nvec)))
-        start = 0
-        for k, size in enumerate(self.nvec):
-            logits = out[:, start:start + size]
-            start += size
-            if deterministic:
-                actions[:, k] = logits.argmax(axis=1)
-                continue
-            # inverse CDF: the first category whose cumulative probability passes u (the
-            # softmax's normaliser moved to the other side: cumsum(e) < u * sum(e))
-            cum = np.exp(logits - logits.max(axis=1, keepdims=True)).cumsum(axis=1)
-            picked = (cum < u[:, k:k + 1] * cum[:, -1:]).sum(axis=1)
-            actions[:, k] = np.minimum(picked, size - 1)
-        return actions
+        if deterministic:
+            actions = np.empty((n, len(self.nvec)), dtype=np.int64)
+            start = 0
+            for k, size in enumerate(self.nvec):
+                actions[:, k] = out[:, start:start + size].argmax(axis=1)
+                start += size
+            return actions
+        u = rng.random((n, len(self.nvec)))
+        # inverse CDF: the first category whose cumulative probability passes u (the softmax's
+        # normaliser moved to the other side: cumsum(e) < u * sum(e)); the padding adds
+        # exp(-inf) = 0 after the last category, so no sum changes and none is picked
+        logits = np.where(self._pad_mask, out[:, self._pad_index], np.float32(-np.inf))
+        cum = np.exp(logits - logits.max(axis=2, keepdims=True)).cumsum(axis=2)
+        picked = (cum < u[:, :, None] * cum[:, :, -1:]).sum(axis=2)
+        return np.minimum(picked, self._last).astype(np.int64)
 
 
 def _numpy(tensor) -> np.ndarray:
