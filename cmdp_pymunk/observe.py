@@ -45,6 +45,7 @@ VELOCITY_FEATURES = 3
 MEMORY_FEATURES = 4
 VALUES_PER_RAY = 4
 TYPE_SCALE = 1.0 / (N_KINDS - 1)
+_NO_HIT = (1.0, 0.0, 0.0)  # relative length 1, type "nothing", priority 0
 
 
 def modified_priority(target: int, scope, values) -> float:
@@ -132,30 +133,36 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
     on, records in ``crew.sightings`` where its frontal rays hit targets of its scope."""
     body = world.bodies[crew.index]
     x, y = body.position
+    angle = body.angle
+    c, s = math.cos(angle), math.sin(angle)
     start = (x, y)
     query = world.rays.cast
     frontal_filter = world.frontal_filters[crew.index]
     surrounding_filter = world.surrounding_filters[crew.index]
-    scope, values = crew.scope, crew.values
+    scope, values, memory = crew.scope, crew.values, rays.memory
     cast: list[float] = []
     sightings = crew.sightings
-    for ex, ey, frontal in rays.endpoints(x, y, body.angle):
-        hit = query(start, (ex, ey), frontal_filter if frontal else surrounding_filter)
-        if frontal and hit is not None and hit[0] == 0.0 and hit[1] == STORAGE:
-            hit = _cast_out_of(world, world.storage_rects[hit[2]], start, (ex, ey),
-                               frontal_filter)
+    # the hottest loop of a step (28 rays a deciding crew): ``RayModel.endpoints`` and
+    # ``modified_priority`` (Eq. 3) written out in place, the same arithmetic
+    for ux, uy, length, frontal in rays.rays:
+        end = (x + (c * ux - s * uy) * length, y + (s * ux + c * uy) * length)
+        hit = query(start, end, frontal_filter if frontal else surrounding_filter)
         if hit is None:
-            cast += (1.0, 0.0, 0.0)
-        else:
-            alpha, kind, target = hit
-            value = modified_priority(target, scope, values)
-            cast += (alpha, kind * TYPE_SCALE, value)
-            if frontal and value > 0.0 and rays.memory:
-                sightings[target] = (x + alpha * (ex - x), y + alpha * (ey - y), now_s)
+            cast += _NO_HIT
+            continue
+        if frontal and hit[0] == 0.0 and hit[1] == STORAGE:
+            hit = _cast_out_of(world, world.storage_rects[hit[2]], start, end, frontal_filter)
+            if hit is None:
+                cast += _NO_HIT
+                continue
+        alpha, kind, target = hit
+        value = values.get(target, 0.0) if target >= 0 and target in scope else 0.0
+        cast += (alpha, kind * TYPE_SCALE, value)
+        if frontal and value > 0.0 and memory:
+            sightings[target] = (x + alpha * (end[0] - x), y + alpha * (end[1] - y), now_s)
     obs = rays.template.copy()
     obs[rays.slots] = cast
     vx, vy = body.velocity
-    c, s = math.cos(body.angle), math.sin(body.angle)
     v_nominal = crew.spec.velocity_m_s
     at = rays.velocity_at
     obs[at] = (c * vx + s * vy) / v_nominal
