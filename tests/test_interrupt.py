@@ -177,3 +177,17 @@ def test_train_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
     assert f"saved {saved}; resume with --resume {saved}" in one_line(err, "cmdp-train")
     assert PPO.load(str(saved), device="cpu").num_timesteps > 0
     assert not [p for p in run.rglob("*") if ".tmp" in p.name]
+
+
+@pytest.mark.slow
+def test_train_stage2_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
+    run = tmp_path / "run"
+    code, err = run_and_interrupt("training.stage1", [
+        "stage2", "--out", str(run), "--no-progress", "--set", "bc_episodes=0",
+        "--set", "num_cpus=2", "--set", "n_steps=16", "--set", "batch_size=32",
+        "--set", "eval_seeds=[2000]", "--set", "total_steps=100000000"], 2.0, wait_for="PPO:")
+    assert code == 130, err
+    saved = run / "checkpoints" / "interrupted.zip"
+    assert f"saved {saved}; resume with --resume {saved}" in one_line(err, "cmdp-train")
+    assert saved.is_file()
+    assert not [p for p in run.rglob("*") if ".tmp" in p.name]

@@ -348,6 +348,67 @@ class TrainingInterrupted(KeyboardInterrupt):
     to resume (``cmdp-train`` prints it as its one line)."""
 
 
+def without_sigint(make):
+    """``make()`` (a vector env) with SIGINT blocked, so that worker processes forked there
+    never receive Ctrl-C: only this process does, and it stops them in order (a worker's own
+    KeyboardInterrupt would come back through the pipe as a printed traceback)."""
+    import signal
+
+    blocked = hasattr(signal, "pthread_sigmask")
+    if blocked:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        return make()
+    finally:
+        if blocked:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+def learn(model, steps: int, callbacks, run: Path, fresh: bool, progress_bar: bool,
+          unit: str) -> Path:
+    """PPO for ``steps`` more ``unit``, then ``final_model.zip``; Ctrl-C saves
+    ``checkpoints/interrupted.zip`` and raises ``TrainingInterrupted`` saying how to resume."""
+    import signal
+
+    try:
+        model.learn(steps, callback=callbacks, reset_num_timesteps=fresh,
+                    progress_bar=progress_bar)
+    except KeyboardInterrupt:
+        path = run / "checkpoints" / "interrupted.zip"
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C waits
+        try:
+            save_model(model, path)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        raise TrainingInterrupted(
+            f"interrupted at {model.num_timesteps:,} {unit} of PPO: saved {path}; "
+            f"resume with --resume {path}") from None
+    final = run / "final_model.zip"
+    save_model(model, final)
+    return final
+
+
+def run_guarded(start) -> int:
+    """``cmdp-train``'s exit status for ``start()`` (the final model's path, or an exit
+    status for bad settings) under ``sigint_guard``: 130 with one line on Ctrl-C."""
+    from cmdp_pymunk.interrupt import sigint_guard
+
+    try:
+        with sigint_guard():  # a Ctrl-C inside pymunk's callbacks still stops training
+            final = start()
+    except TrainingInterrupted as err:
+        print(f"\ncmdp-train: {err}", file=sys.stderr)
+        return 130
+    except KeyboardInterrupt:
+        print("\ncmdp-train: interrupted while starting, before any training: nothing to "
+              "resume; start again with the same command", file=sys.stderr)
+        return 130
+    if isinstance(final, int):
+        return final
+    print(f"cmdp-train: final model {final}")
+    return 0
+
+
 # -- main ---------------------------------------------------------------------------------------
 
 def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None,
@@ -357,7 +418,6 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
     Ctrl-C raises ``TrainingInterrupted``: during PPO after saving
     ``checkpoints/interrupted.zip`` to resume from; during behaviour cloning nothing can be
     saved yet."""
-    import signal
 
     import torch
     from stable_baselines3 import PPO
@@ -380,17 +440,7 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
         from stable_baselines3.common.save_util import load_from_zip_file
 
         start_steps = load_from_zip_file(str(resume), device="cpu")[0]["num_timesteps"]
-    # The worker processes are forked with SIGINT blocked, so that Ctrl-C reaches only this
-    # process, which stops them in order (a worker's own KeyboardInterrupt would come back
-    # through SuperSuit's pipe as a printed traceback). Here it waits until they exist.
-    blocked = hasattr(signal, "pthread_sigmask")
-    if blocked:
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
-        venv = make_vec_env(config, case, start_steps)
-    finally:
-        if blocked:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    venv = without_sigint(lambda: make_vec_env(config, case, start_steps))
     try:
         if resume is not None:
             # a checkpoint of the v0 env saved an unbounded observation space of the same shape
@@ -426,21 +476,8 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
                                        TensorBoardOutputFormat(str(run / "tb"))]))
         remaining = max(0, config.total_steps - model.num_timesteps)
         log(f"PPO: {remaining:,} agent-steps to go (Ctrl-C saves a checkpoint to resume from)")
-        try:
-            model.learn(remaining, callback=make_callbacks(config, case, run),
-                        reset_num_timesteps=resume is None, progress_bar=progress_bar)
-        except KeyboardInterrupt:
-            path = run / "checkpoints" / "interrupted.zip"
-            previous = signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C waits
-            try:
-                save_model(model, path)
-            finally:
-                signal.signal(signal.SIGINT, previous)
-            raise TrainingInterrupted(
-                f"interrupted at {model.num_timesteps:,} agent-steps of PPO: saved {path}; "
-                f"resume with --resume {path}") from None
-        final = run / "final_model.zip"
-        save_model(model, final)
+        final = learn(model, remaining, make_callbacks(config, case, run), run,
+                      resume is None, progress_bar, "agent-steps")
     finally:
         venv.close()
     try:
@@ -454,8 +491,6 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
 
 def main(argv: list[str] | None = None) -> int:
     import argparse
-
-    from cmdp_pymunk.interrupt import sigint_guard
 
     parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(parser)
@@ -476,31 +511,25 @@ def main(argv: list[str] | None = None) -> int:
     p2.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
     p2.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
+    argv = argv if argv is not None else sys.argv[1:]
     if args.stage == "stage2":
-        from .stage2 import run_cli
+        from .stage2 import start
 
-        return run_cli(args, argv if argv is not None else sys.argv[1:])
-    try:
-        with sigint_guard():  # a Ctrl-C inside pymunk's callbacks still stops training
-            try:
-                config = Stage1Config.load(args.config, args.set)
-                cmdp_pymunk.load_case(config.case)
-                if args.resume is not None and not args.resume.is_file():
-                    raise ValueError(f"--resume {args.resume}: no such checkpoint")
-            except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
-                print(f"cmdp-train: {err}", file=sys.stderr)
-                return 2
-            final = train(config, args.out, args.resume, argv=argv if argv is not None
-                          else sys.argv[1:], progress_bar=not args.no_progress)
-    except TrainingInterrupted as err:
-        print(f"\ncmdp-train: {err}", file=sys.stderr)
-        return 130
-    except KeyboardInterrupt:
-        print("\ncmdp-train: interrupted while starting, before any training: nothing to "
-              "resume; start again with the same command", file=sys.stderr)
-        return 130
-    print(f"cmdp-train: final model {final}")
-    return 0
+        return run_guarded(lambda: start(args, argv))
+
+    def start():
+        try:
+            config = Stage1Config.load(args.config, args.set)
+            cmdp_pymunk.load_case(config.case)
+            if args.resume is not None and not args.resume.is_file():
+                raise ValueError(f"--resume {args.resume}: no such checkpoint")
+        except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
+            print(f"cmdp-train: {err}", file=sys.stderr)
+            return 2
+        return train(config, args.out, args.resume, argv=argv,
+                     progress_bar=not args.no_progress)
+
+    return run_guarded(start)
 
 
 def entry_point() -> None:

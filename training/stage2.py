@@ -273,6 +273,19 @@ def behaviour_clone(model, observations, actions, returns, config: Stage2Config,
     return result
 
 
+def warm_start(model, config: Stage2Config, case, run: Path, log=print) -> None:
+    """Behaviour cloning of the heuristic on ``bc_episodes`` floors (seeds from
+    ``seed + 10000``); its losses and agreement go to ``behaviour_cloning.json``."""
+    t0 = time.perf_counter()
+    obs, acts, rets = heuristic_samples(config, case, config.bc_episodes,
+                                        config.seed + 10_000, log=lambda *_: None)
+    log(f"behaviour cloning: {len(obs):,} heuristic decisions from {config.bc_episodes} floors "
+        f"in {time.perf_counter() - t0:.0f} s")
+    result = behaviour_clone(model, obs, acts, rets, config, log)
+    write_atomic(run / "behaviour_cloning.json", json.dumps({"decisions": len(obs), **result},
+                                                            indent=2))
+
+
 def first_choice(observation: np.ndarray, desired) -> int:
     """The target Eq. 4 values highest for ``desired`` among the targets in scope (O^e1 set),
     read from O^e itself (x/x_max, y/y_max at row columns 4-5, the scope flag at 8)."""
@@ -424,7 +437,7 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
 
     from agents.central_critic import CentralCriticPolicy
 
-    from .stage1 import _next_part
+    from .stage1 import TrainingInterrupted, _next_part, learn, without_sigint
 
     torch.set_num_threads(config.torch_threads)
     torch.distributions.Distribution.set_default_validate_args(False)
@@ -437,47 +450,41 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
          else None, "versions": versions()}, indent=2))
     write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
     set_random_seed(config.seed)
-    venv = make_vec_env(config, case, config.seed)
+    venv = without_sigint(lambda: make_vec_env(config, case, config.seed))
     actor_size = venv.get_attr("actor_size", [0])[0]
-    if resume is not None:
-        model = PPO.load(str(resume), env=venv, device="cpu")
-        log(f"resumed from {resume} at {model.num_timesteps:,} decisions")
-    else:
-        policy_kwargs = {"net_arch": list(config.net_arch), "log_std_init": config.log_std_init}
-        policy = "MlpPolicy"
-        if config.central_critic:
-            policy = CentralCriticPolicy
-            policy_kwargs["actor_size"] = actor_size
-        model = PPO(policy, venv, learning_rate=config.learning_rate, n_steps=config.n_steps,
-                    batch_size=config.batch_size, n_epochs=config.n_epochs, gamma=config.gamma,
-                    gae_lambda=config.gae_lambda, clip_range=config.clip_range,
-                    ent_coef=config.ent_coef, vf_coef=config.vf_coef,
-                    policy_kwargs=policy_kwargs, seed=config.seed, device="cpu", verbose=0)
-        if config.bc_episodes > 0:
-            t0 = time.perf_counter()
-            obs, acts, rets = heuristic_samples(config, case, config.bc_episodes,
-                                                config.seed + 10_000, log=lambda *_: None)
-            log(f"behaviour cloning: {len(obs):,} heuristic decisions from "
-                f"{config.bc_episodes} floors in {time.perf_counter() - t0:.0f} s")
-            result = behaviour_clone(model, obs, acts, rets, config, log)
-            write_atomic(run / "behaviour_cloning.json", json.dumps(
-                {"decisions": len(obs), **result}, indent=2))
-    model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
-                                   TensorBoardOutputFormat(str(run / "tb"))]))
-    remaining = max(0, config.total_steps - model.num_timesteps)
     try:
-        model.learn(remaining, callback=make_callbacks(config, case, run, log),
-                    reset_num_timesteps=resume is None, progress_bar=progress_bar)
-    except KeyboardInterrupt:
-        path = run / "checkpoints" / "interrupted.zip"
-        save_model(model, path)
-        log(f"\ninterrupted at {model.num_timesteps:,} decisions: saved {path}; "
-            f"resume with --resume {path}")
+        if resume is not None:
+            model = PPO.load(str(resume), env=venv, device="cpu")
+            log(f"resumed from {resume} at {model.num_timesteps:,} decisions")
+        else:
+            policy_kwargs = {"net_arch": list(config.net_arch),
+                             "log_std_init": config.log_std_init}
+            policy = "MlpPolicy"
+            if config.central_critic:
+                policy = CentralCriticPolicy
+                policy_kwargs["actor_size"] = actor_size
+            model = PPO(policy, venv, learning_rate=config.learning_rate,
+                        n_steps=config.n_steps, batch_size=config.batch_size,
+                        n_epochs=config.n_epochs, gamma=config.gamma,
+                        gae_lambda=config.gae_lambda, clip_range=config.clip_range,
+                        ent_coef=config.ent_coef, vf_coef=config.vf_coef,
+                        policy_kwargs=policy_kwargs, seed=config.seed, device="cpu", verbose=0)
+            if config.bc_episodes > 0:
+                try:
+                    warm_start(model, config, case, run, log)
+                except KeyboardInterrupt:
+                    raise TrainingInterrupted(
+                        "interrupted during behaviour cloning (the warm start before PPO): "
+                        "nothing could be saved yet; start again with the same command (or "
+                        "--set bc_episodes=0 to skip cloning)") from None
+        model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
+                                       TensorBoardOutputFormat(str(run / "tb"))]))
+        remaining = max(0, config.total_steps - model.num_timesteps)
+        log(f"PPO: {remaining:,} decisions to go (Ctrl-C saves a checkpoint to resume from)")
+        final = learn(model, remaining, make_callbacks(config, case, run, log), run,
+                      resume is None, progress_bar, "decisions")
+    finally:
         venv.close()
-        raise
-    final = run / "final_model.zip"
-    save_model(model, final)
-    venv.close()
     try:
         from media.curves import draw_stage2_curve
 
@@ -487,8 +494,9 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
     return final
 
 
-def run_cli(args, argv) -> int:
-    """``cmdp-train stage2`` after argument parsing (``training.stage1.main`` dispatches)."""
+def start(args, argv) -> Path | int:
+    """``cmdp-train stage2`` after argument parsing (``training.stage1.main`` runs it under
+    its Ctrl-C guard): the final model's path, or 2 for bad settings."""
     import sys
 
     try:
@@ -499,10 +507,5 @@ def run_cli(args, argv) -> int:
     except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
         print(f"cmdp-train: {err}", file=sys.stderr)
         return 2
-    try:
-        final = train(config, args.out or Path("runs/stage2"), args.resume, argv=argv,
-                      progress_bar=not args.no_progress)
-    except KeyboardInterrupt:
-        return 130
-    print(f"cmdp-train: final model {final}")
-    return 0
+    return train(config, args.out or Path("runs/stage2"), args.resume, argv=argv,
+                 progress_bar=not args.no_progress)
