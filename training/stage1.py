@@ -364,12 +364,19 @@ def without_sigint(make):
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
-def learn(model, steps: int, callbacks, run: Path, fresh: bool, progress_bar: bool,
-          unit: str) -> Path:
-    """PPO for ``steps`` more ``unit``, then ``final_model.zip``; Ctrl-C saves
-    ``checkpoints/interrupted.zip`` and raises ``TrainingInterrupted`` saying how to resume."""
+def learn(model, total_steps: int, callbacks, run: Path, suffix: str, fresh: bool,
+          progress_bar: bool, unit: str, log=print) -> Path:
+    """PPO up to ``total_steps`` ``unit``, logging to ``progress{suffix}.csv`` and ``tb/``,
+    then ``final_model.zip``; Ctrl-C saves ``checkpoints/interrupted.zip`` and raises
+    ``TrainingInterrupted`` saying how to resume."""
     import signal
 
+    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
+
+    model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
+                                   TensorBoardOutputFormat(str(run / "tb"))]))
+    steps = max(0, total_steps - model.num_timesteps)
+    log(f"PPO: {steps:,} {unit} to go (Ctrl-C saves a checkpoint to resume from)")
     try:
         model.learn(steps, callback=callbacks, reset_num_timesteps=fresh,
                     progress_bar=progress_bar)
@@ -421,7 +428,6 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
 
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
     from stable_baselines3.common.utils import set_random_seed
 
     torch.set_num_threads(config.torch_threads)
@@ -472,21 +478,22 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
                         f"{run} holds only config{suffix}.json and case.json; start again "
                         "with the same command (or --set bc_samples=0 to skip cloning)"
                     ) from None
-        model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
-                                       TensorBoardOutputFormat(str(run / "tb"))]))
-        remaining = max(0, config.total_steps - model.num_timesteps)
-        log(f"PPO: {remaining:,} agent-steps to go (Ctrl-C saves a checkpoint to resume from)")
-        final = learn(model, remaining, make_callbacks(config, case, run), run,
-                      resume is None, progress_bar, "agent-steps")
+        final = learn(model, config.total_steps, make_callbacks(config, case, run), run,
+                      suffix, resume is None, progress_bar, "agent-steps", log)
     finally:
         venv.close()
-    try:
-        from media.curves import draw_training_curve
+    from media.curves import draw_training_curve
 
-        draw_training_curve(sorted(run.glob("progress*.csv")), run / "training_curve.png")
+    draw_curve(draw_training_curve, run, log)
+    return final
+
+
+def draw_curve(draw, run: Path, log=print) -> None:
+    """``training_curve.png`` from every ``progress*.csv`` of the run (its resumed parts)."""
+    try:
+        draw(sorted(run.glob("progress*.csv")), run / "training_curve.png")
     except (FileNotFoundError, ValueError) as err:
         log(f"no training curve: {err}")
-    return final
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -495,41 +502,38 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(parser)
     sub = parser.add_subparsers(dest="stage", required=True)
-    p = sub.add_parser("stage1", help="train the shared target-reaching policy")
-    p.add_argument("--config", type=Path, default=DEFAULT_CONFIG)
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a config setting (repeatable)")
-    p.add_argument("--out", type=Path, default=Path("runs/stage1"))
-    p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
-    p.add_argument("--no-progress", action="store_true")
-    p2 = sub.add_parser("stage2", help="train the target-evaluation policy (section 3.6.1)")
-    p2.add_argument("--config", type=Path, default=None,
-                    help="TOML settings (default: training/configs/stage2.toml)")
-    p2.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="override a config setting (repeatable)")
-    p2.add_argument("--out", type=Path, default=None, help="run folder (default: runs/stage2)")
-    p2.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
-    p2.add_argument("--no-progress", action="store_true")
+    for stage, what in (("stage1", "the shared target-reaching policy (section 4.2)"),
+                        ("stage2", "the target-evaluation policy (section 3.6.1)")):
+        p = sub.add_parser(stage, help=f"train {what}")
+        p.add_argument("--config", type=Path, default=None,
+                       help=f"TOML settings (default: training/configs/{stage}.toml)")
+        p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                       help="override a config setting (repeatable)")
+        p.add_argument("--out", type=Path, default=Path(f"runs/{stage}"), help="run folder")
+        p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
+        p.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
     argv = argv if argv is not None else sys.argv[1:]
     if args.stage == "stage2":
-        from .stage2 import start
+        from . import stage2
 
-        return run_guarded(lambda: start(args, argv))
+        return run_guarded(lambda: start(stage2.Stage2Config, stage2.DEFAULT_CONFIG,
+                                         stage2.train, args, argv))
+    return run_guarded(lambda: start(Stage1Config, DEFAULT_CONFIG, train, args, argv))
 
-    def start():
-        try:
-            config = Stage1Config.load(args.config, args.set)
-            cmdp_pymunk.load_case(config.case)
-            if args.resume is not None and not args.resume.is_file():
-                raise ValueError(f"--resume {args.resume}: no such checkpoint")
-        except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
-            print(f"cmdp-train: {err}", file=sys.stderr)
-            return 2
-        return train(config, args.out, args.resume, argv=argv,
-                     progress_bar=not args.no_progress)
 
-    return run_guarded(start)
+def start(config_class, default_config: Path, train_run, args, argv) -> Path | int:
+    """Settings checked, then ``train_run``: the final model's path, or 2 with one line for
+    bad settings (``main`` runs this under its Ctrl-C guard)."""
+    try:
+        config = config_class.load(args.config or default_config, args.set)
+        cmdp_pymunk.load_case(config.case)
+        if args.resume is not None and not args.resume.is_file():
+            raise ValueError(f"--resume {args.resume}: no such checkpoint")
+    except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
+        print(f"cmdp-train: {err}", file=sys.stderr)
+        return 2
+    return train_run(config, args.out, args.resume, argv=argv, progress_bar=not args.no_progress)
 
 
 def entry_point() -> None:

@@ -432,12 +432,11 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
     """Train (or resume) a stage-2 run in ``run``; returns the final model's path."""
     import torch
     from stable_baselines3 import PPO
-    from stable_baselines3.common.logger import CSVOutputFormat, Logger, TensorBoardOutputFormat
     from stable_baselines3.common.utils import set_random_seed
 
     from agents.central_critic import CentralCriticPolicy
 
-    from .stage1 import TrainingInterrupted, _next_part, learn, without_sigint
+    from .stage1 import TrainingInterrupted, _next_part, draw_curve, learn, without_sigint
 
     torch.set_num_threads(config.torch_threads)
     torch.distributions.Distribution.set_default_validate_args(False)
@@ -477,35 +476,11 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
                         "interrupted during behaviour cloning (the warm start before PPO): "
                         "nothing could be saved yet; start again with the same command (or "
                         "--set bc_episodes=0 to skip cloning)") from None
-        model.set_logger(Logger(None, [CSVOutputFormat(str(run / f"progress{suffix}.csv")),
-                                       TensorBoardOutputFormat(str(run / "tb"))]))
-        remaining = max(0, config.total_steps - model.num_timesteps)
-        log(f"PPO: {remaining:,} decisions to go (Ctrl-C saves a checkpoint to resume from)")
-        final = learn(model, remaining, make_callbacks(config, case, run, log), run,
-                      resume is None, progress_bar, "decisions")
+        final = learn(model, config.total_steps, make_callbacks(config, case, run, log), run,
+                      suffix, resume is None, progress_bar, "decisions", log)
     finally:
         venv.close()
-    try:
-        from media.curves import draw_stage2_curve
+    from media.curves import draw_stage2_curve
 
-        draw_stage2_curve(sorted(run.glob("progress*.csv")), run / "training_curve.png")
-    except (FileNotFoundError, ValueError) as err:
-        log(f"no training curve: {err}")
+    draw_curve(draw_stage2_curve, run, log)
     return final
-
-
-def start(args, argv) -> Path | int:
-    """``cmdp-train stage2`` after argument parsing (``training.stage1.main`` runs it under
-    its Ctrl-C guard): the final model's path, or 2 for bad settings."""
-    import sys
-
-    try:
-        config = Stage2Config.load(args.config or DEFAULT_CONFIG, args.set)
-        cmdp_pymunk.load_case(config.case)
-        if args.resume is not None and not args.resume.is_file():
-            raise ValueError(f"--resume {args.resume}: no such checkpoint")
-    except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
-        print(f"cmdp-train: {err}", file=sys.stderr)
-        return 2
-    return train(config, args.out or Path("runs/stage2"), args.resume, argv=argv,
-                 progress_bar=not args.no_progress)
