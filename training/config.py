@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError, model_validator
 
 # Scalars are strict, as in the case: a quoted "3" or a 2.5 for a count is a mistake to report.
 Count = Annotated[int, Strict(), Field(gt=0)]
@@ -26,6 +26,14 @@ class RunConfig(BaseModel):
     """Base of the stage configs: unknown keys are errors; ``load`` reads file + overrides."""
 
     model_config = ConfigDict(extra="forbid")
+
+    @model_validator(mode="after")
+    def _cpus_within_copies(self) -> RunConfig:
+        n_envs, num_cpus = getattr(self, "n_envs", None), getattr(self, "num_cpus", None)
+        if n_envs is not None and num_cpus is not None and num_cpus > n_envs:
+            raise ValueError(f"num_cpus = {num_cpus} exceeds n_envs = {n_envs}; "
+                             "fix: lower num_cpus")
+        return self
 
     @classmethod
     def load(cls, path: Path | None, overrides: list[str] = ()) -> RunConfig:

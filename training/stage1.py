@@ -25,7 +25,6 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from pydantic import model_validator
 
 import cmdp_pymunk
 from cmdp_pymunk.events import write_atomic
@@ -75,13 +74,6 @@ class Stage1Config(RunConfig):
     eval_every_steps: Count = 250_000
     eval_seeds: Sizes = [1000, 1001]
     checkpoint_every_steps: Count = 250_000
-
-    @model_validator(mode="after")
-    def _cpus_within_copies(self) -> Stage1Config:
-        if self.num_cpus > self.n_envs:
-            raise ValueError(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; "
-                             "fix: lower num_cpus")
-        return self
 
 # -- environment -------------------------------------------------------------------------------
 

@@ -91,10 +91,7 @@ class Stage2Config(RunConfig):
     checkpoint_every_steps: Count = 4096
 
     @model_validator(mode="after")
-    def _cpus_within_copies(self) -> Stage2Config:
-        if self.num_cpus > self.n_envs:
-            raise ValueError(f"num_cpus = {self.num_cpus} exceeds n_envs = {self.n_envs}; "
-                             "fix: lower num_cpus")
+    def _low_level_exists(self) -> Stage2Config:
         if self.low_level != "scripted" and not Path(self.low_level).is_file():
             raise ValueError(f"low_level = {self.low_level!r}: no such stage-1 model; fix: give "
                              '"scripted" or the path of a stage-1 .zip')
