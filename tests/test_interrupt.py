@@ -41,6 +41,22 @@ def world_with_a_callback_that_gets_sigint():
     return world, fired
 
 
+@pytest.fixture(autouse=True)
+def python_sigint_handler():
+    """Each test starts from Python's own SIGINT handler, as under a terminal. A run started
+    in the background (``cmd &`` in a script, some CI runners) inherits SIGINT ignored, and
+    Python then keeps it ignored: these tests would see nothing arrive."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def default_sigint() -> None:
+    """In a child before exec: SIGINT back to the default, so that Python installs its handler
+    even where this test run inherited SIGINT ignored."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.fixture
 def unraisable(monkeypatch):
     """What cffi reports as "Exception ignored from cffi callback" (sys.unraisablehook)."""
@@ -85,7 +101,8 @@ def run_and_interrupt(module: str, argv: list[str], after_s: float,
                PYGAME_HIDE_SUPPORT_PROMPT="1", PYTHONUNBUFFERED="1")
     proc = subprocess.Popen([sys.executable, "-c", f"from {module} import entry_point; "
                              "entry_point()", *argv], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT)
+                            stderr=subprocess.PIPE, text=True, env=env, cwd=ROOT,
+                            preexec_fn=default_sigint)
     try:
         if after_s < 0:
             time.sleep(-after_s)
