@@ -501,7 +501,8 @@ def main(argv: list[str] | None = None) -> int:
                        help=f"TOML settings (default: training/configs/{stage}.toml)")
         p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                        help="override a config setting (repeatable)")
-        p.add_argument("--out", type=Path, default=Path(f"runs/{stage}"), help="run folder")
+        p.add_argument("--out", type=Path, default=Path(f"runs/{stage}"),
+                       help=f"run folder (default: runs/{stage})")
         p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
         p.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)

@@ -187,14 +187,7 @@ class Stage2Env(gym.Env):
 def make_vec_env(config: Stage2Config, case, seed: int):
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
-    def factory(k: int):
-        def make():
-            env = Stage2Env(config, case)
-            env.reset(seed=seed + 7919 * k)  # each copy its own seed sequence
-            return env
-        return make
-
-    fns = [factory(k) for k in range(config.n_envs)]
+    fns = [lambda: Stage2Env(config, case)] * config.n_envs  # venv.seed: copy k gets seed + k
     venv = SubprocVecEnv(fns, start_method="fork") if config.num_cpus > 1 else DummyVecEnv(fns)
     venv.seed(seed)
     return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
@@ -275,7 +268,7 @@ def warm_start(model, config: Stage2Config, case, run: Path, log=print) -> None:
     ``seed + 10000``); its losses and agreement go to ``behaviour_cloning.json``."""
     t0 = time.perf_counter()
     obs, acts, rets = heuristic_samples(config, case, config.bc_episodes,
-                                        config.seed + 10_000, log=lambda *_: None)
+                                        config.seed + 10_000, log=log)
     log(f"behaviour cloning: {len(obs):,} heuristic decisions from {config.bc_episodes} floors "
         f"in {time.perf_counter() - t0:.0f} s")
     result = behaviour_clone(model, obs, acts, rets, config, log)
