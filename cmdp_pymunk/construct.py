@@ -1,8 +1,9 @@
 """P_cons: task progress, material fetching and the crane, with invading crews (Eq. 2).
 
-Efficiencies are drawn from Table 3 with the episode's own generator when a task is initiated
-(one draw per task: a crew's pace on a task is one realisation; drawing every second would
-average Table 3's spread away).
+Efficiencies are drawn from Table 3 when a task is initiated, from the task's own random
+stream (``streams``: keyed by seed and task, so strategies on one seed meet the same paces):
+one draw per task, a crew's pace on a task is one realisation; drawing every second would
+average Table 3's spread away.
 """
 
 from __future__ import annotations

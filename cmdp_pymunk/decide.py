@@ -23,10 +23,9 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from . import construct, events, precedence
 from .state import CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site, inside
+from .streams import RandomStreams
 from .world import World
 
 MAX_ROWS_PER_STEP = 3
@@ -40,7 +39,7 @@ class Context:
     site: Site
     world: World
     positions: list
-    rng: np.random.Generator
+    streams: RandomStreams  # a task's pace comes from its own stream
     log: events.EventLog
     reached: dict = field(default_factory=dict)  # crew index -> target index reached, or -1
     reached_value: dict = field(default_factory=dict)  # crew index -> V_Tar of a reach
@@ -137,7 +136,7 @@ def initiate_task(crew: CrewState, ctx: Context) -> None:
     precedence.start(site, task)
     ctx.world.add_task_area(task.index, task.area)
     task.crew = crew.index
-    task.pace = construct.draw_pace(ctx.rng, crew, task)
+    task.pace = construct.draw_pace(ctx.streams.pace(task.index), crew, task)
     task.crane_assisted = site.stage == 1  # section 4.2: no crane wait in stage 1
     crew.task = task.index
     crew.clear_scope()

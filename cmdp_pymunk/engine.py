@@ -8,12 +8,13 @@ what it needs from outside:
 - ``pending``: which crews' target scopes wait for values, when no evaluator is injected
   (``evaluator=None``); answer with ``set_target_values(i, values)``.
 
-``reset(seed)`` starts an episode (one ``numpy`` generator, made here); ``step(actions)`` runs
-one simulated second and returns what happened (``Second``); ``advance(actions, until)`` runs
-seconds until a condition holds, the episode ends or it is cut (the idle jump, generalised),
-and counts them for metrics (``metrics.Counters``, beside the dynamics). Observations are
-the adapters' business (``observe``): the PettingZoo env (``env.CMDPEnv``) casts the rays, the
-stage-2 env (``highlevel``) builds O^e.
+``reset(seed)`` starts an episode (its random streams, ``streams``, keyed here: a task's pace
+by seed and task); ``step(actions)`` runs one simulated second and returns what happened
+(``Second``); ``advance(actions, until)`` runs seconds until a condition holds, the episode
+ends or it is cut (the idle jump, generalised), and counts them for metrics
+(``metrics.Counters``, beside the dynamics). Observations are the adapters' business
+(``observe``): the PettingZoo env (``env.CMDPEnv``) casts the rays, the stage-2 env
+(``highlevel``) builds O^e.
 
 One second, in the paper's order (section 3.2)
     At second t the crews decided (Pi_cons, Table 1), their scopes were valued (Eq. 4 or
@@ -31,17 +32,17 @@ Arguments
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-
-import numpy as np
 
 from . import construct, decide, events, move, reward
 from .case_model import Case
 from .evaluate import TargetEvaluator, assign_target_values, crews_needing_values
 from .metrics import Counters
 from .state import CrewState, CrewStatus, Site, activity
+from .streams import RandomStreams
 from .world import World
 
 
@@ -103,7 +104,7 @@ class Engine:
         self.park_idle = park_idle
         self.position_log_every_s = position_log_every_s
         self.eta = reward.eta_by_kind(case.reaching_reward)
-        self.rng = np.random.default_rng(seed)
+        self.streams = RandomStreams(seed)  # a task's pace by (seed, task): streams.py
         self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
         self.site: Site | None = None
         self.world: World | None = None
@@ -115,10 +116,10 @@ class Engine:
     # -- an episode ---------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None) -> None:
-        """A new episode; ``seed`` re-seeds the generator (None keeps it). The crews decide
-        and are valued for the first second."""
-        if seed is not None:
-            self.rng = np.random.default_rng(seed)
+        """A new episode; ``seed`` re-keys the random streams (None keeps them, and returns
+        to the floor's own future). The crews decide and are valued for the first second."""
+        self.streams = RandomStreams(seed) if seed is not None else \
+            self.streams.with_scenario(None)
         self.site = Site(self.case, self.stage)
         self.world = World(self.case, self.site)
         self.log = events.EventLog()
@@ -195,6 +196,40 @@ class Engine:
         out.truncated = truncated
         return out
 
+    def clone(self, scenario: int | None = None, companions: tuple = ()) -> Engine | tuple:
+        """An independent episode at the same second: a branch of the floor.
+
+        Everything is copied (site, world, event log, counters, streams) but the case and
+        the injected evaluator, which are shared (an evaluator must keep no state of its
+        own per episode). ``scenario``: None keeps the floor's own future (the clone, given
+        the same actions and values, runs exactly as the original); an int draws the paces
+        of tasks not yet started from that sampled future (``streams``), keeping those
+        already drawn. ``companions``: objects that must branch with the engine and keep
+        their references to it (an env, a low level); then a tuple (engine, *companions)
+        is returned.
+
+        pymunk's contact cache cannot be copied, so the original's world is rebuilt from
+        the same data as the clone's: both continue identically, and the original may
+        differ in the last digits of a contact from a run that never branched.
+        """
+        if self.site is None:
+            raise RuntimeError("clone: the engine has no episode yet; call reset(seed) first")
+        if self.site.done:
+            raise ValueError("clone: the episode has ended (every task is done); there is no "
+                             "future to branch")
+        memo = {id(self.case): self.case}
+        if self.evaluator is not None:
+            memo[id(self.evaluator)] = self.evaluator
+        clock, self.clock = self.clock, None
+        try:
+            copies = copy.deepcopy((self, *companions), memo)
+        finally:
+            self.clock = clock
+        self.world.__setstate__(self.world.__getstate__())
+        copies[0].streams.with_scenario(scenario if scenario is not None
+                                        else self.streams.scenario)
+        return copies if companions else copies[0]
+
     def decision_due(self) -> bool:
         """A crew needs a movement decision or target values: where the idle jump stops."""
         return self.action_needed or bool(self.pending)
@@ -228,7 +263,7 @@ class Engine:
     # -- the stages ---------------------------------------------------------------------------
 
     def _context(self) -> decide.Context:
-        return decide.Context(self.site, self.world, self.positions, self.rng, self.log)
+        return decide.Context(self.site, self.world, self.positions, self.streams, self.log)
 
     def _move(self, actions, moving: list[bool]) -> list[float]:
         """P_phy: the moving crews' reaching actions through Eq. 1, then the physics; returns

@@ -347,14 +347,6 @@ class CMDPEnv(ParallelEnv):
         self.engine.stall_s = value
 
     @property
-    def rng(self) -> np.random.Generator:
-        return self.engine.rng
-
-    @rng.setter
-    def rng(self, value: np.random.Generator) -> None:
-        self.engine.rng = value
-
-    @property
     def clock(self):
         return self.engine.clock
 

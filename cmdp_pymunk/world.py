@@ -114,6 +114,8 @@ class World:
     """The physical state S_phy of one episode."""
 
     def __init__(self, case: Case, site: Site, public_rays: bool = False):
+        self.case, self.site, self.public_rays = case, site, public_rays
+        self._carried: set = set()  # contacts that outlived a rebuild (``__setstate__``)
         self.space = pymunk.Space()
         self.space.iterations = 10
         self.rays = RayCaster(self.space, public=public_rays)
@@ -188,10 +190,14 @@ class World:
 
     def _count_contact(self, arbiter, space, data) -> None:
         crew_shape, other = arbiter.shapes
+        if self._carried and (crew_shape, other) in self._carried:
+            return  # it began before a rebuild: counted then
         self.contacts[crew_shape.crew][other.kind] += 1
 
     def _count_crew_contact(self, arbiter, space, data) -> None:
         a, b = arbiter.shapes
+        if self._carried and frozenset((a, b)) in self._carried:
+            return
         self.contacts[a.crew][CREW] += 1
         self.contacts[b.crew][CREW] += 1
 
@@ -222,6 +228,57 @@ class World:
 
     # -- physics ------------------------------------------------------------------------------
 
+    # -- branching: a world as plain data, and rebuilt from it --------------------------------
+
+    def __getstate__(self) -> dict:
+        """The physical state as plain data (no pymunk or cffi objects): what ``copy.deepcopy``
+        of an engine copies. pymunk's contact cache (its solver's warm start) is not part of
+        it, so a rebuilt world may differ from one never rebuilt in the last digits of a
+        contact; ``Engine.clone`` rebuilds the original too, and both go on identically."""
+        bodies = [None if b.space is None else
+                  (tuple(b.position), b.angle, tuple(b.velocity), b.angular_velocity)
+                  for b in self.bodies]
+        return {"case": self.case, "site": self.site, "public_rays": self.public_rays,
+                "bodies": bodies, "areas": list(self.area_shapes),
+                "desired": [list(d) for d in self.desired],
+                "contacts": [list(c) for c in self.contacts],
+                "at_rest": self.at_rest, "motion_version": self.motion_version}
+
+    def __setstate__(self, state: dict) -> None:
+        """Rebuild the space from ``__getstate__``'s data: walls, components, storages, the
+        outlet and crews as at the start, then the task areas on the plane in the order they
+        appeared, the crews' poses and velocities, and what the counters held."""
+        self.__init__(state["case"], state["site"], state["public_rays"])
+        for i, pose in enumerate(state["bodies"]):
+            if pose is None:
+                self.remove_crew(i)
+                continue
+            body = self.bodies[i]
+            body.position, body.angle, body.velocity, body.angular_velocity = pose
+        for task in state["areas"]:
+            self.add_task_area(task, self.site.tasks[task].area)
+        self.space.reindex_shapes_for_body(self._static_body)
+        for body in self.bodies:
+            if body.space is not None:
+                self.space.reindex_shapes_for_body(body)
+        self.desired[:] = [list(d) for d in state["desired"]]
+        self.contacts = [list(c) for c in state["contacts"]]
+        self.at_rest, self.motion_version = state["at_rest"], state["motion_version"]
+        # Overlaps that exist now began before the rebuild: pymunk will call ``begin`` for
+        # them again at the next step, and they must not count twice.
+        carried = set()
+        for body in self.bodies:
+            if body.space is None:
+                continue
+            for crew_shape in body.shapes:
+                for hit in self.space.shape_query(crew_shape):
+                    other = hit.shape
+                    if getattr(other, "kind", None) == CREW:
+                        carried.add(frozenset((crew_shape, other)))
+                    elif other is not None:
+                        carried.add((crew_shape, other))
+        self._carried = carried
+
     def step(self, dt: float, substeps: int) -> None:
         """Advance the physics, unless the plane is at rest and nobody wants to move.
 
@@ -241,6 +298,7 @@ class World:
                 self.space.step(h)
         finally:
             interrupt.leave()
+        self._carried = set()  # ``begin`` has fired for every overlap that outlived a rebuild
         self.at_rest = all(b.position == p and b.angle == a
                            for b, p, a in zip(self.bodies, before, angles, strict=True))
         if not self.at_rest:

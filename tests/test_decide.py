@@ -14,7 +14,7 @@ A, B, C = range(3)  # components
 
 
 def ctx_of(env):
-    return decide.Context(env.site, env.world, env.positions, env.rng, env.log)
+    return decide.Context(env.site, env.world, env.positions, env.engine.streams, env.log)
 
 
 def fire(env, crew_index):

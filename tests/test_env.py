@@ -72,14 +72,16 @@ def test_activity_events_follow_every_state_change():
     assert checked >= 8
 
 
-def test_reset_without_seed_keeps_the_generator():
+def test_reset_without_seed_keeps_the_random_streams():
     env = tiny_env()
     env.reset(seed=5)
-    first = env.rng.random()
+    first = env.engine.streams.pace(0).random()
     env.reset(seed=5)
-    assert env.rng.random() == first
+    assert env.engine.streams.pace(0).random() == first
     env.reset()
-    assert env.rng.random() != first
+    assert env.engine.streams.pace(0).random() == first  # None keeps the seed's streams
+    env.reset(seed=6)
+    assert env.engine.streams.pace(0).random() != first
 
 
 def test_idle_jump_gives_the_same_schedule_as_stepping():

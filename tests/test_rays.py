@@ -8,6 +8,7 @@ from conftest import place, tiny_dict
 from cmdp_pymunk import parallel_env
 from cmdp_pymunk.case import case_from_dict
 from cmdp_pymunk.observe import observe_crew
+from cmdp_pymunk.streams import RandomStreams
 from cmdp_pymunk.world import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
 
 SCALE = 1 / 6  # type ids are scaled by 1/6
@@ -148,7 +149,6 @@ def test_a_crew_in_a_storage_sees_out_of_it_with_its_frontal_rays():
 
 
 def test_a_crew_remembers_where_it_paused_its_task():
-    import numpy as np
 
     from cmdp_pymunk import decide
 
@@ -156,7 +156,7 @@ def test_a_crew_remembers_where_it_paused_its_task():
     crew = env.site.crews[0]
     crew.task = 3  # M-C, on component C (target 2)
     env.site.time_s = 42.0
-    ctx = decide.Context(env.site, env.world, env.positions, np.random.default_rng(0), env.log)
+    ctx = decide.Context(env.site, env.world, env.positions, RandomStreams(0), env.log)
     decide.pause_task(crew, ctx)
     assert crew.sightings[env.site.tasks[3].component] == (0.0, 0.0, 42.0)
 

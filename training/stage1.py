@@ -105,10 +105,13 @@ class MixedStageEnv(cmdp_pymunk.CMDPEnv):
         self.config = config
         self.run_steps = start_steps
         self.steps_per_call = config.n_envs * len(self.possible_agents)
+        self._mix_rng = np.random.default_rng(kwargs.get("seed"))  # its own stream: the stage
 
     def reset(self, seed=None, options=None):
         c = self.config
-        draw = (np.random.default_rng(seed) if seed is not None else self.rng).random()
+        if seed is not None:
+            self._mix_rng = np.random.default_rng(seed)
+        draw = self._mix_rng.random()
         stage2 = self.run_steps >= c.stage2_after_steps and draw < c.stage2_share
         self.stage = 2 if stage2 else 1
         self.max_time_s = c.stage2_episode_time_s if stage2 else c.episode_time_s

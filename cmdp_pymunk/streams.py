@@ -1,0 +1,59 @@
+"""Random streams per source: common random numbers for paired comparisons and branching.
+
+Each source of randomness draws from its own stream, keyed by the episode's seed, the source
+and the item (``numpy.random.SeedSequence``). A task's pace (Table 3) comes from the stream
+of (seed, "pace", task), whatever the order in which tasks start: two strategies run on one
+seed meet the same duration for the same task, and a different decision early in the floor
+does not reshuffle every later duration (one generator drawn in task-start order did).
+
+A *scenario* is a sampled future of a floor (``Engine.clone(scenario=k)``): the paces of tasks
+not yet started come from (seed, "pace", k, task) instead; tasks already started keep the
+pace they drew. Scenario None is the floor's own future.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Source ids: a new source takes a new number, so adding one changes no other stream.
+PACE = 1
+
+
+class RandomStreams:
+    """The streams of one episode: ``pace(task)`` gives the generator of a task's pace.
+
+    Args:
+        seed: the episode's seed (an int >= 0), or None for fresh OS entropy (then
+            ``entropy`` says which, so the episode can be replayed).
+        scenario: None for the floor's own future, or an int >= 0 naming a sampled one.
+    """
+
+    def __init__(self, seed: int | None, scenario: int | None = None):
+        if seed is not None and (not isinstance(seed, (int, np.integer)) or seed < 0):
+            raise ValueError(f"seed must be an int >= 0 or None, not {seed!r}")
+        self.entropy = int(seed) if seed is not None else int(np.random.SeedSequence().entropy)
+        self.seed = seed
+        self.scenario = None
+        self.with_scenario(scenario)
+
+    def with_scenario(self, scenario: int | None) -> RandomStreams:
+        """Switch the future to scenario ``scenario`` (in place; returns self)."""
+        if scenario is not None and (not isinstance(scenario, (int, np.integer)) or scenario < 0):
+            raise ValueError(f"scenario must be an int >= 0 or None (the floor's own future), "
+                             f"not {scenario!r}")
+        self.scenario = None if scenario is None else int(scenario)
+        return self
+
+    def key(self, source: int, item: int) -> list[int]:
+        """The SeedSequence key of one item of one source under the current scenario."""
+        if self.scenario is None:
+            return [self.entropy, source, item]
+        return [self.entropy, source, item, 1, self.scenario]
+
+    def generator(self, source: int, item: int) -> np.random.Generator:
+        return np.random.Generator(np.random.PCG64(np.random.SeedSequence(self.key(source,
+                                                                                    item))))
+
+    def pace(self, task: int) -> np.random.Generator:
+        """The generator a task's pace is drawn from (``construct.draw_pace``)."""
+        return self.generator(PACE, task)

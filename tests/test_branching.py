@@ -1,0 +1,123 @@
+"""Common random numbers and branching: per-task pace streams, ``Engine.clone``, scenarios."""
+
+from __future__ import annotations
+
+import pytest
+from conftest import place
+
+import cmdp_pymunk
+from agents.navigator import Navigator
+from agents.priority import PriorityEvaluator
+from cmdp_pymunk.construct import draw_pace
+from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.evaluate import NearestFirstEvaluator
+from cmdp_pymunk.streams import RandomStreams
+from cmdp_pymunk.world import STORAGE
+
+
+def floor(evaluator=None, seed: int = 0):
+    env = cmdp_pymunk.parallel_env(seed=seed, evaluator=evaluator or PriorityEvaluator(),
+                                   park_idle=True, blind=True)
+    navigator = Navigator(env)
+    env.reset(seed=seed)
+    navigator.reset(seed)
+    return env, navigator
+
+
+def run(env, navigator, until_s: float | None = None) -> None:
+    while env.agents and (until_s is None or env.site.time_s < until_s):
+        env.step(navigator.actions(env, None))
+
+
+def paces(env) -> dict[str, float]:
+    return {t.id: t.pace for t in env.site.tasks if t.started_s >= 0}
+
+
+def test_a_task_pace_comes_from_its_own_stream():
+    # the same (seed, task) gives the same generator whatever was drawn before
+    a, b = RandomStreams(7), RandomStreams(7)
+    b.pace(3).random()
+    assert a.pace(5).random() == b.pace(5).random()
+    assert a.pace(5).random() != a.pace(6).random()
+    assert RandomStreams(7).pace(5).random() != RandomStreams(8).pace(5).random()
+    assert RandomStreams(7, scenario=1).pace(5).random() != a.pace(5).random()
+    assert RandomStreams(7, scenario=1).pace(5).random() == \
+        RandomStreams(7).with_scenario(1).pace(5).random()
+    with pytest.raises(ValueError, match="seed must be an int >= 0"):
+        RandomStreams(-1)
+    with pytest.raises(ValueError, match="scenario must be an int >= 0"):
+        RandomStreams(1, scenario="a")
+
+
+def test_two_strategies_on_one_seed_meet_the_same_paces():
+    priority, nav_p = floor(PriorityEvaluator(), seed=3)
+    nearest, nav_n = floor(NearestFirstEvaluator(), seed=3)
+    run(priority, nav_p, 8000.0)
+    run(nearest, nav_n, 8000.0)
+    a, b = paces(priority), paces(nearest)
+    both = a.keys() & b.keys()
+    assert len(both) >= 5 and a.keys() != b.keys()  # different orders, shared tasks
+    assert all(a[t] == b[t] for t in both)
+    # and each pace is Table 3's draw from the task's own stream
+    site = priority.site
+    for task in site.tasks:
+        if task.id in both:
+            crew = site.crews[task.crew]
+            assert task.pace == draw_pace(RandomStreams(3).pace(task.index), crew, task)
+
+
+def test_a_clone_continued_runs_exactly_as_the_original():
+    env, navigator = floor()
+    run(env, navigator, 3000.0)
+    engine, env2, navigator2 = env.engine.clone(companions=(env, navigator))
+    assert env2.engine is engine and navigator2.env is env2 and engine is not env.engine
+    assert engine.site is not env.site and engine.world is not env.world
+    run(env, navigator, 9000.0)
+    run(env2, navigator2, 9000.0)
+    assert env.log.events == env2.log.events
+    assert env.positions == env2.positions
+    assert [c.stats.congestion_entries for c in env.site.crews] == \
+        [c.stats.congestion_entries for c in env2.site.crews]
+
+
+def test_scenarios_change_only_the_paces_of_tasks_not_yet_started():
+    env, navigator = floor()
+    run(env, navigator, 4000.0)
+    started = paces(env)
+    branches = [env.engine.clone(scenario=k, companions=(env, navigator)) for k in (1, 2)]
+    for _, env_k, nav_k in branches:
+        run(env_k, nav_k, 9000.0)
+    one, two = paces(branches[0][1]), paces(branches[1][1])
+    assert all(one[t] == started[t] == two[t] for t in started)  # drawn before the branch
+    later = (one.keys() & two.keys()) - started.keys()
+    assert len(later) >= 3
+    assert all(one[t] != two[t] for t in later)
+    site = branches[0][1].site
+    for task in site.tasks:
+        if task.id in later:
+            stream = RandomStreams(0, scenario=1).pace(task.index)
+            assert task.pace == draw_pace(stream, site.crews[task.crew], task)
+
+
+def test_clone_refuses_an_episode_not_started_or_finished(tiny_case):
+    engine = Engine(tiny_case, stage=2, evaluator=NearestFirstEvaluator(), seed=0)
+    with pytest.raises(RuntimeError, match="reset"):
+        engine.clone()
+    engine.reset(seed=0)
+    engine.site.tasks_ended = len(engine.site.tasks)
+    with pytest.raises(ValueError, match="episode has ended"):
+        engine.clone()
+
+
+def test_a_contact_that_outlives_a_rebuild_is_not_counted_twice(tiny_env):
+    world = tiny_env.world
+    storage = tiny_env.site.storages[0]
+    x0, y0, x1, y1 = storage.rect
+    place(tiny_env, 0, (x0 + x1) / 2, (y0 + y1) / 2)
+    world.desired[0] = [0.1, 0.0, 0.0]  # move, so the physics steps
+    world.step(1.0, 2)
+    assert world.take_contacts(0)[STORAGE] == 1  # entered: counted once
+    world.__setstate__(world.__getstate__())
+    world.desired[0] = [0.1, 0.0, 0.0]
+    world.step(1.0, 2)
+    assert world.take_contacts(0)[STORAGE] == 0  # still inside after the rebuild
