@@ -17,7 +17,9 @@ from .priority import PriorityEvaluator
 
 EVALUATOR_HELP = ("priority (Eq. 9), nearest, ga:PATH (a task-priority file, e.g. made by "
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
-                  "saved plan), or a stage-2 model .zip")
+                  "saved plan), lookahead or lookahead:candidates=3,futures=1,base=priority "
+                  "(branch the floor at each decision; futures=0 sees the true durations), "
+                  "or a stage-2 model .zip")
 
 
 def make_evaluator(spec: str):
@@ -36,9 +38,32 @@ def make_evaluator(spec: str):
         from .cpsat import PlanEvaluator
 
         return PlanEvaluator()
+    if spec == "lookahead" or spec.startswith("lookahead:"):
+        return make_lookahead(spec.partition(":")[2])
     from .models import ModelEvaluator  # needs stable-baselines3
 
     return ModelEvaluator(model_path(spec, "--evaluator"))
+
+
+def make_lookahead(options: str):
+    """``lookahead:candidates=K,futures=F,base=SPEC`` (each optional) as an evaluator."""
+    from .lookahead import LookaheadEvaluator, LookaheadSettings
+
+    settings, base = {}, "priority"
+    for item in filter(None, options.split(",")):
+        key, sep, value = item.partition("=")
+        if key == "base" and sep:
+            base = value
+        elif key in ("candidates", "futures") and sep and value.isdigit():
+            settings[key] = int(value)
+        else:
+            raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
+                             f"candidates=INT, futures=INT, base=SPEC; e.g. "
+                             f"lookahead:candidates=3,futures=1,base=priority")
+    if base.startswith("lookahead"):
+        raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "
+                         "give a rule such as base=priority or base=ga:PATH")
+    return LookaheadEvaluator(make_evaluator(base), LookaheadSettings(**settings))
 
 
 def make_navigator(spec: str, env, deterministic: bool = False) -> LowLevel:
@@ -52,6 +77,9 @@ def make_navigator(spec: str, env, deterministic: bool = False) -> LowLevel:
 
         navigator = PolicyNavigator(model_path(spec, "--navigator"), deterministic=deterministic)
     navigator.bind(env)
+    evaluator = getattr(env, "evaluator", None)
+    if hasattr(evaluator, "bind_low_level"):  # the lookahead branches the low level too
+        evaluator.bind_low_level(navigator)
     return navigator
 
 
@@ -59,8 +87,8 @@ def model_path(spec: str, option: str) -> Path:
     """``spec`` as an existing file, or a ValueError naming ``option`` and the fix."""
     path = Path(spec)
     if not path.is_file():
-        names = ("priority, nearest, ga:PATH, cpsat, cpsat:PATH" if option == "--evaluator"
-                 else "scripted")
+        names = ("priority, nearest, ga:PATH, cpsat, cpsat:PATH, lookahead"
+                 if option == "--evaluator" else "scripted")
         raise ValueError(f"{option} {spec!r}: no such model file; give a .zip saved by "
                          f"stable-baselines3, or one of {names}")
     return path

@@ -39,7 +39,12 @@ from dataclasses import dataclass, field
 
 from . import construct, decide, events, move, reward
 from .case_model import Case
-from .evaluate import TargetEvaluator, assign_target_values, crews_needing_values
+from .evaluate import (
+    TargetEvaluator,
+    asks_between_seconds,
+    assign_target_values,
+    crews_needing_values,
+)
 from .metrics import Counters
 from .state import CrewState, CrewStatus, Site, activity
 from .streams import RandomStreams
@@ -144,6 +149,7 @@ class Engine:
         self._log_positions()
         self.action_needed = any(self.needs_action(c) for c in self.site.crews)
         self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
+        self._value_between_seconds()
 
     def step(self, actions) -> Second:
         """One simulated second in the paper's order (see the module doc); ``actions[i]``:
@@ -189,14 +195,17 @@ class Engine:
             self.metrics.count(second)
             out.add(second)
             truncated = self.site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
-            if self.site.done or truncated or until is None or until():
-                break
+            if self.site.done or truncated or until is None or until() or self.pending:
+                break  # pending: a BranchingEvaluator values them between seconds
         self.metrics.close_window()
         out.terminated = self.site.done
         out.truncated = truncated
+        if not (out.terminated or out.truncated):
+            self._value_between_seconds()
         return out
 
-    def clone(self, scenario: int | None = None, companions: tuple = ()) -> Engine | tuple:
+    def clone(self, scenario: int | None = None, companions: tuple = (),
+              keep_log: bool = True) -> Engine | tuple:
         """An independent episode at the same second: a branch of the floor.
 
         Everything is copied (site, world, event log, counters, streams) but the case and
@@ -206,7 +215,8 @@ class Engine:
         of tasks not yet started from that sampled future (``streams``), keeping those
         already drawn. ``companions``: objects that must branch with the engine and keep
         their references to it (an env, a low level); then a tuple (engine, *companions)
-        is returned.
+        is returned. ``keep_log`` False: the clone starts an empty event log (a lookahead
+        branch needs only the makespan; copying a long log costs more than the rest).
 
         pymunk's contact cache cannot be copied, so the original's world is rebuilt from
         the same data as the clone's: both continue identically, and the original may
@@ -218,6 +228,8 @@ class Engine:
             raise ValueError("clone: the episode has ended (every task is done); there is no "
                              "future to branch")
         memo = {id(self.case): self.case}
+        if not keep_log:
+            memo[id(self.log)] = events.EventLog()
         if self.evaluator is not None:
             memo[id(self.evaluator)] = self.evaluator
         clock, self.clock = self.clock, None
@@ -306,11 +318,21 @@ class Engine:
             self.clock.lap("decisions")
 
     def _evaluate(self) -> None:
-        """Target evaluation (section 3.6): by the injected evaluator, or left pending."""
-        if self.evaluator is None:
+        """Target evaluation (section 3.6): by the injected evaluator, or left pending (no
+        evaluator, or one that is asked between seconds)."""
+        if self.evaluator is None or asks_between_seconds(self.evaluator):
             self.pending = [c.index for c in crews_needing_values(self.site)]
         else:
             assign_target_values(self.site, self.evaluator, self.positions)
+
+    def _value_between_seconds(self) -> None:
+        """A ``BranchingEvaluator`` values the pending scopes once the second is whole (it may
+        clone the engine meanwhile)."""
+        if self.evaluator is None or not asks_between_seconds(self.evaluator):
+            return
+        while self.pending:
+            i = self.pending[0]
+            self.set_target_values(i, self.evaluator.values_for(self, i))
 
     def _reaching_rewards(self, ctx: decide.Context, moving, had_target,
                           skip: bool) -> tuple[list, list[float]]:

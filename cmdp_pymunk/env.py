@@ -151,9 +151,10 @@ class CMDPEnv(ParallelEnv):
     # -- the episode --------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        self.engine.reset(seed)                           # Pi_cons and V_Tar for t = 0
+        # the agents first: a BranchingEvaluator may branch the env inside engine.reset
         self.agents = list(self.possible_agents)
         self._obs_cache = [None] * len(self.possible_agents)
+        self.engine.reset(seed)                           # Pi_cons and V_Tar for t = 0
         observations = self._observe()                    # Eq. 3
         infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
         return observations, infos

@@ -48,6 +48,23 @@ class TargetEvaluator(Protocol):
                       position: tuple[float, float]) -> dict[int, float]: ...
 
 
+class BranchingEvaluator(Protocol):
+    """An evaluator that may branch the floor (``Engine.clone``) to value a scope, such as
+    the lookahead (``agents.lookahead``). The engine asks it only between whole seconds, when
+    the state is complete: ``between_seconds`` is True, and the engine calls
+    ``values_for(engine, i)`` for each crew whose scope needs values, in crew order, at the
+    end of ``reset`` and of every ``advance``."""
+
+    between_seconds: bool
+
+    def values_for(self, engine, i: int) -> dict[int, float]: ...
+
+
+def asks_between_seconds(evaluator) -> bool:
+    """Whether ``evaluator`` is a ``BranchingEvaluator`` (valued between seconds)."""
+    return bool(getattr(evaluator, "between_seconds", False))
+
+
 class UniformEvaluator:
     """Every target in scope is worth 1."""
 

@@ -106,6 +106,7 @@ def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -
         "reach_rate": episode_reach_rate(env),
         "crews": crew_summary(env),
         "stalled": episode.stalled,
+        "lookahead": env.evaluator.summary() if hasattr(env.evaluator, "decisions") else None,
         "wall_s": round(episode.wall_s, 3),
         "simulated_s_per_wall_s": round(site.time_s / episode.wall_s, 1)
         if episode.wall_s > 0 else None,

@@ -1,0 +1,113 @@
+"""The lookahead (agents.lookahead): plumbing, not learning."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+import cmdp_pymunk
+from agents.lookahead import LookaheadEvaluator, LookaheadSettings, promote, ranked
+from agents.navigator import Navigator
+from agents.priority import PriorityEvaluator
+from agents.specs import make_evaluator, make_navigator
+
+
+def floor(evaluator, case=None, seed: int = 0):
+    env = cmdp_pymunk.parallel_env(case=case, seed=seed, evaluator=evaluator, park_idle=True,
+                                   blind=True, stall_s=3600.0)
+    if hasattr(evaluator, "bind"):
+        evaluator.bind(env)
+    make_navigator("scripted", env)
+    navigator = env.evaluator.navigator if hasattr(env.evaluator, "navigator") else None
+    navigator = navigator or Navigator(env)
+    env.reset(seed=seed)
+    navigator.reset(seed)
+    while env.agents:
+        env.step(navigator.actions(env, None))
+    return env
+
+
+def test_promote_swaps_the_chosen_target_with_the_best():
+    values = {3: 0.5, 4: 1.0, 7: 0.75}
+    assert promote(values, 7) == {3: 0.5, 4: 0.75, 7: 1.0}
+    assert promote(values, 4) == values
+    assert ranked({1: 0.9, 2: 0.9, 0: 0.5}) == [1, 2, 0]  # ties: lowest index first
+
+
+def test_one_candidate_is_the_base_rule_exactly():
+    lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=0))
+    env = floor(lookahead)
+    base = floor(PriorityEvaluator())
+    assert env.site.done and env.makespan_s == base.makespan_s
+    assert env.log.events == base.log.events
+    assert lookahead.decisions == []
+
+
+class Recording(LookaheadEvaluator):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.calls = []
+
+    def branch_makespan(self, engine, i, values, target, scenario):
+        self.calls.append((len(self.decisions), engine.site.time_s, target, scenario))
+        return super().branch_makespan(engine, i, values, target, scenario)
+
+
+def test_candidates_meet_the_same_sampled_futures(tiny_case):
+    lookahead = Recording(settings=LookaheadSettings(candidates=2, futures=2))
+    env = floor(lookahead, tiny_case)
+    assert env.site.done and lookahead.decisions
+    by_decision: dict = {}
+    for decision, _, target, scenario in lookahead.calls:
+        by_decision.setdefault(decision, {}).setdefault(target, []).append(scenario)
+    seen = []
+    for futures in by_decision.values():
+        assert len(futures) == 2  # both candidates tried
+        first, second = futures.values()
+        assert first == second and len(first) == 2  # the same two futures for each
+        seen += first
+    assert len(set(seen)) == len(seen)  # a new pair of futures for each decision
+    for d in lookahead.decisions:  # the choice is the lowest mean makespan
+        assert d.makespans_s[d.candidates.index(d.choice)] == min(d.makespans_s)
+
+
+def test_the_true_future_branch_replays_the_floor(tiny_case):
+    # futures=0 branches into the floor's own future: the branch that takes the base rule's
+    # choice is the base rule's floor itself
+    lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=0))
+    floor(lookahead, tiny_case)
+    base = floor(PriorityEvaluator(), tiny_case)
+    first = lookahead.decisions[0]
+    assert first.makespans_s[first.candidates.index(first.base_choice)] == base.makespan_s
+
+
+def test_lookahead_specs_and_their_errors():
+    ev = make_evaluator("lookahead:candidates=2,futures=0,base=nearest")
+    assert isinstance(ev, LookaheadEvaluator) and ev.settings == LookaheadSettings(2, 0)
+    assert type(ev.base).__name__ == "NearestFirstEvaluator"
+    assert make_evaluator("lookahead").settings == LookaheadSettings()
+    with pytest.raises(ValueError, match="candidates=INT, futures=INT, base=SPEC"):
+        make_evaluator("lookahead:cands=2")
+    with pytest.raises(ValueError, match="branch inside branches"):
+        make_evaluator("lookahead:base=lookahead")
+    with pytest.raises(ValueError, match="candidates must be an int >= 1"):
+        LookaheadSettings(candidates=0)
+
+
+def test_an_unbound_lookahead_says_so(tiny_case):
+    lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=1))
+    env = cmdp_pymunk.parallel_env(case=tiny_case, seed=0, evaluator=lookahead)
+    with pytest.raises(RuntimeError, match="bind"):
+        env.reset(seed=0)
+
+
+def test_cmdp_simulate_runs_the_lookahead(tmp_path):
+    from training import simulate
+
+    out = tmp_path / "run"
+    assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),
+                          "--evaluator", "lookahead:candidates=2,futures=1", "--no-charts",
+                          "--no-progress"]) == 0
+    data = json.loads((out / "summary.json").read_text())
+    assert data["all_finished"] and data["lookahead"]["candidates"] == 2
