@@ -17,7 +17,7 @@ from .priority import PriorityEvaluator
 
 EVALUATOR_HELP = ("priority (Eq. 9), nearest, ga:PATH (a task-priority file, e.g. made by "
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
-                  "saved plan), lookahead or lookahead:candidates=3,futures=1,base=priority "
+                  "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
                   "(branch the floor at each decision; futures=0 sees the true durations), "
                   "or a stage-2 model .zip")
 
@@ -46,11 +46,12 @@ def make_evaluator(spec: str):
 
 
 def make_lookahead(options: str):
-    """``lookahead:candidates=K,futures=F,base=SPEC`` (each optional) as an evaluator."""
+    """``lookahead:candidates=K+futures=F+base=SPEC`` (each optional; ``+`` because
+    ``--strategies`` separates strategies with commas) as an evaluator."""
     from .lookahead import LookaheadEvaluator, LookaheadSettings
 
     settings, base = {}, "priority"
-    for item in filter(None, options.split(",")):
+    for item in filter(None, options.split("+")):
         key, sep, value = item.partition("=")
         if key == "base" and sep:
             base = value
@@ -58,8 +59,8 @@ def make_lookahead(options: str):
             settings[key] = int(value)
         else:
             raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
-                             f"candidates=INT, futures=INT, base=SPEC; e.g. "
-                             f"lookahead:candidates=3,futures=1,base=priority")
+                             f"candidates=INT, futures=INT, base=SPEC (joined by +); e.g. "
+                             f"lookahead:candidates=3+futures=1+base=priority")
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "
                          "give a rule such as base=priority or base=ga:PATH")

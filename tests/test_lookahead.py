@@ -83,7 +83,7 @@ def test_the_true_future_branch_replays_the_floor(tiny_case):
 
 
 def test_lookahead_specs_and_their_errors():
-    ev = make_evaluator("lookahead:candidates=2,futures=0,base=nearest")
+    ev = make_evaluator("lookahead:candidates=2+futures=0+base=nearest")
     assert isinstance(ev, LookaheadEvaluator) and ev.settings == LookaheadSettings(2, 0)
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
     assert make_evaluator("lookahead").settings == LookaheadSettings()
@@ -107,7 +107,7 @@ def test_cmdp_simulate_runs_the_lookahead(tmp_path):
 
     out = tmp_path / "run"
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),
-                          "--evaluator", "lookahead:candidates=2,futures=1", "--no-charts",
+                          "--evaluator", "lookahead:candidates=2+futures=1", "--no-charts",
                           "--no-progress"]) == 0
     data = json.loads((out / "summary.json").read_text())
     assert data["all_finished"] and data["lookahead"]["candidates"] == 2
