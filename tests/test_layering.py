@@ -1,5 +1,6 @@
 """Who may import whom, read from the source with ``ast`` (every import, also those inside
-functions): the core imports none of the packages built on it."""
+functions): the core imports none of the packages built on it, and the two training stages
+share code only through the scaffold."""
 
 import ast
 from pathlib import Path
@@ -34,3 +35,19 @@ def first_parts(path: Path) -> set[str]:
                          ids=lambda p: str(p.relative_to(ROOT)))
 def test_the_core_imports_nothing_built_on_it(path):
     assert not first_parts(path) & {"agents", "training", "media", "benchmarks", "tools"}
+
+
+def test_the_checker_sees_imports_inside_functions_and_relative_ones(tmp_path):
+    sample = ROOT / "training" / "stage2.py"
+    names = imported_modules(sample)
+    assert "training.scaffold" in names  # ``from .scaffold import ...``
+    assert "agents.central_critic" in names  # imported inside ``train``
+
+
+@pytest.mark.parametrize("module, other", [("stage1", "stage2"), ("stage2", "stage1")])
+def test_the_training_stages_do_not_import_each_other(module, other):
+    names = imported_modules(ROOT / "training" / f"{module}.py")
+    assert not {n for n in names if n == f"training.{other}" or
+                n.startswith(f"training.{other}.")}, names
+    assert "training.scaffold" in names
+    assert "training.train" not in names  # the command imports the stages, not the reverse
