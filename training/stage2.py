@@ -5,11 +5,11 @@
 
 Data flow: ``Stage2Env`` (``cmdp_pymunk.highlevel.TargetEvaluationEnv``: one step = one target
 evaluation; between two decisions the floor runs on with the low level, the scripted navigator
-or a stage-1 model whose actions are sampled) -> ``DummyVecEnv``/``SubprocVecEnv`` ->
-``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
-position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
-sequence, each rewarded with the team's R_e until the next decision) is written down in
-``cmdp_pymunk/highlevel.py``.
+or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs`` copies in
+``num_cpus`` processes) -> ``VecMonitor`` -> one PPO policy whose weights every crew shares.
+Its action is the desired position (Box(2), Eq. 4). The formulation (one shared policy making
+the team's decisions in sequence, each rewarded with the team's R_e until the next decision)
+is written down in ``cmdp_pymunk/highlevel.py``.
 
 With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
 global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
@@ -24,6 +24,7 @@ logs (``tb/``: ``cmdp/makespan_s``, ``cmdp/finished``, ``cmdp/stalled``, ``cmdp/
 ``cmdp/idle_steps_<cause>`` per finished episode; ``eval/...`` on fixed seeds), ``progress.csv``,
 checkpoints, ``best_model.zip`` (lowest mean evaluation makespan with every floor finished),
 ``final_model.zip`` and ``training_curve.png``. Ctrl-C saves ``checkpoints/interrupted.zip``.
+The run itself is ``training.scaffold``'s, shared with stage 1.
 """
 
 from __future__ import annotations
@@ -170,10 +171,11 @@ class Stage2Env(gym.Env):
 
 
 def make_vec_env(config: Stage2Config, case, seed: int):
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+    """``n_envs`` copies of ``Stage2Env`` stepped by ``num_cpus`` processes; copy k gets
+    ``seed + k``."""
+    from stable_baselines3.common.vec_env import VecMonitor
 
-    fns = [lambda: Stage2Env(config, case)] * config.n_envs  # venv.seed: copy k gets seed + k
-    venv = SubprocVecEnv(fns, start_method="fork") if config.num_cpus > 1 else DummyVecEnv(fns)
+    venv = scaffold.vec_env([lambda: Stage2Env(config, case)] * config.n_envs, config.num_cpus)
     venv.seed(seed)
     return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
 
