@@ -31,7 +31,9 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -182,28 +184,43 @@ def make_vec_env(config: Stage2Config, case, seed: int):
 
 # -- warm start ----------------------------------------------------------------------------------
 
+class Decision(NamedTuple):
+    observation: np.ndarray
+    action: np.ndarray
+    reward: float
+    info: dict
+
+
+def play_floor(env: Stage2Env, seed: int, choose: Callable[[np.ndarray], np.ndarray]) \
+        -> list[Decision]:
+    """One floor of ``env`` on ``seed``, ``choose(observation)`` making every decision; the
+    last decision's info is the episode's end."""
+    obs, _ = env.reset(seed=seed)
+    decisions, done = [], False
+    while not done:
+        action = choose(obs)
+        next_obs, reward, terminated, truncated, info = env.step(action)
+        decisions.append(Decision(obs, action, reward, info))
+        obs, done = next_obs, terminated or truncated
+    return decisions
+
+
 def heuristic_samples(config: Stage2Config, case, episodes: int, seed: int, log=print):
     """(observations, teacher actions, discounted returns) of every decision of ``episodes``
     floors driven by the priority heuristic (through Eq. 4 at its best target)."""
     env = Stage2Env(config, case)
     observations, actions, returns = [], [], []
     for k in range(episodes):
-        obs, _ = env.reset(seed=seed + k)
-        rewards, done = [], False
-        while not done:
-            act = env.teacher_action()
-            observations.append(obs)
-            actions.append(act)
-            obs, rew, terminated, truncated, info = env.step(act)
-            rewards.append(rew)
-            done = terminated or truncated
+        floor = play_floor(env, seed + k, lambda _: env.teacher_action())
+        observations += [d.observation for d in floor]
+        actions += [d.action for d in floor]
         g, back = 0.0, []
-        for r in reversed(rewards):
-            g = r + config.gamma * g
+        for d in reversed(floor):
+            g = d.reward + config.gamma * g
             back.append(g)
         returns.extend(reversed(back))
-        log(f"heuristic episode {k + 1}/{episodes}: {len(rewards)} decisions, makespan "
-            f"{info.get('makespan_s')}")
+        log(f"heuristic episode {k + 1}/{episodes}: {len(floor)} decisions, makespan "
+            f"{floor[-1].info.get('makespan_s')}")
     return (np.asarray(observations, np.float32), np.asarray(actions, np.float32),
             np.asarray(returns, np.float32))
 
@@ -294,13 +311,10 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
     env = Stage2Env(config, case)
     makespans, finished, stalled, decisions = [], 0, 0, 0
     for seed in seeds:
-        obs, _ = env.reset(seed=seed)
-        done = False
-        while not done:
-            act = actor.act(obs[None, :env.actor_size], deterministic=True)[0]
-            obs, _, terminated, truncated, info = env.step(act)
-            decisions += 1
-            done = terminated or truncated
+        floor = play_floor(env, seed, lambda obs: actor.act(obs[None, :env.actor_size],
+                                                            deterministic=True)[0])
+        decisions += len(floor)
+        info = floor[-1].info
         finished += info["makespan_s"] is not None
         stalled += bool(info["stalled"])
         makespans.append(info["makespan_s"] if info["makespan_s"] is not None
