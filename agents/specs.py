@@ -9,13 +9,12 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cmdp_pymunk.evaluate import NearestFirstEvaluator
+from cmdp_pymunk import evaluate
 from cmdp_pymunk.policy import LowLevel
 
 from .navigator import Navigator
-from .priority import PriorityEvaluator
 
-EVALUATOR_HELP = ("priority (Eq. 9), nearest, ga:PATH (a task-priority file, e.g. made by "
+EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority file, e.g. made by "
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
                   "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
                   "(branch the floor at each decision; futures=0 sees the true durations), "
@@ -23,13 +22,12 @@ EVALUATOR_HELP = ("priority (Eq. 9), nearest, ga:PATH (a task-priority file, e.g
 
 
 def make_evaluator(spec: str):
-    """``priority`` (Eq. 9), ``nearest``, ``ga:PATH`` or ``cpsat:PATH`` (a task-priority
-    file), ``cpsat`` (a plan solved when bound to the env), or a stage-2 model ``.zip``;
-    ValueError otherwise (naming the file and the fix)."""
-    if spec == "priority":
-        return PriorityEvaluator()
-    if spec == "nearest":
-        return NearestFirstEvaluator()
+    """A name of the core's (``priority``, Eq. 9; ``nearest``; ...: ``evaluate.EVALUATORS``),
+    ``ga:PATH`` or ``cpsat:PATH`` (a task-priority file), ``cpsat`` (a plan solved when bound
+    to the env), or a stage-2 model ``.zip``; ValueError otherwise (naming the file and the
+    fix)."""
+    if spec in evaluate.EVALUATORS:
+        return evaluate.make_evaluator(spec)
     if spec.startswith(("ga:", "cpsat:")):
         from .task_priority import load_priorities
 
@@ -88,7 +86,8 @@ def model_path(spec: str, option: str) -> Path:
     """``spec`` as an existing file, or a ValueError naming ``option`` and the fix."""
     path = Path(spec)
     if not path.is_file():
-        names = ("priority, nearest, ga:PATH, cpsat, cpsat:PATH, lookahead"
+        names = (", ".join([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH",
+                            "lookahead"])
                  if option == "--evaluator" else "scripted")
         raise ValueError(f"{option} {spec!r}: no such model file; give a .zip saved by "
                          f"stable-baselines3, or one of {names}")

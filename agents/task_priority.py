@@ -34,7 +34,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from cmdp_pymunk.evaluate import as_target_values
+from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values
 from cmdp_pymunk.events import write_atomic
 
 FORMAT = "cmdp-task-priorities/1"
@@ -62,8 +62,6 @@ class TaskPriorityEvaluator:
         self.base = base
         self._heuristic = None
         if base == "priority":
-            from .priority import PriorityEvaluator
-
             self._heuristic = PriorityEvaluator()
 
     @classmethod

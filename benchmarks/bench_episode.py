@@ -20,7 +20,7 @@ import time
 
 import cmdp_pymunk
 from agents.navigator import Navigator
-from agents.priority import PriorityEvaluator
+from cmdp_pymunk.evaluate import PriorityEvaluator
 from cmdp_pymunk.timing import StageClock
 
 

@@ -25,7 +25,8 @@ One second, in the paper's order (section 3.2)
 
 Arguments
     ``case``, ``stage`` (1: section 4.2's simplified CMDP; 2: the full CMDP), ``evaluator``
-    (``evaluate.TargetEvaluator``; None: values come from outside), ``max_time_s`` (None: the
+    (``evaluate.TargetEvaluator`` or a name of ``evaluate.EVALUATORS``; None: values come from
+    outside), ``max_time_s`` (None: the
     case's), ``park_idle`` and ``stall_s`` (see ``env``), ``position_log_every_s`` (position
     events for trajectories; None: none).
 """
@@ -44,6 +45,7 @@ from .evaluate import (
     asks_between_seconds,
     assign_target_values,
     crews_needing_values,
+    make_evaluator,
 )
 from .metrics import Counters
 from .state import CrewState, CrewStatus, Site, activity
@@ -86,7 +88,8 @@ class Advance:
 class Engine:
     """One episode of the CMDP (see the module doc)."""
 
-    def __init__(self, case: Case, stage: int = 2, evaluator: TargetEvaluator | None = None,
+    def __init__(self, case: Case, stage: int = 2,
+                 evaluator: TargetEvaluator | str | None = None,
                  seed: int | None = None, max_time_s: float | None = None,
                  park_idle: bool = False, stall_s: float | None = None,
                  position_log_every_s: float | None = None):
@@ -95,7 +98,7 @@ class Engine:
                              f"CMDP), not {stage!r}")
         self.case = case
         self.stage = stage
-        self.evaluator = evaluator
+        self.evaluator = None if evaluator is None else make_evaluator(evaluator)
         sim = case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
         if not math.isfinite(self.max_time_s) or self.max_time_s <= 0:

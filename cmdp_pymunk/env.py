@@ -34,11 +34,13 @@ Stages (section 4.2)
 Arguments
     ``case``: a ``Case``, a path to a case file, or ``None`` for the built-in case.
     ``stage``: 1 or 2. ``seed``: seeds the episode generator (``reset(seed)`` re-seeds it,
-    ``reset()`` keeps it). ``evaluator``: fills V_Tar (default nearest-first; the priority
-    heuristic and the stage-2 model are injected the same way). ``render_mode``: ``None`` or
-    ``"rgb_array"``. ``jump_idle``: when no crew needs a movement decision (all tasking,
-    fetching, waiting or gone), one ``step`` call runs on to the next second at which one does;
-    ``infos[agent]["elapsed_s"]`` says how far. ``max_time_s`` overrides the case's time limit.
+    ``reset()`` keeps it). ``evaluator``: fills V_Tar; an object with ``target_values`` (GA
+    priorities, the stage-2 model, ...) or a name of ``evaluate.EVALUATORS``; default
+    ``"priority"``, the priority heuristic (Eq. 9), as for ``pettingzoo.make``.
+    ``render_mode``: ``None`` or ``"rgb_array"``. ``jump_idle``: when no crew needs a
+    movement decision (all tasking, fetching, waiting or gone), one ``step`` call runs on to
+    the next second at which one does; ``infos[agent]["elapsed_s"]`` says how far.
+    ``max_time_s`` overrides the case's time limit.
     ``park_idle``: a crew without a target that stands outside every task area and storage is
     parked: it stands still, needs no movement decision and does not hold up the idle jump (the
     paper lets such crews manoeuvre; a scripted low level that only parks them runs faster this
@@ -94,7 +96,7 @@ from pettingzoo import ParallelEnv
 from . import move, observe
 from .case import Case, as_case
 from .engine import Engine
-from .evaluate import NearestFirstEvaluator, TargetEvaluator
+from .evaluate import TargetEvaluator, make_evaluator
 from .global_state import global_state, state_bounds
 
 # The renderer used when none is injected: named, not imported (the core imports no pygame).
@@ -106,7 +108,7 @@ class CMDPEnv(ParallelEnv):
                 "is_parallelizable": True}
 
     def __init__(self, case: Case | str | Path | None = None, stage: int = 2,
-                 seed: int | None = None, evaluator: TargetEvaluator | None = None,
+                 seed: int | None = None, evaluator: TargetEvaluator | str | None = None,
                  render_mode: str | None = None, jump_idle: bool = True,
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
                  park_idle: bool = False, lean_infos: bool = False,
@@ -118,7 +120,7 @@ class CMDPEnv(ParallelEnv):
             raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
         case = as_case(case)
         self.external_values = external_values
-        self._evaluator = evaluator if evaluator is not None else NearestFirstEvaluator()
+        self._evaluator = make_evaluator(evaluator)
         self.engine = Engine(case, stage, None if external_values else self._evaluator, seed,
                              max_time_s, park_idle, stall_s, position_log_every_s)
         self.render_mode = render_mode
@@ -318,8 +320,8 @@ class CMDPEnv(ParallelEnv):
         return self._evaluator
 
     @evaluator.setter
-    def evaluator(self, value: TargetEvaluator) -> None:
-        self._evaluator = value
+    def evaluator(self, value: TargetEvaluator | str) -> None:
+        self._evaluator = value = make_evaluator(value)
         if not self.external_values:
             self.engine.evaluator = value
 

@@ -1,18 +1,22 @@
 """Target evaluation: V_Tar for every target in a crew's scope.
 
 The evaluator is injected into the env: the stage-2 policy's desired position (Eq. 4), the
-priority heuristic (Eq. 9, in ``agents``), GA priorities, or a simple one below. An evaluator
-is any object with ``target_values(crew, site, position) -> dict[target, V]``.
+priority heuristic (Eq. 9, the default), GA priorities, or a simple one below. An evaluator
+is any object with ``target_values(crew, site, position) -> dict[target, V]``, or one of the
+names in ``EVALUATORS`` (``make_evaluator``).
 The env calls it when a crew's scope changes and after ``reevaluate_after_steps`` steps
 without reaching a target (section 3.6).
 """
 
 from __future__ import annotations
 
+import difflib
 import math
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
-from .state import CrewState, Site
+from .state import CrewState, Pool, Site
+
+BETAS = (1.0, 0.5, -1.0)  # Eq. 9's weights of successors, distance and conflicts (section 5.3)
 
 
 def desired_position_value(desired: tuple[float, float], target_xy: tuple[float, float],
@@ -43,9 +47,78 @@ def as_target_values(scores: dict[int, float]) -> dict[int, float]:
     return {t: 1.0 if span <= 0 else 0.5 + 0.5 * (v - low) / span for t, v in scores.items()}
 
 
+def priority_value(successors: float, distance: float, conflicts: float, max_successors: float,
+                   max_distance: float, max_conflicts: float,
+                   betas: tuple[float, float, float] = BETAS) -> float:
+    """Target priority of the heuristic of section 5.3, Eq. (9):
+    V' = b1 * Suc / max Suc + b2 * (1 - Dis / max Dis) + b3 * Spa / max Spa,
+    the maxima taken over the crew's target scope; a term whose maximum is 0 contributes 0
+    (its ratio) -- so a lone target at any distance has the distance term b2.
+
+    More successors raise a target's value, distance (m) lowers it, and space conflicts with
+    queued tasks lower it (``betas`` = (b1, b2, b3), the paper's 1, 0.5, -1).
+    """
+    b1, b2, b3 = betas
+    suc = successors / max_successors if max_successors > 0 else 0.0
+    dis = distance / max_distance if max_distance > 0 else 0.0
+    spa = conflicts / max_conflicts if max_conflicts > 0 else 0.0
+    return b1 * suc + b2 * (1.0 - dis) + b3 * spa
+
+
+@runtime_checkable
 class TargetEvaluator(Protocol):
     def target_values(self, crew: CrewState, site: Site,
                       position: tuple[float, float]) -> dict[int, float]: ...
+
+
+def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[int, float, int]]:
+    """Eq. 9's (Suc, Dis, Spa) per target of the scope: all successors of the crew's task
+    there, the straight-line distance (m), and the queued tasks whose areas conflict with
+    it."""
+    out = {}
+    for target, task_index in crew.scope.items():
+        dist = math.dist(position, site.target_xy[target])
+        if task_index >= 0:
+            task = site.tasks[task_index]
+            spa = sum(site.tasks[o].pool == Pool.QUEUE for o in task.conflicts)
+            out[target] = (task.all_successors, dist, spa)
+        else:
+            out[target] = (0, dist, 0)
+    return out
+
+
+class PriorityEvaluator:
+    """The priority heuristic of section 5.3 (Eq. 9): the default evaluator."""
+
+    def __init__(self, betas: tuple[float, float, float] = BETAS):
+        self.betas = betas
+
+    def priorities(self, crew, site, position) -> dict[int, float]:
+        """Eq. 9's V' for every target of the crew's scope."""
+        attrs = target_attributes(crew, site, position)
+        if not attrs:
+            return {}
+        max_s = max(a[0] for a in attrs.values())
+        max_d = max(a[1] for a in attrs.values())
+        max_c = max(a[2] for a in attrs.values())
+        return {t: priority_value(s, d, c, max_s, max_d, max_c, self.betas)
+                for t, (s, d, c) in attrs.items()}
+
+    def target_values(self, crew, site, position):
+        """Eq. 9's V' as V_Tar (``as_target_values``: a lone target without successors
+        scores 0 in Eq. 9, which Eq. 3 would read as no target)."""
+        return as_target_values(self.priorities(crew, site, position))
+
+
+def desired_position_of_first_choice(crew, site, position) -> tuple[float, float]:
+    """The heuristic's choice as a stage-2 action: the desired position (Eq. 4, over the
+    plane's half extents) at the target Eq. 9 ranks first (lowest index on ties, as
+    ``steering.best_target``), so that Eq. 4 ranks it first too."""
+    values = PriorityEvaluator().priorities(crew, site, position)
+    best = max(values, key=lambda t: (values[t], -t))
+    x, y = site.target_xy[best]
+    half_w, half_h = site.case.plane.half_extents
+    return x / half_w, y / half_h
 
 
 class BranchingEvaluator(Protocol):
@@ -101,6 +174,31 @@ class DesiredPositionEvaluator:
         half = site.case.plane.half_extents
         return as_target_values({t: desired_position_value(desired, site.target_xy[t], half)
                                  for t in crew.scope})
+
+
+# evaluators by name (``make_evaluator``); every way of making an env defaults to the first
+EVALUATORS: dict[str, type] = {"priority": PriorityEvaluator, "nearest": NearestFirstEvaluator,
+                               "uniform": UniformEvaluator}
+DEFAULT_EVALUATOR = "priority"
+_CHOICES = ("give " + ", ".join(f'"{name}"' for name in EVALUATORS)
+            + " or an object with target_values(crew, site, position)")
+
+
+def make_evaluator(spec: str | TargetEvaluator | None = None) -> TargetEvaluator:
+    """An evaluator from a name in ``EVALUATORS`` (None: ``DEFAULT_EVALUATOR``, Eq. 9), or
+    ``spec`` itself if it has ``target_values``; otherwise a ``ValueError`` (an unknown name,
+    with the closest one) or ``TypeError`` naming the accepted choices."""
+    if spec is None:
+        spec = DEFAULT_EVALUATOR
+    if isinstance(spec, str):
+        if spec in EVALUATORS:
+            return EVALUATORS[spec]()
+        close = difflib.get_close_matches(spec, EVALUATORS, n=1)
+        hint = f'did you mean "{close[0]}"? ' if close else ""
+        raise ValueError(f"evaluator {spec!r} is not a known name; {hint}{_CHOICES}")
+    if not isinstance(spec, TargetEvaluator):
+        raise TypeError(f"evaluator {spec!r} has no target_values method; {_CHOICES}")
+    return spec
 
 
 def needs_values(crew: CrewState, reevaluate_after_steps: int) -> bool:

@@ -11,8 +11,9 @@ and the generated layouts' split ``cmdp/GeneratedFloor-train0-v1`` ... and
 ``cmdp/GeneratedFloor-test0-v1`` ... (``cmdp_pymunk.layouts``).
 
 Every variant takes the env's arguments as keyword overrides (``seed``, ``render_mode``,
-``max_time_s``, ...). Targets are valued by the priority heuristic (Eq. 9) unless
-``evaluator`` says otherwise: ``"priority"``, ``"nearest"``, or an evaluator object.
+``max_time_s``, ...). Targets are valued by the priority heuristic (Eq. 9), the env's default,
+unless ``evaluator`` says otherwise: a name of ``evaluate.EVALUATORS`` (``"nearest"``, ...)
+or an evaluator object.
 The version (``-v1``) follows the env's (``CMDPEnv.metadata["name"]``).
 """
 
@@ -23,7 +24,6 @@ from pettingzoo.utils.conversions import parallel_to_aec
 
 from .case import TINY_CASE
 from .env import CMDPEnv
-from .evaluate import NearestFirstEvaluator
 from .layouts import layout_files
 
 STAGE1_EPISODE_S = 3000.0  # stage-1 episodes are cut here, as in training/configs/stage1.toml
@@ -42,30 +42,14 @@ GENERATED = {f"cmdp/GeneratedFloor-{split}{k}-v1": {"stage": 2, "case": str(path
 VARIANTS.update(GENERATED)
 
 
-def make_evaluator(evaluator):
-    """``"priority"`` (Eq. 9), ``"nearest"``, or an evaluator object as it is."""
-    if evaluator == "priority":
-        # The heuristic lives with the scripted policies (agents/); imported when an env is
-        # made, so importing the core registers the variants without loading them.
-        from agents.priority import PriorityEvaluator
-
-        return PriorityEvaluator()
-    if evaluator == "nearest":
-        return NearestFirstEvaluator()
-    if isinstance(evaluator, str):
-        raise ValueError(f'evaluator {evaluator!r}: give "priority", "nearest" or an object '
-                         "with target_values(crew, site, position)")
-    return evaluator
+def make_parallel(**kwargs) -> CMDPEnv:
+    """A registered variant as a PettingZoo ParallelEnv (``CMDPEnv``'s arguments)."""
+    return CMDPEnv(**kwargs)
 
 
-def make_parallel(evaluator="priority", **kwargs) -> CMDPEnv:
-    """A registered variant as a PettingZoo ParallelEnv."""
-    return CMDPEnv(evaluator=make_evaluator(evaluator), **kwargs)
-
-
-def make_aec(evaluator="priority", **kwargs):
+def make_aec(**kwargs):
     """A registered variant as a PettingZoo AEC env (``parallel_to_aec``)."""
-    return parallel_to_aec(make_parallel(evaluator, **kwargs))
+    return parallel_to_aec(make_parallel(**kwargs))
 
 
 def register_variants(variants: dict[str, dict] | None = None) -> None:

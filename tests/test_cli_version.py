@@ -30,7 +30,7 @@ def cli_modules() -> list[str]:
 
 
 def test_the_console_scripts_are_found():
-    assert {"training.simulate", "training.stage1"} <= set(cli_modules())
+    assert {"training.simulate", "training.train"} <= set(cli_modules())
 
 
 @pytest.mark.parametrize("module", cli_modules())

@@ -67,7 +67,8 @@ def test_without_an_evaluator_the_values_are_pending_until_given(tiny_case):
 
 def test_the_adapter_runs_the_engines_schedule(tiny_case):
     """The PettingZoo env adds agents' names, spaces and infos, nothing to the dynamics."""
-    env = parallel_env(case=tiny_case, seed=1, jump_idle=False, max_time_s=400)
+    env = parallel_env(case=tiny_case, seed=1, jump_idle=False, max_time_s=400,
+                       evaluator="nearest")
     navigator = Navigator(env)
     obs, _ = env.reset(seed=1)
     actions_log = []

@@ -9,7 +9,7 @@ import pytest
 
 import cmdp_pymunk
 from agents.navigator import Navigator
-from agents.priority import PriorityEvaluator
+from cmdp_pymunk.evaluate import PriorityEvaluator
 
 pytestmark = pytest.mark.slow
 SINK_TOLERANCE_M = 0.35  # contact solving lets a disc overlap a component this much at most
@@ -55,7 +55,7 @@ def test_seeds_0_to_9_finish_every_task_in_the_papers_range():
 SCRIPT = """
 import cmdp_pymunk, hashlib
 from agents.navigator import Navigator
-from agents.priority import PriorityEvaluator
+from cmdp_pymunk.evaluate import PriorityEvaluator
 env = cmdp_pymunk.parallel_env(seed=7, evaluator=PriorityEvaluator(), park_idle=True,
                                max_time_s=6000, position_log_every_s=5)
 obs, _ = env.reset(seed=7)

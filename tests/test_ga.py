@@ -148,7 +148,7 @@ def test_cmdp_ga_config_errors_and_a_tiny_run(tmp_path, capsys):
 
 
 def test_equal_genes_on_the_priority_base_rank_as_the_heuristic(tiny_env):
-    from agents.priority import PriorityEvaluator
+    from cmdp_pymunk.evaluate import PriorityEvaluator
 
     site = tiny_env.site
     crew = site.crews[0]

@@ -5,8 +5,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from agents.navigator import Navigator
-from agents.priority import PriorityEvaluator, desired_position_of_first_choice
 from cmdp_pymunk import parallel_env
+from cmdp_pymunk.evaluate import PriorityEvaluator, desired_position_of_first_choice
 from cmdp_pymunk.highlevel import TargetEvaluationEnv, decision_reward
 
 SHORT_S = 5000.0  # long enough for several decisions, short enough for a fast test

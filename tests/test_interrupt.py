@@ -171,7 +171,7 @@ TRAIN = ["stage1", "--set", f"case='{TINY}'", "--set", "n_envs=2", "--set", "num
 @pytest.mark.slow
 def test_train_stops_during_behaviour_cloning_and_says_nothing_was_saved(tmp_path):
     run = tmp_path / "run"
-    code, err = run_and_interrupt("training.stage1", [*TRAIN, "--out", str(run), "--set",
+    code, err = run_and_interrupt("training.train", [*TRAIN, "--out", str(run), "--set",
                                                       "bc_samples=10000000"],
                                   1.0, wait_for="behaviour cloning: collecting")
     assert code == 130, err
@@ -185,7 +185,7 @@ def test_train_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
     from stable_baselines3 import PPO
 
     run = tmp_path / "run"
-    code, err = run_and_interrupt("training.stage1", [*TRAIN, "--out", str(run), "--set",
+    code, err = run_and_interrupt("training.train", [*TRAIN, "--out", str(run), "--set",
                                                       "bc_samples=0", "--set",
                                                       "total_steps=100000000"],
                                   2.0, wait_for="PPO:")
@@ -199,7 +199,7 @@ def test_train_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
 @pytest.mark.slow
 def test_train_stage2_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
     run = tmp_path / "run"
-    code, err = run_and_interrupt("training.stage1", [
+    code, err = run_and_interrupt("training.train", [
         "stage2", "--out", str(run), "--no-progress", "--set", "bc_episodes=0",
         "--set", "num_cpus=2", "--set", "n_steps=16", "--set", "batch_size=32",
         "--set", "eval_seeds=[2000]", "--set", "total_steps=100000000"], 2.0, wait_for="PPO:")

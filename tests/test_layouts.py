@@ -83,7 +83,7 @@ def test_generated_variants_are_registered_with_their_layout():
 @pytest.mark.parametrize("path", layouts.layout_files("test"), ids=lambda p: p.stem)
 def test_held_out_layouts_finish_with_the_heuristic_and_the_navigator(path):
     from agents.navigator import Navigator
-    from agents.priority import PriorityEvaluator
+    from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
 
     env = cmdp_pymunk.parallel_env(case=path, stage=2, evaluator=PriorityEvaluator(),

@@ -2,8 +2,7 @@
 
 import pytest
 
-from agents.priority import PriorityEvaluator, priority_value
-from cmdp_pymunk.evaluate import as_target_values
+from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values, priority_value
 
 
 def test_eq9_priority_value():
@@ -37,3 +36,11 @@ def test_priorities_become_positive_target_values():
         {3: 0.5, 4: 0.5 + 0.5 / 1.5, 5: 1.0})
     assert as_target_values({7: 0.0}) == {7: 1.0}  # a lone target is worth the most
     assert as_target_values({}) == {}
+
+
+def test_agents_priority_still_names_the_core_heuristic():
+    from agents import priority
+    from cmdp_pymunk import evaluate
+
+    for name in priority.__all__:
+        assert getattr(priority, name) is getattr(evaluate, name), name

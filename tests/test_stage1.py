@@ -7,6 +7,7 @@ import pytest
 
 import cmdp_pymunk
 from training import stage1
+from training.train import main
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 SMALL = ["--set", f"case='{TINY}'", "--set", "total_steps=2048", "--set", "n_envs=2",
@@ -28,7 +29,7 @@ def weights(path):
 
 def test_train_checkpoint_evaluate_and_resume(tmp_path):
     run = tmp_path / "run"
-    assert stage1.main(["stage1", "--out", str(run), *SMALL]) == 0
+    assert main(["stage1", "--out", str(run), *SMALL]) == 0
     for name in ("config.json", "case.json", "progress.csv", "final_model.zip",
                  "best_model.zip", "best.json", "training_curve.png"):
         assert (run / name).exists(), name
@@ -46,7 +47,7 @@ def test_train_checkpoint_evaluate_and_resume(tmp_path):
     from stable_baselines3 import PPO
 
     start = PPO.load(str(checkpoints[-1]), device="cpu").num_timesteps
-    assert stage1.main(["stage1", "--out", str(run), "--resume", str(checkpoints[-1]),
+    assert main(["stage1", "--out", str(run), "--resume", str(checkpoints[-1]),
                         *SMALL, "--set", "total_steps=4096"]) == 0
     resumed = PPO.load(str(run / "final_model.zip"), device="cpu").num_timesteps
     assert start < resumed and resumed >= 4096
@@ -64,24 +65,24 @@ def test_same_seed_gives_the_same_weights(tmp_path):
     import torch
 
     for name in ("a", "b"):
-        assert stage1.main(["stage1", "--out", str(tmp_path / name), *SMALL]) == 0
+        assert main(["stage1", "--out", str(tmp_path / name), *SMALL]) == 0
     a, b = weights(tmp_path / "a" / "final_model.zip"), weights(tmp_path / "b" /
                                                                  "final_model.zip")
     assert all(torch.equal(a[k], b[k]) for k in a)
 
 
 def test_bad_config_exits_2(tmp_path, capsys):
-    assert stage1.main(["stage1", "--out", str(tmp_path), "--set", "nonsense=1"]) == 2
+    assert main(["stage1", "--out", str(tmp_path), "--set", "nonsense=1"]) == 2
     assert "unknown setting" in capsys.readouterr().err
-    assert stage1.main(["stage1", "--out", str(tmp_path), "--resume",
+    assert main(["stage1", "--out", str(tmp_path), "--resume",
                         str(tmp_path / "missing.zip")]) == 2
-    assert stage1.main(["stage1", "--out", str(tmp_path), "--set", "eval_seeds=5"]) == 2
+    assert main(["stage1", "--out", str(tmp_path), "--set", "eval_seeds=5"]) == 2
     assert "eval_seeds" in capsys.readouterr().err
-    assert stage1.main(["stage1", "--out", str(tmp_path), "--set", "eval_every_steps=0"]) == 2
+    assert main(["stage1", "--out", str(tmp_path), "--set", "eval_every_steps=0"]) == 2
     assert "must be positive" in capsys.readouterr().err
     bad = tmp_path / "bad.toml"
     bad.write_text("seed = [")
-    assert stage1.main(["stage1", "--config", str(bad), "--out", str(tmp_path)]) == 2
+    assert main(["stage1", "--config", str(bad), "--out", str(tmp_path)]) == 2
     assert "bad.toml" in capsys.readouterr().err
 
 

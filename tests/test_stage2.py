@@ -92,7 +92,7 @@ def short_run(tmp_path, name: str, extra=()):
             "--set", "n_epochs=1", "--set", "bc_episodes=1", "--set", "bc_epochs=2",
             "--set", "eval_seeds=[2000]", "--set", "eval_every_steps=64",
             "--set", "checkpoint_every_steps=64", *extra]
-    from training.stage1 import main
+    from training.train import main
 
     assert main(argv) == 0
     return tmp_path / name

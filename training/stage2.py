@@ -5,11 +5,11 @@
 
 Data flow: ``Stage2Env`` (``cmdp_pymunk.highlevel.TargetEvaluationEnv``: one step = one target
 evaluation; between two decisions the floor runs on with the low level, the scripted navigator
-or a stage-1 model whose actions are sampled) -> ``DummyVecEnv``/``SubprocVecEnv`` ->
-``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
-position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
-sequence, each rewarded with the team's R_e until the next decision) is written down in
-``cmdp_pymunk/highlevel.py``.
+or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs`` copies in
+``num_cpus`` processes) -> ``VecMonitor`` -> one PPO policy whose weights every crew shares.
+Its action is the desired position (Box(2), Eq. 4). The formulation (one shared policy making
+the team's decisions in sequence, each rewarded with the team's R_e until the next decision)
+is written down in ``cmdp_pymunk/highlevel.py``.
 
 With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
 global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
@@ -24,13 +24,16 @@ logs (``tb/``: ``cmdp/makespan_s``, ``cmdp/finished``, ``cmdp/stalled``, ``cmdp/
 ``cmdp/idle_steps_<cause>`` per finished episode; ``eval/...`` on fixed seeds), ``progress.csv``,
 checkpoints, ``best_model.zip`` (lowest mean evaluation makespan with every floor finished),
 ``final_model.zip`` and ``training_curve.png``. Ctrl-C saves ``checkpoints/interrupted.zip``.
+The run itself is ``training.scaffold``'s, shared with stage 1.
 """
 
 from __future__ import annotations
 
 import json
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import NamedTuple
 
 import gymnasium as gym
 import numpy as np
@@ -38,27 +41,31 @@ from pydantic import model_validator
 
 import cmdp_pymunk
 from cmdp_pymunk import global_state as gs
+from cmdp_pymunk.evaluate import desired_position_of_first_choice
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.highlevel import TargetEvaluationEnv
 from cmdp_pymunk.reward import EVALUATION_TERMS
-from cmdp_pymunk.rollout import versions
 
-from .config import Count, CountOrZero, Rate, RateOrZero, RunConfig, Sizes
+from . import scaffold
+from .config import CountOrZero, Rate
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage2.toml"
 IDLE_CAUSES = ("predecessor", "area", "no_target")
 
 
-class Stage2Config(RunConfig):
-    """Every setting of a stage-2 run; the TOML config file and ``--set`` override these."""
+class Stage2Config(scaffold.PPOSettings):
+    """Every setting of a stage-2 run: ``scaffold.PPOSettings``' (with stage 2's values in
+    ``DEFAULTS``; ``total_steps`` and the evaluation's counts are decisions: a lone target is
+    no decision; ``n_steps``, decisions per env copy; ``gamma``, per decision) and stage 2's
+    own; the TOML config file and ``--set`` override these."""
 
-    case: str | None = None  # case file; None: the built-in case
-    seed: CountOrZero = 0
+    DEFAULTS = {"total_steps": 40_000, "n_envs": 2, "num_cpus": 1, "learning_rate": 1e-4,
+                "batch_size": 128, "n_epochs": 5, "gamma": 0.995, "clip_range": 0.1,
+                "ent_coef": 0.0, "bc_epochs": 60, "bc_batch_size": 256,
+                "eval_every_steps": 4096, "eval_seeds": [2000, 2001, 2002, 2003],
+                "checkpoint_every_steps": 4096}
+
     low_level: str = "scripted"  # "scripted" or a stage-1 model .zip (actions sampled)
-    total_steps: Count = 40_000  # decisions (real ones: a lone target is no decision)
-    n_envs: Count = 2  # env copies
-    num_cpus: Count = 1  # processes stepping the copies (1: all in this process)
-    torch_threads: Count = 1
     stall_s: Rate = 3600.0  # truncate an episode in which no task moves on for this long
     central_critic: bool = True  # MAPPO: the critic also sees the global state
     # R_e (Eq. 5) weights for training; they replace the case's [evaluation_reward]
@@ -68,27 +75,10 @@ class Stage2Config(RunConfig):
     episode: float = -0.001  # per simulated second: the makespan term
     path: float = 0.0
     completion: float = 1.0
-    # PPO
-    learning_rate: Rate = 1e-4
-    n_steps: Count = 256  # decisions per env copy before each update
-    batch_size: Count = 128
-    n_epochs: Count = 5
-    gamma: RateOrZero = 0.995  # per decision
-    gae_lambda: RateOrZero = 0.95
-    clip_range: RateOrZero = 0.1
-    ent_coef: RateOrZero = 0.0
-    vf_coef: RateOrZero = 0.5
-    net_arch: Sizes = [128, 128]
     log_std_init: float = -1.6  # the desired position's spread (std 0.2 of the plane's half)
-    # warm start: behaviour cloning of the priority heuristic
+    # warm start: behaviour cloning of the priority heuristic on this many floors (its
+    # evaluation: the policy's mean action)
     bc_episodes: CountOrZero = 24
-    bc_epochs: CountOrZero = 60
-    bc_batch_size: Count = 256
-    bc_learning_rate: Rate = 1e-3
-    # evaluation (actions: the policy's mean), checkpoints
-    eval_every_steps: Count = 4096
-    eval_seeds: Sizes = [2000, 2001, 2002, 2003]
-    checkpoint_every_steps: Count = 4096
 
     @model_validator(mode="after")
     def _low_level_exists(self) -> Stage2Config:
@@ -176,8 +166,6 @@ class Stage2Env(gym.Env):
 
     def teacher_action(self) -> np.ndarray:
         """The priority heuristic's choice for the deciding crew as a desired position."""
-        from agents.priority import desired_position_of_first_choice
-
         env = self.inner.env
         i = env.agent_index[self.inner.deciding_agent]
         return np.array(desired_position_of_first_choice(env.site.crews[i], env.site,
@@ -185,15 +173,37 @@ class Stage2Env(gym.Env):
 
 
 def make_vec_env(config: Stage2Config, case, seed: int):
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+    """``n_envs`` copies of ``Stage2Env`` stepped by ``num_cpus`` processes; copy k gets
+    ``seed + k``."""
+    from stable_baselines3.common.vec_env import VecMonitor
 
-    fns = [lambda: Stage2Env(config, case)] * config.n_envs  # venv.seed: copy k gets seed + k
-    venv = SubprocVecEnv(fns, start_method="fork") if config.num_cpus > 1 else DummyVecEnv(fns)
+    venv = scaffold.vec_env([lambda: Stage2Env(config, case)] * config.n_envs, config.num_cpus)
     venv.seed(seed)
     return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
 
 
 # -- warm start ----------------------------------------------------------------------------------
+
+class Decision(NamedTuple):
+    observation: np.ndarray
+    action: np.ndarray
+    reward: float
+    info: dict
+
+
+def play_floor(env: Stage2Env, seed: int, choose: Callable[[np.ndarray], np.ndarray]) \
+        -> list[Decision]:
+    """One floor of ``env`` on ``seed``, ``choose(observation)`` making every decision; the
+    last decision's info is the episode's end."""
+    obs, _ = env.reset(seed=seed)
+    decisions, done = [], False
+    while not done:
+        action = choose(obs)
+        next_obs, reward, terminated, truncated, info = env.step(action)
+        decisions.append(Decision(obs, action, reward, info))
+        obs, done = next_obs, terminated or truncated
+    return decisions
+
 
 def heuristic_samples(config: Stage2Config, case, episodes: int, seed: int, log=print):
     """(observations, teacher actions, discounted returns) of every decision of ``episodes``
@@ -201,22 +211,16 @@ def heuristic_samples(config: Stage2Config, case, episodes: int, seed: int, log=
     env = Stage2Env(config, case)
     observations, actions, returns = [], [], []
     for k in range(episodes):
-        obs, _ = env.reset(seed=seed + k)
-        rewards, done = [], False
-        while not done:
-            act = env.teacher_action()
-            observations.append(obs)
-            actions.append(act)
-            obs, rew, terminated, truncated, info = env.step(act)
-            rewards.append(rew)
-            done = terminated or truncated
+        floor = play_floor(env, seed + k, lambda _: env.teacher_action())
+        observations += [d.observation for d in floor]
+        actions += [d.action for d in floor]
         g, back = 0.0, []
-        for r in reversed(rewards):
-            g = r + config.gamma * g
+        for d in reversed(floor):
+            g = d.reward + config.gamma * g
             back.append(g)
         returns.extend(reversed(back))
-        log(f"heuristic episode {k + 1}/{episodes}: {len(rewards)} decisions, makespan "
-            f"{info.get('makespan_s')}")
+        log(f"heuristic episode {k + 1}/{episodes}: {len(floor)} decisions, makespan "
+            f"{floor[-1].info.get('makespan_s')}")
     return (np.asarray(observations, np.float32), np.asarray(actions, np.float32),
             np.asarray(returns, np.float32))
 
@@ -307,13 +311,10 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
     env = Stage2Env(config, case)
     makespans, finished, stalled, decisions = [], 0, 0, 0
     for seed in seeds:
-        obs, _ = env.reset(seed=seed)
-        done = False
-        while not done:
-            act = actor.act(obs[None, :env.actor_size], deterministic=True)[0]
-            obs, _, terminated, truncated, info = env.step(act)
-            decisions += 1
-            done = terminated or truncated
+        floor = play_floor(env, seed, lambda obs: actor.act(obs[None, :env.actor_size],
+                                                            deterministic=True)[0])
+        decisions += len(floor)
+        info = floor[-1].info
         finished += info["makespan_s"] is not None
         stalled += bool(info["stalled"])
         makespans.append(info["makespan_s"] if info["makespan_s"] is not None
@@ -322,14 +323,14 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
             "stalled": stalled, "episodes": len(seeds), "decisions": decisions}
 
 
-# -- callbacks ----------------------------------------------------------------------------------
+# -- metrics ----------------------------------------------------------------------------------
 
-def make_callbacks(config: Stage2Config, case, run: Path, log=print):
+def metrics_callback():
+    """An SB3 callback: per finished or cut episode of the rollouts, the makespan, R_e's
+    terms and the idle steps."""
     from stable_baselines3.common.callbacks import BaseCallback
 
     class Metrics(BaseCallback):
-        """Per finished or cut episode of the rollouts: makespan, R_e's terms, idle steps."""
-
         def _on_rollout_start(self) -> None:
             self.ends: list[dict] = []
 
@@ -356,121 +357,46 @@ def make_callbacks(config: Stage2Config, case, run: Path, log=print):
                 self.logger.record(f"cmdp/idle_steps_{cause}", float(np.mean(
                     [e["idle_steps"][cause] for e in self.ends])))
 
-    class Periodic(BaseCallback):
-        """Checkpoints and evaluation on fixed seeds, keeping the best model."""
-
-        def __init__(self):
-            super().__init__()
-            self.best = float("inf")
-
-        def _init_callback(self) -> None:
-            done = self.model.num_timesteps
-            self.next_eval = done // config.eval_every_steps * config.eval_every_steps
-            if done:
-                self.next_eval += config.eval_every_steps
-            self.next_ckpt = (done // config.checkpoint_every_steps + 1) * \
-                config.checkpoint_every_steps
-            best_file = run / "best.json"
-            if best_file.exists():
-                self.best = json.loads(best_file.read_text())["mean_makespan_s"]
-
-        def _on_training_start(self) -> None:
-            if self.model.num_timesteps == 0:  # where the warm start stands
-                self._evaluate()
-
-        def _evaluate(self) -> None:
-            t = self.model.num_timesteps
-            self.next_eval = t - t % config.eval_every_steps + config.eval_every_steps
-            t0 = time.perf_counter()
-            result = evaluate_policy(self.model, config, case, config.eval_seeds)
-            for k, v in result.items():
-                self.logger.record(f"eval/{k}", v)
-            if t == 0:
-                self.logger.record("time/total_timesteps", 0)
-                self.logger.dump(0)
-            log(f"\nevaluation at {t:,} decisions: mean makespan "
-                f"{result['mean_makespan_s']:.0f} s, {result['finished']}/{result['episodes']} "
-                f"finished ({time.perf_counter() - t0:.0f} s)")
-            if result["finished"] == result["episodes"] and \
-                    result["mean_makespan_s"] < self.best:
-                self.best = result["mean_makespan_s"]
-                save_model(self.model, run / "best_model.zip")
-                write_atomic(run / "best.json", json.dumps({"step": t, **result}, indent=2))
-
-        def _on_step(self) -> bool:
-            t = self.model.num_timesteps
-            if t >= self.next_ckpt:
-                self.next_ckpt += config.checkpoint_every_steps
-                save_model(self.model, run / "checkpoints" / f"step_{t}.zip")
-            if t >= self.next_eval:
-                self._evaluate()
-            return True
-
-    return [Metrics(), Periodic()]
+    return Metrics()
 
 
-def save_model(model, path: Path) -> None:
-    from .stage1 import save_model as save
-
-    save(model, path)
+def best_makespan(result: dict) -> float | None:
+    """An evaluation's rank: the lower its mean makespan the better, and only with every
+    floor finished (None otherwise)."""
+    if result["finished"] != result["episodes"]:
+        return None
+    return -result["mean_makespan_s"]
 
 
 # -- main ---------------------------------------------------------------------------------------
 
 def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None,
-          progress_bar: bool = True, log=print) -> Path:
-    """Train (or resume) a stage-2 run in ``run``; returns the final model's path."""
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.utils import set_random_seed
-
-    from agents.central_critic import CentralCriticPolicy
-
-    from .stage1 import TrainingInterrupted, _next_part, draw_curve, learn, without_sigint
-
-    torch.set_num_threads(config.torch_threads)
-    torch.distributions.Distribution.set_default_validate_args(False)
-    case = training_case(config)
-    run.mkdir(parents=True, exist_ok=True)
-    part = _next_part(run) if resume is not None else 0
-    suffix = f"-{part}" if part else ""
-    write_atomic(run / f"config{suffix}.json", json.dumps(
-        {"config": config.model_dump(), "command": argv, "resumed_from": str(resume) if resume
-         else None, "versions": versions()}, indent=2))
-    write_atomic(run / "case.json", json.dumps(case.model_dump(mode="json"), indent=2))
-    set_random_seed(config.seed)
-    venv = without_sigint(lambda: make_vec_env(config, case, config.seed))
-    actor_size = venv.get_attr("actor_size", [0])[0]
-    try:
-        if resume is not None:
-            model = PPO.load(str(resume), env=venv, device="cpu")
-            log(f"resumed from {resume} at {model.num_timesteps:,} decisions")
-        else:
-            policy_kwargs = {"net_arch": list(config.net_arch),
-                             "log_std_init": config.log_std_init}
-            policy = "MlpPolicy"
-            if config.central_critic:
-                policy = CentralCriticPolicy
-                policy_kwargs["actor_size"] = actor_size
-            model = PPO(policy, venv, learning_rate=config.learning_rate,
-                        n_steps=config.n_steps, batch_size=config.batch_size,
-                        n_epochs=config.n_epochs, gamma=config.gamma,
-                        gae_lambda=config.gae_lambda, clip_range=config.clip_range,
-                        ent_coef=config.ent_coef, vf_coef=config.vf_coef,
-                        policy_kwargs=policy_kwargs, seed=config.seed, device="cpu", verbose=0)
-            if config.bc_episodes > 0:
-                try:
-                    warm_start(model, config, case, run, log)
-                except KeyboardInterrupt:
-                    raise TrainingInterrupted(
-                        "interrupted during behaviour cloning (the warm start before PPO): "
-                        "nothing could be saved yet; start again with the same command (or "
-                        "--set bc_episodes=0 to skip cloning)") from None
-        final = learn(model, config.total_steps, make_callbacks(config, case, run, log), run,
-                      suffix, resume is None, progress_bar, "decisions", log)
-    finally:
-        venv.close()
+          progress_bar: bool = True, log=scaffold.say) -> Path:
+    """Train (or resume) a stage-2 run in ``run`` (``scaffold.train_ppo``); returns the final
+    model's path."""
     from media.curves import draw_stage2_curve
 
-    draw_curve(draw_stage2_curve, run, log)
-    return final
+    case = training_case(config)
+
+    def new_model(venv):
+        policy_kwargs = {"net_arch": list(config.net_arch), "log_std_init": config.log_std_init}
+        policy = "MlpPolicy"
+        if config.central_critic:
+            from agents.central_critic import CentralCriticPolicy
+
+            policy = CentralCriticPolicy
+            policy_kwargs["actor_size"] = venv.get_attr("actor_size", [0])[0]
+        return scaffold.new_ppo(config, policy, venv, policy_kwargs, seed=config.seed)
+
+    evaluation = scaffold.Evaluation(
+        play=lambda model: evaluate_policy(model, config, case, config.eval_seeds),
+        describe=lambda result: f"mean makespan {result['mean_makespan_s']:.0f} s, "
+                                f"{result['finished']}/{result['episodes']} finished",
+        score=best_makespan, at_start=True)
+    return scaffold.train_ppo(
+        scaffold.Run(config, case, run, "decisions", resume, argv, progress_bar, log),
+        make_venv=lambda: make_vec_env(config, case, config.seed), new_model=new_model,
+        warm_start=(lambda model: warm_start(model, config, case, run, log))
+        if config.bc_episodes > 0 else None,
+        skip_warm_start="bc_episodes=0", metrics=metrics_callback(), evaluation=evaluation,
+        draw_curve=draw_stage2_curve)

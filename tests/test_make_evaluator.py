@@ -1,0 +1,67 @@
+"""Evaluators by name (``evaluate.make_evaluator``) and the one default, Eq. 9, for every
+way of making an env."""
+
+import pettingzoo
+import pytest
+
+import cmdp_pymunk
+from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.evaluate import (
+    DEFAULT_EVALUATOR,
+    EVALUATORS,
+    NearestFirstEvaluator,
+    PriorityEvaluator,
+    make_evaluator,
+)
+from cmdp_pymunk.move import STAND_STILL
+
+
+def test_names_objects_and_the_default():
+    assert type(make_evaluator("priority")) is PriorityEvaluator
+    assert type(make_evaluator("nearest")) is NearestFirstEvaluator
+    assert type(make_evaluator(None)) is EVALUATORS[DEFAULT_EVALUATOR] is PriorityEvaluator
+    mine = NearestFirstEvaluator()
+    assert make_evaluator(mine) is mine
+
+
+def test_an_unknown_name_names_the_choices_and_the_closest():
+    with pytest.raises(ValueError) as err:
+        make_evaluator("priorty")
+    text = str(err.value)
+    assert 'did you mean "priority"?' in text
+    assert all(f'"{name}"' in text for name in EVALUATORS)
+    with pytest.raises(ValueError, match='give "priority", "nearest"') as err:
+        make_evaluator("best")
+    assert "did you mean" not in str(err.value)
+    with pytest.raises(TypeError, match="has no target_values"):
+        make_evaluator(42)
+
+
+def test_every_way_of_making_an_env_has_the_same_default(tiny_case):
+    kinds = {type(cmdp_pymunk.CMDPEnv(case=tiny_case).evaluator),
+             type(cmdp_pymunk.parallel_env(case=tiny_case).evaluator),
+             type(cmdp_pymunk.env(case=tiny_case).unwrapped.evaluator),
+             type(pettingzoo.make("parallel", "cmdp/TinyFloor-v1").evaluator),
+             type(pettingzoo.make("aec", "cmdp/TinyFloor-v1").unwrapped.evaluator)}
+    assert kinds == {PriorityEvaluator}
+
+
+@pytest.mark.parametrize("name", sorted(EVALUATORS))
+def test_parallel_env_takes_a_name_and_runs(tiny_case, name):
+    env = cmdp_pymunk.parallel_env(case=tiny_case, seed=0, evaluator=name)
+    observations, _ = env.reset(seed=0)
+    assert set(observations) == set(env.agents)
+    for _ in range(5):
+        env.step({agent: STAND_STILL for agent in env.agents})
+    assert type(env.evaluator) is EVALUATORS[name]
+    valued = [crew for crew in env.site.crews if crew.scope]
+    assert valued and all(crew.values.keys() == crew.scope.keys() for crew in valued)
+    env.evaluator = "nearest"  # the setter takes a name too
+    assert type(env.evaluator) is type(env.engine.evaluator) is NearestFirstEvaluator
+
+
+def test_the_engine_takes_a_name(tiny_case):
+    assert type(Engine(tiny_case, evaluator="nearest").evaluator) is NearestFirstEvaluator
+    assert Engine(tiny_case).evaluator is None  # values come from outside
+    with pytest.raises(ValueError, match='did you mean "nearest"'):
+        Engine(tiny_case, evaluator="nearst")
