@@ -96,6 +96,7 @@ class LookaheadEvaluator:
         self.env = None
         self.navigator = None
         self.decisions: list[Decision] = []
+        self.on_decision = None  # f(engine, i, values, decision): labels for distillation
         self._episode = None
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
 
@@ -132,8 +133,11 @@ class LookaheadEvaluator:
         makespans = [self._mean_makespan(engine, i, values, c) for c in candidates]
         choice = min(candidates, key=lambda c: (makespans[candidates.index(c)],
                                                 candidates.index(c)))
-        self.decisions.append(Decision(site.time_s, i, candidates, makespans, order[0], choice,
-                                       time.perf_counter() - start))
+        decision = Decision(site.time_s, i, candidates, makespans, order[0], choice,
+                            time.perf_counter() - start)
+        self.decisions.append(decision)
+        if self.on_decision is not None:
+            self.on_decision(engine, i, values, decision)
         if choice == order[0]:
             return values
         self._held[i] = (choice, crew.stats.reaches)

@@ -18,6 +18,7 @@ EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority 
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
                   "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
                   "(branch the floor at each decision; futures=0 sees the true durations), "
+                  "student:PATH (Eq. 9 plus a residual fitted to the lookahead), "
                   "or a stage-2 model .zip")
 
 
@@ -36,6 +37,10 @@ def make_evaluator(spec: str):
         from .cpsat import PlanEvaluator
 
         return PlanEvaluator()
+    if spec.startswith("student:"):
+        from .student import StudentEvaluator
+
+        return StudentEvaluator.load(spec.split(":", 1)[1])
     if spec == "lookahead" or spec.startswith("lookahead:"):
         return make_lookahead(spec.partition(":")[2])
     from .models import ModelEvaluator  # needs stable-baselines3
@@ -87,7 +92,7 @@ def model_path(spec: str, option: str) -> Path:
     path = Path(spec)
     if not path.is_file():
         names = (", ".join([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH",
-                            "lookahead"])
+                            "lookahead", "student:PATH"])
                  if option == "--evaluator" else "scripted")
         raise ValueError(f"{option} {spec!r}: no such model file; give a .zip saved by "
                          f"stable-baselines3, or one of {names}")

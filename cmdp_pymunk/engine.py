@@ -142,6 +142,7 @@ class Engine:
         self._last_logged = [None] * n
         self._no_rewards = [0.0] * n
         self.positions = [tuple(b.position) for b in self.world.bodies]
+        self.site.crew_xy = self.positions  # the same list: evaluators may read every crew's
         self.steps = 0
         self.stalled = None
         self._progress_mark = (0.0, self._task_progress())

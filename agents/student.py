@@ -1,0 +1,99 @@
+"""A target evaluator that starts as the priority heuristic and learns a residual (issue 17).
+
+It re-ranks the ``candidates`` best targets of Eq. 9 by V' + w_type . phi, where phi are the
+candidate features of ``agents.features`` and w_type a weight vector per crew type. With every
+weight 0 it is exactly Eq. 9 (a test checks it); the weights are fitted to the lookahead's
+choices (``training.distill``), so it is as cheap to run as Eq. 9 and can be the next
+lookahead's base (a step of approximate policy iteration).
+
+Like the lookahead, a choice that overrides Eq. 9 is held until the crew reaches a target or
+the target leaves its scope (per episode, so one evaluator can serve branches of a floor).
+"""
+
+from __future__ import annotations
+
+import json
+import weakref
+from pathlib import Path
+
+import numpy as np
+
+from cmdp_pymunk.evaluate import PriorityEvaluator
+from cmdp_pymunk.state import ScopeKind
+
+from .features import FEATURE_NAMES, FloorFacts, candidate_features
+from .lookahead import promote, ranked
+
+
+class StudentEvaluator:
+    """Eq. 9 plus a learned residual over its top candidates (see the module doc).
+
+    Args:
+        weights: crew type -> one weight per ``FEATURE_NAMES`` (a missing type: zeros).
+        candidates: how many of Eq. 9's best targets it may re-rank.
+    """
+
+    def __init__(self, weights: dict[str, list[float]] | None = None, candidates: int = 3):
+        self.weights = {k: np.asarray(v, dtype=np.float64) for k, v in (weights or {}).items()}
+        for crew_type, w in self.weights.items():
+            if w.shape != (len(FEATURE_NAMES),):
+                raise ValueError(f"student weights for {crew_type!r}: {w.shape[0]} numbers, "
+                                 f"expected {len(FEATURE_NAMES)} ({', '.join(FEATURE_NAMES)})")
+        self.candidates = candidates
+        self.base = PriorityEvaluator()
+        self._facts: dict = {}
+        self._held: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+    def facts(self, site) -> FloorFacts:
+        key = id(site.case)
+        if key not in self._facts:
+            self._facts[key] = FloorFacts.of(site)
+        return self._facts[key]
+
+    def target_values(self, crew, site, position) -> dict[int, float]:
+        priorities = self.base.priorities(crew, site, position)
+        values = self.base.target_values(crew, site, position)
+        held = self._held.setdefault(site, {})
+        if crew.index in held:
+            target, reaches = held[crew.index]
+            if target in values and crew.stats.reaches == reaches:
+                return promote(values, target)
+            del held[crew.index]
+        order = ranked(values)
+        top = order[:self.candidates]
+        w = self.weights.get(crew.type)
+        if crew.scope_kind != ScopeKind.TASKS or len(top) < 2 or w is None or not w.any():
+            return values
+        phi = candidate_features(self.facts(site), crew, site, position, top, priorities,
+                                 site.crew_xy)
+        scores = np.array([priorities[t] for t in top]) + phi @ w
+        choice = top[int(np.argmax(scores))]  # ties: Eq. 9's order
+        if choice == order[0]:
+            return values
+        held[crew.index] = (choice, crew.stats.reaches)
+        return promote(values, choice)
+
+    # -- files -----------------------------------------------------------------------------------
+
+    def save(self, path: Path, meta: dict) -> None:
+        """Weights and how they were made, as JSON (written whole, then moved into place)."""
+        data = {"kind": "cmdp-student", "features": list(FEATURE_NAMES),
+                "candidates": self.candidates,
+                "weights": {k: [round(float(x), 6) for x in v] for k, v in self.weights.items()},
+                **meta}
+        tmp = Path(path).with_suffix(".tmp")
+        tmp.write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+        tmp.replace(path)
+
+    @classmethod
+    def load(cls, path: str | Path) -> StudentEvaluator:
+        path = Path(path)
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as err:
+            raise ValueError(f"--evaluator student:{path}: cannot read it ({err}); give a file "
+                             f"written by training.distill") from err
+        if data.get("kind") != "cmdp-student" or data.get("features") != list(FEATURE_NAMES):
+            raise ValueError(f"--evaluator student:{path}: not a student file for these features "
+                             f"({', '.join(FEATURE_NAMES)}); refit it with training.distill")
+        return cls(data["weights"], data["candidates"])

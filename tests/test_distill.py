@@ -1,0 +1,102 @@
+"""The student (agents.student) and its distillation (training.distill): plumbing and by-hand
+numbers, not learning."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import cmdp_pymunk
+from agents.features import FEATURE_NAMES, FloorFacts
+from agents.navigator import Navigator
+from agents.student import StudentEvaluator
+from cmdp_pymunk.evaluate import PriorityEvaluator
+from training import distill
+
+
+def floor(evaluator, seed: int = 0):
+    env = cmdp_pymunk.parallel_env(seed=seed, evaluator=evaluator, park_idle=True, blind=True)
+    navigator = Navigator(env)
+    env.reset(seed=seed)
+    navigator.reset(seed)
+    while env.agents:
+        env.step(navigator.actions(env, None))
+    return env
+
+
+def test_a_student_without_weights_is_eq_9_exactly():
+    zero = {t: [0.0] * len(FEATURE_NAMES) for t in ("JCC", "HIC", "GC", "RC", "FC")}
+    student, base = floor(StudentEvaluator(zero)), floor(PriorityEvaluator())
+    assert student.log.events == base.log.events
+
+
+def test_a_student_with_weights_changes_choices_and_holds_them():
+    # a large weight against nearness (far targets first) overrides Eq. 9 on the floor
+    w = [0.0] * len(FEATURE_NAMES)
+    w[FEATURE_NAMES.index("nearness")] = -5.0
+    env = floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
+    assert env.site.done and env.log.events != floor(PriorityEvaluator()).log.events
+
+
+def test_floor_facts_tail_by_hand(tiny_case):
+    # tiny case: X-A (2 min) -> K-A (1 min + 30 s crane) -> M-C (0.3 m3 at 0.1 m3/min = 3 min)
+    site = cmdp_pymunk.parallel_env(case=tiny_case, seed=0)
+    site.reset(seed=0)
+    facts = FloorFacts.of(site.site)
+    assert facts.tail_s.tolist() == pytest.approx([120 + 90 + 180, 90 + 180, 120, 180])
+    # the bottleneck: X crews have 240 s for one crew, M 180 s for two crews, K 90 s
+    assert facts.bottleneck == "XC"
+    assert facts.unlock_s.tolist() == [0.0, 0.0, 0.0, 0.0]
+
+
+def test_soft_targets_by_hand():
+    # makespans 100, 400 and a missing candidate, tau 300: e^0 : e^-1 : 0
+    p = distill.soft_targets(np.array([[100.0, 400.0, np.nan]]), 300.0)
+    assert p[0].tolist() == pytest.approx([1 / (1 + np.e ** -1), np.e ** -1 / (1 + np.e ** -1),
+                                           0.0])
+
+
+def test_fit_finds_a_feature_the_teacher_follows():
+    rng = np.random.default_rng(0)
+    n, k, f = 300, 3, len(FEATURE_NAMES)
+    values = np.sort(rng.random((n, k)), axis=1)[:, ::-1]  # Eq. 9 ranks candidate 0 first
+    features = rng.random((n, k, f))
+    tail = FEATURE_NAMES.index("tail")
+    makespan = 30000.0 - 2000.0 * features[:, :, tail]  # the longest tail finishes sooner
+    data = {"crew_type": np.array(["FC"] * n), "values": values, "features": features,
+            "makespan_s": makespan}
+    weights, report = distill.fit_weights(data, tau_s=300.0, l2=0.01)
+    assert weights["FC"][tail] > 0.5
+    assert report["FC"]["agree_student_teacher"] > report["FC"]["agree_base_teacher"] + 0.3
+
+
+def test_label_fit_and_simulate_on_the_tiny_case(tmp_path):
+    from training import simulate
+
+    labels, model = tmp_path / "labels", tmp_path / "student.json"
+    tiny = str(cmdp_pymunk.TINY_CASE)
+    assert distill.main(["label", "--case", tiny, "--seeds", "0-2", "--candidates", "2",
+                         "--out", str(labels)]) == 0
+    assert sorted(p.name for p in labels.iterdir()) == ["seed-0.npz", "seed-1.npz",
+                                                        "seed-2.npz"]
+    assert distill.main(["label", "--case", tiny, "--seeds", "0-2", "--out",
+                         str(labels)]) == 0  # resumes: nothing left to do
+    assert distill.main(["fit", str(labels), "--out", str(model)]) == 0
+    data = json.loads(model.read_text())
+    assert data["label_seeds"] == [0, 1, 2] and data["command"].startswith("python -m")
+    assert simulate.main(["--case", tiny, "--evaluator", f"student:{model}", "--out",
+                          str(tmp_path / "run"), "--no-charts", "--no-progress"]) == 0
+
+
+def test_a_bad_student_file_says_what_to_do(tmp_path):
+    bad = tmp_path / "x.json"
+    bad.write_text('{"kind": "other"}')
+    with pytest.raises(ValueError, match="refit it with training.distill"):
+        StudentEvaluator.load(bad)
+    with pytest.raises(ValueError, match="cannot read it"):
+        StudentEvaluator.load(tmp_path / "missing.json")
+    with pytest.raises(ValueError, match="expected 11"):
+        StudentEvaluator({"FC": [1.0, 2.0]})
+    assert distill.main(["fit", str(tmp_path)]) == 2
