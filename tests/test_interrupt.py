@@ -163,6 +163,19 @@ def test_simulate_stops_in_an_episode_of_the_builtin_case(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["case.json"]
 
 
+def test_simulate_stops_inside_a_lookahead_branch(tmp_path):
+    """Ctrl-C while the lookahead runs a branch of the built-in floor: one line, exit 130,
+    no half-written outputs."""
+    out = tmp_path / "out"
+    code, err = run_and_interrupt("training.simulate",
+                                  ["--evaluator", "lookahead:candidates=3+futures=1",
+                                   "--no-charts", "--no-progress", "--out", str(out)], 2.5)
+    assert code == 130, err
+    line = one_line(err, "cmdp-simulate")
+    assert line.startswith("cmdp-simulate: interrupted in seed 0 at t = "), line
+    assert sorted(p.name for p in out.iterdir()) == ["case.json"]
+
+
 TRAIN = ["stage1", "--set", f"case='{TINY}'", "--set", "n_envs=2", "--set", "num_cpus=2",
          "--set", "n_steps=128", "--set", "batch_size=256", "--set", "n_epochs=1",
          "--set", "bc_epochs=1", "--set", "episode_time_s=200", "--no-progress"]
