@@ -23,6 +23,9 @@ branches the low level with the floor when it is bound to one (``bind_low_level`
 from __future__ import annotations
 
 import math
+import multiprocessing
+import pickle
+import signal
 import time
 from dataclasses import dataclass
 
@@ -41,16 +44,21 @@ class LookaheadSettings:
         futures: sampled futures per candidate (0: the floor's own, true durations).
         unfinished_penalty_s: added to the time reached by a branch that stalls or hits the
             time limit, so that it always loses to one that finishes.
+        workers: processes that run the branches of a decision side by side (1: in this
+            process); the choices are the same for any number.
     """
 
     candidates: int = 3
     futures: int = 1
     unfinished_penalty_s: float = 100_000.0
+    workers: int = 1
 
     def __post_init__(self):
         if not (isinstance(self.candidates, int) and self.candidates >= 1):
             raise ValueError(f"lookahead candidates must be an int >= 1, not "
                              f"{self.candidates!r}")
+        if not (isinstance(self.workers, int) and self.workers >= 1):
+            raise ValueError(f"lookahead workers must be an int >= 1, not {self.workers!r}")
         if not (isinstance(self.futures, int) and self.futures >= 0):
             raise ValueError(f"lookahead futures must be an int >= 0 (0: the floor's own "
                              f"future), not {self.futures!r}")
@@ -97,6 +105,7 @@ class LookaheadEvaluator:
         self.navigator = None
         self.decisions: list[Decision] = []
         self.on_decision = None  # f(engine, i, values, decision): labels for distillation
+        self._pool = None
         self._episode = None
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
 
@@ -130,7 +139,10 @@ class LookaheadEvaluator:
         if crew.scope_kind != ScopeKind.TASKS or len(candidates) < 2:
             return values
         start = time.perf_counter()
-        makespans = [self._mean_makespan(engine, i, values, c) for c in candidates]
+        if self.settings.workers > 1:
+            makespans = self._parallel_makespans(engine, i, values, candidates)
+        else:
+            makespans = [self._mean_makespan(engine, i, values, c) for c in candidates]
         choice = min(candidates, key=lambda c: (makespans[candidates.index(c)],
                                                 candidates.index(c)))
         decision = Decision(site.time_s, i, candidates, makespans, order[0], choice,
@@ -161,24 +173,50 @@ class LookaheadEvaluator:
                         scenario: int | None) -> float:
         """The floor's makespan when crew i heads for ``target`` now and the base rule decides
         everything after, on a branch with future ``scenario``."""
+        branch = engine.clone(scenario, self._companions(engine), keep_log=False)
+        return run_branch(branch, self.base, i, values, target,
+                          self.settings.unfinished_penalty_s)
+
+    def _companions(self, engine) -> tuple:
         env = self.env
         if env is None or env.engine is not engine:
             raise RuntimeError("LookaheadEvaluator: bind(env) to the env whose engine it "
                                "values before running an episode")
-        companions = (env,) if self.navigator is None else (env, self.navigator)
-        branch_engine, branch_env, *rest = engine.clone(scenario, companions, keep_log=False)
-        navigator = rest[0] if rest else Navigator(branch_env)
-        branch_env.evaluator = self.base  # the branch follows the base rule from here on
-        branch_engine.set_target_values(i, promote(values, target))
-        for j in list(branch_engine.pending):
-            crew = branch_engine.site.crews[j]
-            branch_engine.set_target_values(j, self.base.target_values(
-                crew, branch_engine.site, branch_engine.positions[j]))
-        while branch_env.agents:
-            branch_env.step(navigator.actions(branch_env, None))
-        if branch_engine.makespan_s is not None:
-            return branch_engine.makespan_s
-        return branch_engine.site.time_s + self.settings.unfinished_penalty_s
+        return (env,) if self.navigator is None else (env, self.navigator)
+
+    def _parallel_makespans(self, engine, i: int, values: dict[int, float],
+                            candidates: list[int]) -> list[float]:
+        """Every (candidate, future) branch in the worker processes: the floor is pickled
+        once per decision (its event log left out) and each worker rebuilds it."""
+        branch = engine.clone(engine.streams.scenario, self._companions(engine),
+                              keep_log=False)
+        branch[1].evaluator = self.base  # so the pickle holds no lookahead (nor its pool)
+        blob = pickle.dumps(branch, protocol=pickle.HIGHEST_PROTOCOL)
+        futures = self.scenarios()
+        jobs = [(blob, i, values, target, scenario, self.base,
+                 self.settings.unfinished_penalty_s)
+                for target in candidates for scenario in futures]
+        results = self._workers().map(_branch_job, jobs, chunksize=1)
+        k = len(futures)
+        return [sum(results[n * k:(n + 1) * k]) / k for n in range(len(candidates))]
+
+    def _workers(self):
+        if self._pool is None:
+            ctx = multiprocessing.get_context("spawn")  # no forked torch or pygame state
+            self._pool = ctx.Pool(self.settings.workers, _quiet_worker)
+        return self._pool
+
+    def close(self) -> None:
+        """Stop the worker processes (if any); the evaluator can still be used after."""
+        if self._pool is not None:
+            self._pool.terminate()
+            self._pool.join()
+            self._pool = None
+
+    def __getstate__(self):  # a pool does not pickle; a copy starts its own
+        state = dict(self.__dict__)
+        state["_pool"] = None
+        return state
 
     # -- what it did ----------------------------------------------------------------------------
 
@@ -189,3 +227,34 @@ class LookaheadEvaluator:
                 "wall_s": round(math.fsum(x.wall_s for x in d), 2),
                 "candidates": self.settings.candidates, "futures": self.settings.futures}
 
+
+def run_branch(branch: tuple, base, i: int, values: dict[int, float], target: int,
+               unfinished_penalty_s: float) -> float:
+    """Play a branch (engine, env[, low level]) to its end: crew i heads for ``target``, the
+    other crews waiting for values get the base rule's, and the base rule decides after."""
+    branch_engine, branch_env, *rest = branch
+    navigator = rest[0] if rest else Navigator(branch_env)
+    branch_env.evaluator = base  # the branch follows the base rule from here on
+    branch_engine.set_target_values(i, promote(values, target))
+    for j in list(branch_engine.pending):
+        crew = branch_engine.site.crews[j]
+        branch_engine.set_target_values(j, base.target_values(
+            crew, branch_engine.site, branch_engine.positions[j]))
+    while branch_env.agents:
+        branch_env.step(navigator.actions(branch_env, None))
+    if branch_engine.makespan_s is not None:
+        return branch_engine.makespan_s
+    return branch_engine.site.time_s + unfinished_penalty_s
+
+
+def _branch_job(args) -> float:
+    blob, i, values, target, scenario, base, penalty = args
+    branch = pickle.loads(blob)
+    if scenario is not None:
+        branch[0].streams.with_scenario(scenario)
+    return run_branch(branch, base, i, values, target, penalty)
+
+
+def _quiet_worker() -> None:
+    """Workers leave Ctrl-C to the main process (which stops them)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)

@@ -58,11 +58,12 @@ def make_lookahead(options: str):
         key, sep, value = item.partition("=")
         if key == "base" and sep:
             base = value
-        elif key in ("candidates", "futures") and sep and value.isdigit():
+        elif key in ("candidates", "futures", "workers") and sep and value.isdigit():
             settings[key] = int(value)
         else:
             raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
-                             f"candidates=INT, futures=INT, base=SPEC (joined by +); e.g. "
+                             f"candidates=INT, futures=INT, workers=INT, base=SPEC (joined by "
+                             f"+); e.g. "
                              f"lookahead:candidates=3+futures=1+base=priority")
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "

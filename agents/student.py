@@ -44,6 +44,15 @@ class StudentEvaluator:
         self._facts: dict = {}
         self._held: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
+    def __getstate__(self):  # pickled into lookahead workers: the caches stay behind
+        state = dict(self.__dict__)
+        state["_facts"], state["_held"] = {}, None
+        return state
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
+        self._held = weakref.WeakKeyDictionary()
+
     def facts(self, site) -> FloorFacts:
         key = id(site.case)
         if key not in self._facts:

@@ -87,7 +87,7 @@ def test_lookahead_specs_and_their_errors():
     assert isinstance(ev, LookaheadEvaluator) and ev.settings == LookaheadSettings(2, 0)
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
     assert make_evaluator("lookahead").settings == LookaheadSettings()
-    with pytest.raises(ValueError, match="candidates=INT, futures=INT, base=SPEC"):
+    with pytest.raises(ValueError, match="candidates=INT, futures=INT, workers=INT, base=SPEC"):
         make_evaluator("lookahead:cands=2")
     with pytest.raises(ValueError, match="branch inside branches"):
         make_evaluator("lookahead:base=lookahead")
@@ -111,3 +111,16 @@ def test_cmdp_simulate_runs_the_lookahead(tmp_path):
                           "--no-progress"]) == 0
     data = json.loads((out / "summary.json").read_text())
     assert data["all_finished"] and data["lookahead"]["candidates"] == 2
+
+
+@pytest.mark.slow  # spawning two workers costs more than the rest of this file
+def test_worker_processes_choose_as_this_process_does(tiny_case):
+    one = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=2))
+    two = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=2, workers=2))
+    try:
+        env_one, env_two = floor(one, tiny_case), floor(two, tiny_case)
+    finally:
+        two.close()
+    assert [(d.candidates, d.makespans_s, d.choice) for d in one.decisions] == \
+        [(d.candidates, d.makespans_s, d.choice) for d in two.decisions]
+    assert env_one.log.events == env_two.log.events
