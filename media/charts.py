@@ -30,7 +30,6 @@ import io
 import json
 import sys
 from collections.abc import Iterable, Sequence
-from itertools import pairwise
 from pathlib import Path
 from typing import NamedTuple
 
@@ -41,7 +40,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Rectangle
 
 from cmdp_pymunk.case import Case
-from cmdp_pymunk.events import Event, read_csv, write_atomic
+from cmdp_pymunk.events import Event, position, read_csv, write_atomic
+from cmdp_pymunk.schedule import log_end_s, makespan_s, task_bars
 
 HOUR_S = 3600.0
 DPI = 110
@@ -74,43 +74,8 @@ class ActivityInterval(NamedTuple):
     category: str
 
 
-class TaskBar(NamedTuple):
-    """One task's bar in Fig. 10: the intervals it was being worked on, pauses between them.
-
-    ``finished`` is False when the log ends before the task's ``task_finish``; its last segment
-    then ends at the log's end.
-    """
-
-    task: str
-    crew: str
-    segments: tuple[tuple[float, float], ...]
-    finished: bool
-
-    @property
-    def start_s(self) -> float:
-        return self.segments[0][0]
-
-    @property
-    def end_s(self) -> float:
-        return self.segments[-1][1]
-
-    @property
-    def pauses(self) -> tuple[tuple[float, float], ...]:
-        return tuple((a[1], b[0]) for a, b in pairwise(self.segments))
-
-
 # ------------------------------------------------------------------------------------------
 # Pure helpers: the event log turned into intervals, bars and paths.
-
-
-def log_end_s(events: Sequence[Event]) -> float:
-    """The time of the log's last event (0 for an empty log)."""
-    return max((e.time_s for e in events), default=0.0)
-
-
-def makespan_s(events: Sequence[Event]) -> float | None:
-    """The time of the last ``task_finish``, or None when no task finished."""
-    return max((e.time_s for e in events if e.kind == "task_finish"), default=None)
 
 
 def activity_intervals(events: Sequence[Event],
@@ -139,45 +104,13 @@ def activity_intervals(events: Sequence[Event],
     return out
 
 
-def task_bars(events: Sequence[Event], end_s: float | None = None) -> list[TaskBar]:
-    """Every started task's worked segments, sorted by start time (ties: log order).
-
-    ``task_start`` and ``task_resume`` open a segment; ``task_pause`` and ``task_finish`` close
-    it. A task unfinished when the log ends has its open segment closed at ``end_s`` (default:
-    the log's last event).
-    """
-    end = log_end_s(events) if end_s is None else end_s
-    crews: dict[str, str] = {}
-    segments: dict[str, list[tuple[float, float]]] = {}
-    open_since: dict[str, float | None] = {}
-    finished: set[str] = set()
-    for e in events:
-        if e.kind in ("task_start", "task_resume"):
-            crews.setdefault(e.subject, e.crew)
-            segments.setdefault(e.subject, [])
-            if open_since.get(e.subject) is None:
-                open_since[e.subject] = e.time_s
-        elif e.kind in ("task_pause", "task_finish") and e.subject in segments:
-            since = open_since.get(e.subject)
-            if since is not None:
-                segments[e.subject].append((since, e.time_s))
-                open_since[e.subject] = None
-            if e.kind == "task_finish":
-                finished.add(e.subject)
-    for task, since in open_since.items():
-        if since is not None:
-            segments[task].append((since, max(end, since)))
-    bars = [TaskBar(t, crews[t], tuple(s), t in finished) for t, s in segments.items() if s]
-    return sorted(bars, key=lambda b: b.start_s)  # stable: ties keep the log's order
-
-
 def crew_paths(events: Sequence[Event]) -> dict[str, np.ndarray]:
     """Per crew, its ``position`` events as an array of rows ``(time_s, x_m, y_m)``."""
     rows: dict[str, list[tuple[float, float, float]]] = {}
     for e in events:
         if e.kind == "position":
-            x, y = e.subject.split(",")[:2]
-            rows.setdefault(e.crew, []).append((e.time_s, float(x), float(y)))
+            x, y, _ = position(e)
+            rows.setdefault(e.crew, []).append((e.time_s, x, y))
     return {crew: np.asarray(r, dtype=float) for crew, r in rows.items()}
 
 

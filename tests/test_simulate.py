@@ -25,7 +25,7 @@ def test_simulate_writes_summary_events_and_charts(tmp_path, capsys):
     assert crew["material_trips"] >= 1 and crew["distance_m"] > 0
     assert data["seed"] == 3 and data["versions"]["pymunk"]
     events = (out / "events.csv").read_text().splitlines()
-    assert events[0] == "time_s,kind,crew,subject,detail"
+    assert events[0] == "time_s,kind,crew,subject,detail,x_m,y_m,heading_deg"
     assert sum(",task_finish," in e for e in events) == 3
     for chart in ("gantt_agents.png", "gantt_tasks.png", "trajectories.png"):
         assert (out / chart).stat().st_size > 1000
