@@ -4,7 +4,8 @@
   (a lighter grey per cause: predecessor, task area, no target), navigating and deregistered
   (walking to the outlet) yellow, tasking red, fetching and waiting for the crane green.
 - :func:`gantt_tasks`, Fig. 10: one bar per task from its start to its finish, pauses drawn as
-  lighter segments, tasks sorted by start time from the top, coloured by task type.
+  lighter segments, tasks sorted by start time from the top and labelled with their ids,
+  coloured by task type.
 - :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
   as time goes on, with the components it worked on numbered in the order it started them;
   (b) every crew's path.
@@ -45,7 +46,8 @@ from cmdp_pymunk.schedule import log_end_s, makespan_s, task_bars
 
 HOUR_S = 3600.0
 DPI = 110
-MAX_LABELLED_TASKS = 40  # above this many tasks, Fig. 10 shows no task ids (as in the paper)
+TASK_ROW_IN = 0.16  # Fig. 10's row height (inches): room for a task id in 7-point type
+MAX_FIGURE_IN = 40.0  # beyond this height rows get thinner and the ids smaller
 
 # Fig. 9's colours: idle grey, navigating yellow, tasking red, materials or crane green.
 ACTIVITY_STYLE: dict[str, dict] = {
@@ -166,7 +168,7 @@ def unknown_tasks(events: Sequence[Event], case: Case) -> list[str]:
 # Figures.
 
 
-def _save(fig: Figure, path: str | Path) -> Path:
+def save_png(fig: Figure, path: str | Path) -> Path:
     """Render the figure to PNG in memory, then write it atomically."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
@@ -228,7 +230,7 @@ def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = 
         fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5),
                    fontsize=8, frameon=False)
     ax.set_title(title or "Crews' activities (Fig. 9)")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _type_colours(types: Sequence[str]) -> dict[str, str]:
@@ -241,10 +243,9 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
                 title: str | None = None) -> Path:
     """Fig. 10, the tasks' Gantt chart: a bar per task from its start to its finish.
 
-    Tasks sorted by start time, the first on top; pauses drawn as lighter segments; colours by
-    task type (from ``case`` when given, else the task id's prefix before '-'). Task ids label
-    the rows only when there are at most ``MAX_LABELLED_TASKS`` tasks. Writes a PNG to
-    ``path`` and returns it.
+    Tasks sorted by start time, the first on top, each row labelled with its task id; pauses
+    drawn as lighter segments; colours by task type (from ``case`` when given, else the task
+    id's prefix before '-'). Writes a PNG to ``path`` and returns it.
     """
     bars = task_bars(events)
     type_of = task_types(case, (b.task for b in bars))
@@ -254,7 +255,8 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
                   [t for t in present if t not in case.task_types]
     colours = _type_colours(present)
     n = len(bars)
-    fig = Figure(figsize=(11, min(2.2 + 0.14 * max(n, 1), 30)), layout="constrained")
+    row_in = min(TASK_ROW_IN, (MAX_FIGURE_IN - 2.2) / max(n, 1))
+    fig = Figure(figsize=(11, 2.2 + row_in * max(n, 1)), layout="constrained")
     ax = fig.add_subplot()
     for row, bar in enumerate(bars):
         colour = colours[type_of[bar.task]]
@@ -263,10 +265,7 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
                            (row - 0.4, 0.8), facecolors=colour, alpha=0.25, edgecolor="none")
         ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.segments],
                        (row - 0.4, 0.8), facecolors=colour, edgecolor="none")
-    if n <= MAX_LABELLED_TASKS:
-        ax.set_yticks(range(n), [b.task for b in bars], fontsize=7)
-    else:
-        ax.set_yticks([])
+    ax.set_yticks(range(n), [b.task for b in bars], fontsize=min(7.0, 0.75 * 72 * row_in))
     ax.set_ylim(max(n, 1) - 0.5, -0.5)
     ax.set_xlim(0, max(log_end_s(events), 1.0) / HOUR_S * 1.01)
     ax.set_xlabel("simulated time (h)")
@@ -288,7 +287,7 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
     if handles:
         ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
     ax.set_title(title or "Tasks (Fig. 10)")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _draw_layout(ax, case: Case, faint: bool = False) -> None:
@@ -392,7 +391,7 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
            Line2D([], [], color="#444444", marker="^", linestyle="none", label="crane")]
     fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
                frameon=False)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 # ------------------------------------------------------------------------------------------
