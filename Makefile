@@ -6,12 +6,12 @@ export SDL_VIDEODRIVER := dummy
 export SDL_AUDIODRIVER := dummy
 export PYGAME_HIDE_SUPPORT_PROMPT := 1
 
-.PHONY: demo test test-slow lint bench clean
+.PHONY: demo test test-slow docs lint bench clean
 
 # torch is pinned first and on its own: an unpinned torch (pulled by stable-baselines3)
 # would fetch a CUDA build of several GB. On a machine with only the public package index,
 # PyPI's torch wheel for Linux pulls CUDA libraries too: take the CPU build from PyTorch's
-# index with `make test TORCH_INDEX=https://download.pytorch.org/whl/cpu` (README, Installing).
+# index with `make test TORCH_INDEX=https://download.pytorch.org/whl/cpu` (docs/getting-started.md).
 TORCH_INDEX ?=
 $(VENV)/.installed: setup.cfg pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -29,6 +29,14 @@ test: $(VENV)/.installed
 test-slow: $(VENV)/.installed
 	$(PY) -m pytest -q -m slow
 
+# The docs site into site/, strict: a broken link, a missing page or an unreadable docstring fails.
+$(VENV)/.docs-installed: $(VENV)/.installed setup.cfg
+	$(PY) -m pip install --quiet -e '.[docs]'
+	touch $@
+
+docs: $(VENV)/.docs-installed
+	NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir site
+
 lint: $(VENV)/.installed
 	$(VENV)/bin/ruff check .
 
@@ -36,4 +44,4 @@ bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_env.py
 
 clean:
-	rm -rf $(VENV) out runs
+	rm -rf $(VENV) out runs site

@@ -1,6 +1,13 @@
 """The append-only event log: task starts, pauses, resumes, finishes, crew state changes.
 
 Gantt charts, trajectories and summaries are drawn from it (and from its CSV) alone.
+
+``events.csv`` has one row per event: ``time_s, kind, crew, subject, detail, x_m, y_m,
+heading_deg``. A ``position`` event (a moving crew, every ``position_log_every_s``) fills the
+last three (metres, the plane's origin at its centre; degrees counter-clockwise from +x) and
+leaves ``subject`` empty; every other event leaves them empty. In memory a position's subject
+is the text ``"x,y,heading"`` (``position`` reads it); :func:`read_csv` also reads logs written
+before the three columns existed, with the position packed in ``subject``.
 """
 
 from __future__ import annotations
@@ -22,6 +29,8 @@ class Event(NamedTuple):
 
 
 FIELDS = Event._fields
+POSITION_FIELDS = ("x_m", "y_m", "heading_deg")
+CSV_FIELDS = (*FIELDS, *POSITION_FIELDS)
 
 
 class EventLog:
@@ -34,8 +43,13 @@ class EventLog:
     def to_csv(self) -> str:
         buf = io.StringIO()
         writer = csv.writer(buf, lineterminator="\n")
-        writer.writerow(FIELDS)
-        writer.writerows(self.events)
+        writer.writerow(CSV_FIELDS)
+        blank = ("",) * len(POSITION_FIELDS)
+        for e in self.events:
+            if e.kind == "position":
+                writer.writerow((*e._replace(subject=""), *e.subject.split(",")))
+            else:
+                writer.writerow((*e, *blank))
         return buf.getvalue()
 
     def write_csv(self, path: str | Path) -> None:
@@ -44,10 +58,23 @@ class EventLog:
 
 
 def read_csv(path: str | Path) -> list[Event]:
+    """The events of an ``events.csv``, as :meth:`EventLog.to_csv` wrote them (or the older
+    layout without position columns)."""
     with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
-        return [Event(float(r["time_s"]), r["kind"], r["crew"], r["subject"], r["detail"])
-                for r in reader]
+        return [Event(float(r["time_s"]), r["kind"], r["crew"], _subject(r), r["detail"])
+                for r in csv.DictReader(f)]
+
+
+def _subject(row: dict) -> str:
+    if row["kind"] == "position" and row.get("x_m"):
+        return ",".join(row[k] for k in POSITION_FIELDS)
+    return row["subject"]
+
+
+def position(event: Event) -> tuple[float, float, float]:
+    """A ``position`` event's x (m), y (m) and heading (degrees)."""
+    x, y, heading = event.subject.split(",")
+    return float(x), float(y), float(heading)
 
 
 def write_atomic(path: Path, text: str | bytes) -> None:

@@ -4,7 +4,8 @@
   (a lighter grey per cause: predecessor, task area, no target), navigating and deregistered
   (walking to the outlet) yellow, tasking red, fetching and waiting for the crane green.
 - :func:`gantt_tasks`, Fig. 10: one bar per task from its start to its finish, pauses drawn as
-  lighter segments, tasks sorted by start time from the top, coloured by task type.
+  lighter segments, tasks sorted by start time from the top and labelled with their ids,
+  coloured by task type.
 - :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
   as time goes on, with the components it worked on numbered in the order it started them;
   (b) every crew's path.
@@ -30,7 +31,6 @@ import io
 import json
 import sys
 from collections.abc import Iterable, Sequence
-from itertools import pairwise
 from pathlib import Path
 from typing import NamedTuple
 
@@ -41,11 +41,13 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Rectangle
 
 from cmdp_pymunk.case import Case
-from cmdp_pymunk.events import Event, read_csv, write_atomic
+from cmdp_pymunk.events import Event, position, read_csv, write_atomic
+from cmdp_pymunk.schedule import log_end_s, makespan_s, task_bars
 
 HOUR_S = 3600.0
 DPI = 110
-MAX_LABELLED_TASKS = 40  # above this many tasks, Fig. 10 shows no task ids (as in the paper)
+TASK_ROW_IN = 0.16  # Fig. 10's row height (inches): room for a task id in 7-point type
+MAX_FIGURE_IN = 40.0  # beyond this height rows get thinner and the ids smaller
 
 # Fig. 9's colours: idle grey, navigating yellow, tasking red, materials or crane green.
 ACTIVITY_STYLE: dict[str, dict] = {
@@ -74,43 +76,8 @@ class ActivityInterval(NamedTuple):
     category: str
 
 
-class TaskBar(NamedTuple):
-    """One task's bar in Fig. 10: the intervals it was being worked on, pauses between them.
-
-    ``finished`` is False when the log ends before the task's ``task_finish``; its last segment
-    then ends at the log's end.
-    """
-
-    task: str
-    crew: str
-    segments: tuple[tuple[float, float], ...]
-    finished: bool
-
-    @property
-    def start_s(self) -> float:
-        return self.segments[0][0]
-
-    @property
-    def end_s(self) -> float:
-        return self.segments[-1][1]
-
-    @property
-    def pauses(self) -> tuple[tuple[float, float], ...]:
-        return tuple((a[1], b[0]) for a, b in pairwise(self.segments))
-
-
 # ------------------------------------------------------------------------------------------
 # Pure helpers: the event log turned into intervals, bars and paths.
-
-
-def log_end_s(events: Sequence[Event]) -> float:
-    """The time of the log's last event (0 for an empty log)."""
-    return max((e.time_s for e in events), default=0.0)
-
-
-def makespan_s(events: Sequence[Event]) -> float | None:
-    """The time of the last ``task_finish``, or None when no task finished."""
-    return max((e.time_s for e in events if e.kind == "task_finish"), default=None)
 
 
 def activity_intervals(events: Sequence[Event],
@@ -139,45 +106,13 @@ def activity_intervals(events: Sequence[Event],
     return out
 
 
-def task_bars(events: Sequence[Event], end_s: float | None = None) -> list[TaskBar]:
-    """Every started task's worked segments, sorted by start time (ties: log order).
-
-    ``task_start`` and ``task_resume`` open a segment; ``task_pause`` and ``task_finish`` close
-    it. A task unfinished when the log ends has its open segment closed at ``end_s`` (default:
-    the log's last event).
-    """
-    end = log_end_s(events) if end_s is None else end_s
-    crews: dict[str, str] = {}
-    segments: dict[str, list[tuple[float, float]]] = {}
-    open_since: dict[str, float | None] = {}
-    finished: set[str] = set()
-    for e in events:
-        if e.kind in ("task_start", "task_resume"):
-            crews.setdefault(e.subject, e.crew)
-            segments.setdefault(e.subject, [])
-            if open_since.get(e.subject) is None:
-                open_since[e.subject] = e.time_s
-        elif e.kind in ("task_pause", "task_finish") and e.subject in segments:
-            since = open_since.get(e.subject)
-            if since is not None:
-                segments[e.subject].append((since, e.time_s))
-                open_since[e.subject] = None
-            if e.kind == "task_finish":
-                finished.add(e.subject)
-    for task, since in open_since.items():
-        if since is not None:
-            segments[task].append((since, max(end, since)))
-    bars = [TaskBar(t, crews[t], tuple(s), t in finished) for t, s in segments.items() if s]
-    return sorted(bars, key=lambda b: b.start_s)  # stable: ties keep the log's order
-
-
 def crew_paths(events: Sequence[Event]) -> dict[str, np.ndarray]:
     """Per crew, its ``position`` events as an array of rows ``(time_s, x_m, y_m)``."""
     rows: dict[str, list[tuple[float, float, float]]] = {}
     for e in events:
         if e.kind == "position":
-            x, y = e.subject.split(",")[:2]
-            rows.setdefault(e.crew, []).append((e.time_s, float(x), float(y)))
+            x, y, _ = position(e)
+            rows.setdefault(e.crew, []).append((e.time_s, x, y))
     return {crew: np.asarray(r, dtype=float) for crew, r in rows.items()}
 
 
@@ -233,7 +168,7 @@ def unknown_tasks(events: Sequence[Event], case: Case) -> list[str]:
 # Figures.
 
 
-def _save(fig: Figure, path: str | Path) -> Path:
+def save_png(fig: Figure, path: str | Path) -> Path:
     """Render the figure to PNG in memory, then write it atomically."""
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=DPI)
@@ -295,7 +230,7 @@ def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = 
         fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5),
                    fontsize=8, frameon=False)
     ax.set_title(title or "Crews' activities (Fig. 9)")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _type_colours(types: Sequence[str]) -> dict[str, str]:
@@ -308,10 +243,9 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
                 title: str | None = None) -> Path:
     """Fig. 10, the tasks' Gantt chart: a bar per task from its start to its finish.
 
-    Tasks sorted by start time, the first on top; pauses drawn as lighter segments; colours by
-    task type (from ``case`` when given, else the task id's prefix before '-'). Task ids label
-    the rows only when there are at most ``MAX_LABELLED_TASKS`` tasks. Writes a PNG to
-    ``path`` and returns it.
+    Tasks sorted by start time, the first on top, each row labelled with its task id; pauses
+    drawn as lighter segments; colours by task type (from ``case`` when given, else the task
+    id's prefix before '-'). Writes a PNG to ``path`` and returns it.
     """
     bars = task_bars(events)
     type_of = task_types(case, (b.task for b in bars))
@@ -321,7 +255,8 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
                   [t for t in present if t not in case.task_types]
     colours = _type_colours(present)
     n = len(bars)
-    fig = Figure(figsize=(11, min(2.2 + 0.14 * max(n, 1), 30)), layout="constrained")
+    row_in = min(TASK_ROW_IN, (MAX_FIGURE_IN - 2.2) / max(n, 1))
+    fig = Figure(figsize=(11, 2.2 + row_in * max(n, 1)), layout="constrained")
     ax = fig.add_subplot()
     for row, bar in enumerate(bars):
         colour = colours[type_of[bar.task]]
@@ -330,10 +265,7 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
                            (row - 0.4, 0.8), facecolors=colour, alpha=0.25, edgecolor="none")
         ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.segments],
                        (row - 0.4, 0.8), facecolors=colour, edgecolor="none")
-    if n <= MAX_LABELLED_TASKS:
-        ax.set_yticks(range(n), [b.task for b in bars], fontsize=7)
-    else:
-        ax.set_yticks([])
+    ax.set_yticks(range(n), [b.task for b in bars], fontsize=min(7.0, 0.75 * 72 * row_in))
     ax.set_ylim(max(n, 1) - 0.5, -0.5)
     ax.set_xlim(0, max(log_end_s(events), 1.0) / HOUR_S * 1.01)
     ax.set_xlabel("simulated time (h)")
@@ -355,7 +287,7 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
     if handles:
         ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
     ax.set_title(title or "Tasks (Fig. 10)")
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 def _draw_layout(ax, case: Case, faint: bool = False) -> None:
@@ -459,7 +391,7 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
            Line2D([], [], color="#444444", marker="^", linestyle="none", label="crane")]
     fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
                frameon=False)
-    return _save(fig, path)
+    return save_png(fig, path)
 
 
 # ------------------------------------------------------------------------------------------

@@ -16,6 +16,8 @@ import os
 
 import pytest
 
+from cmdp_pymunk.events import Event, EventLog
+
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
@@ -106,3 +108,68 @@ def run_episode(env, seed: int, controller, max_calls: int = 100000):
                       {a: i["elapsed_s"] for a, i in infos.items()}))
         calls += 1
     return trace
+
+
+# A whole little run's event log worked out by hand on the tiny case above (media and schedule
+# tests draw from it): X-1 cleans A then B and leaves;
+# K-1 waits for X-A, then hoists A (waiting for the crane first) and leaves; M-1 fetches bars,
+# reinforces C with one pause to fetch more, and is still walking out when the log ends at
+# 540 s; M-2 never gets work and leaves at 540 s.
+# (time_s, kind, crew, subject)
+RUN = [
+    (0, "activity", "X-1", "navigating"),
+    (0, "activity", "K-1", "idle_predecessor"),
+    (0, "activity", "M-1", "idle_predecessor"),
+    (0, "activity", "M-2", "idle_predecessor"),
+    (0, "position", "X-1", "-6.00,3.00,0"),
+    (0, "position", "K-1", "-6.00,-3.00,0"),
+    (5, "position", "X-1", "-5.00,2.00,300"),
+    (10, "task_start", "X-1", "X-A"),
+    (10, "activity", "X-1", "tasking"),
+    (130, "task_finish", "X-1", "X-A"),
+    (130, "activity", "X-1", "navigating"),
+    (130, "activity", "K-1", "navigating"),
+    (135, "position", "X-1", "-1.00,1.00,0"),
+    (135, "position", "K-1", "-5.00,-2.00,45"),
+    (150, "position", "X-1", "3.00,0.50,0"),
+    (160, "task_start", "X-1", "X-B"),
+    (160, "activity", "X-1", "tasking"),
+    (160, "task_start", "K-1", "K-A"),
+    (160, "activity", "K-1", "waiting"),
+    (220, "activity", "K-1", "tasking"),
+    (280, "task_finish", "X-1", "X-B"),
+    (280, "activity", "X-1", "deregistered"),
+    (285, "position", "X-1", "-2.00,-2.00,180"),
+    (290, "activity", "X-1", "left"),
+    (300, "task_finish", "K-1", "K-A"),
+    (300, "activity", "K-1", "deregistered"),
+    (300, "activity", "M-1", "navigating"),
+    (300, "activity", "M-2", "idle_no_target"),
+    (305, "position", "M-1", "6.00,-1.00,90"),
+    (320, "activity", "M-1", "fetching"),
+    (350, "activity", "M-1", "navigating"),
+    (370, "task_start", "M-1", "M-C"),
+    (370, "activity", "M-1", "tasking"),
+    (400, "task_pause", "M-1", "M-C"),
+    (400, "activity", "M-1", "fetching"),
+    (430, "activity", "M-1", "navigating"),
+    (440, "task_resume", "M-1", "M-C"),
+    (440, "activity", "M-1", "tasking"),
+    (500, "task_finish", "M-1", "M-C"),
+    (500, "activity", "M-1", "deregistered"),
+    (500, "activity", "M-2", "deregistered"),
+    (505, "position", "M-1", "2.00,-2.00,180"),
+    (520, "activity", "K-1", "left"),
+    (540, "activity", "M-2", "left"),
+]
+
+
+def make_log(rows=RUN) -> EventLog:
+    log = EventLog()
+    for t, kind, crew, subject in rows:
+        log.add(t, kind, crew, subject)
+    return log
+
+
+def make_events(rows=RUN) -> list[Event]:
+    return make_log(rows).events

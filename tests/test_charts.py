@@ -1,10 +1,5 @@
-"""Figs. 9-11 (media/charts.py), drawn from a hand-made event log on the tiny case.
-
-The log below is a whole little run worked out by hand: X-1 cleans A then B and leaves;
-K-1 waits for X-A, then hoists A (waiting for the crane first) and leaves; M-1 fetches bars,
-reinforces C with one pause to fetch more, and is still walking out when the log ends at
-540 s; M-2 never gets work and leaves at 540 s.
-"""
+"""Figs. 9-11 (media/charts.py), drawn from the hand-made event log of ``conftest.RUN`` on the
+tiny case."""
 
 from __future__ import annotations
 
@@ -13,70 +8,12 @@ import json
 import imageio.v3 as iio
 import numpy as np
 import pytest
+from conftest import make_events, make_log
 
-from cmdp_pymunk.events import Event, EventLog, write_atomic
+from cmdp_pymunk.events import write_atomic
 from media import charts
 
-# (time_s, kind, crew, subject)
-RUN = [
-    (0, "activity", "X-1", "navigating"),
-    (0, "activity", "K-1", "idle_predecessor"),
-    (0, "activity", "M-1", "idle_predecessor"),
-    (0, "activity", "M-2", "idle_predecessor"),
-    (0, "position", "X-1", "-6.00,3.00,0"),
-    (0, "position", "K-1", "-6.00,-3.00,0"),
-    (5, "position", "X-1", "-5.00,2.00,300"),
-    (10, "task_start", "X-1", "X-A"),
-    (10, "activity", "X-1", "tasking"),
-    (130, "task_finish", "X-1", "X-A"),
-    (130, "activity", "X-1", "navigating"),
-    (130, "activity", "K-1", "navigating"),
-    (135, "position", "X-1", "-1.00,1.00,0"),
-    (135, "position", "K-1", "-5.00,-2.00,45"),
-    (150, "position", "X-1", "3.00,0.50,0"),
-    (160, "task_start", "X-1", "X-B"),
-    (160, "activity", "X-1", "tasking"),
-    (160, "task_start", "K-1", "K-A"),
-    (160, "activity", "K-1", "waiting"),
-    (220, "activity", "K-1", "tasking"),
-    (280, "task_finish", "X-1", "X-B"),
-    (280, "activity", "X-1", "deregistered"),
-    (285, "position", "X-1", "-2.00,-2.00,180"),
-    (290, "activity", "X-1", "left"),
-    (300, "task_finish", "K-1", "K-A"),
-    (300, "activity", "K-1", "deregistered"),
-    (300, "activity", "M-1", "navigating"),
-    (300, "activity", "M-2", "idle_no_target"),
-    (305, "position", "M-1", "6.00,-1.00,90"),
-    (320, "activity", "M-1", "fetching"),
-    (350, "activity", "M-1", "navigating"),
-    (370, "task_start", "M-1", "M-C"),
-    (370, "activity", "M-1", "tasking"),
-    (400, "task_pause", "M-1", "M-C"),
-    (400, "activity", "M-1", "fetching"),
-    (430, "activity", "M-1", "navigating"),
-    (440, "task_resume", "M-1", "M-C"),
-    (440, "activity", "M-1", "tasking"),
-    (500, "task_finish", "M-1", "M-C"),
-    (500, "activity", "M-1", "deregistered"),
-    (500, "activity", "M-2", "deregistered"),
-    (505, "position", "M-1", "2.00,-2.00,180"),
-    (520, "activity", "K-1", "left"),
-    (540, "activity", "M-2", "left"),
-]
-
 TASKING_RED = (214, 39, 40)  # #d62728, Fig. 9's tasking colour
-
-
-def make_log(rows=RUN) -> EventLog:
-    log = EventLog()
-    for t, kind, crew, subject in rows:
-        log.add(t, kind, crew, subject)
-    return log
-
-
-def make_events(rows=RUN) -> list[Event]:
-    return make_log(rows).events
 
 
 @pytest.fixture
@@ -114,37 +51,6 @@ def test_activity_intervals_end_at_the_given_time_and_drop_empty_ones():
     assert [tuple(i) for i in iv["A-1"]] == [(0, 80, "tasking")]
     assert [tuple(i) for i in iv["B-1"]] == [(50, 80, "navigating")]
     assert charts.activity_intervals([]) == {}
-
-
-def test_task_bars_by_hand():
-    bars = charts.task_bars(make_events())
-    # Sorted by start; X-B and K-A both start at 160 and keep the log's order.
-    assert [b.task for b in bars] == ["X-A", "X-B", "K-A", "M-C"]
-    assert [b.crew for b in bars] == ["X-1", "X-1", "K-1", "M-1"]
-    assert [b.segments for b in bars] == [((10, 130),), ((160, 280),), ((160, 300),),
-                                          ((370, 400), (440, 500))]
-    mc = bars[-1]
-    assert mc.pauses == ((400, 440),)
-    assert (mc.start_s, mc.end_s, mc.finished) == (370, 500, True)
-
-
-def test_task_bars_of_a_log_cut_short():
-    # M-C paused at 400 and the log ends at 420; X-A still running at the end.
-    events = make_events([(0, "task_start", "X-1", "X-A"),
-                          (370, "task_start", "M-1", "M-C"),
-                          (400, "task_pause", "M-1", "M-C"),
-                          (420, "activity", "M-1", "fetching")])
-    bars = {b.task: b for b in charts.task_bars(events)}
-    assert bars["X-A"].segments == ((0, 420),) and not bars["X-A"].finished
-    assert bars["M-C"].segments == ((370, 400),) and not bars["M-C"].finished
-    assert bars["M-C"].pauses == ()
-
-
-def test_makespan_and_log_end():
-    events = make_events()
-    assert charts.makespan_s(events) == 500  # M-C's finish
-    assert charts.log_end_s(events) == 540
-    assert charts.makespan_s(make_events(RUN[:5])) is None
 
 
 def test_crew_paths_and_execution_order(tiny_case):

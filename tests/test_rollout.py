@@ -30,6 +30,8 @@ def test_makespan_stats_over_finished_episodes_only():
     assert stats["mean_over_lower_bound"] == 4.0
     assert stats["mean_reach_rate"] == pytest.approx(0.8)  # (1 + 0.8 + 0.6) / 3
     assert stats["makespans_s"] == [100.0, 300.0, None]
+    # percentiles of (100, 300), linear: 100 + q / 100 * (300 - 100)
+    assert (stats["p50_s"], stats["p80_s"], stats["p90_s"]) == pytest.approx((200, 260, 280))
 
 
 def test_run_episode_finishes_the_tiny_case(tiny_case):

@@ -25,7 +25,7 @@ def test_simulate_writes_summary_events_and_charts(tmp_path, capsys):
     assert crew["material_trips"] >= 1 and crew["distance_m"] > 0
     assert data["seed"] == 3 and data["versions"]["pymunk"]
     events = (out / "events.csv").read_text().splitlines()
-    assert events[0] == "time_s,kind,crew,subject,detail"
+    assert events[0] == "time_s,kind,crew,subject,detail,x_m,y_m,heading_deg"
     assert sum(",task_finish," in e for e in events) == 3
     for chart in ("gantt_agents.png", "gantt_tasks.png", "trajectories.png"):
         assert (out / chart).stat().st_size > 1000
@@ -48,8 +48,35 @@ def test_episodes_table(tmp_path):
     stats = json.loads((out / "makespans.json").read_text())
     assert stats["episodes"] == stats["finished"] == 3
     assert stats["min_s"] <= stats["mean_s"] <= stats["max_s"]
+    assert stats["min_s"] <= stats["p50_s"] <= stats["p80_s"] <= stats["p90_s"] <= stats["max_s"]
     assert len((out / "makespans.csv").read_text().splitlines()) == 4
     assert (out / "seed-1" / "summary.json").exists()
+    assert not (out / "s_curve.png").exists()  # --no-charts
+
+
+def test_schedule_csv_per_seed(tmp_path):
+    out = tmp_path / "sched"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "2", "--no-charts",
+                          "--no-progress"]) == 0
+    for seed in (0, 1):
+        header, *rows = (out / f"seed-{seed}" / "schedule.csv").read_text().splitlines()
+        assert header == "task,crew,start_s,end_s,pauses,paused_s,finished"
+        cells = [r.split(",") for r in rows]
+        assert sorted(c[0] for c in cells) == ["HI-P-1", "R-J-1", "R-J-2"]  # the tiny case's tasks
+        assert all(c[6] == "true" and float(c[2]) < float(c[3]) for c in cells)
+        summary = json.loads((out / f"seed-{seed}" / "summary.json").read_text())
+        assert max(float(c[3]) for c in cells) == summary["makespan_s"]
+
+
+def test_episodes_write_percentiles_histogram_and_s_curve(tmp_path, capsys):
+    out = tmp_path / "charts"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "3",
+                          "--no-progress"]) == 0
+    for name in ("makespan_histogram.png", "s_curve.png"):
+        assert (out / name).stat().st_size > 1000
+    assert (out / "seed-2" / "gantt_tasks.png").exists()
+    stats = json.loads((out / "makespans.json").read_text())
+    assert f"P80 {stats['p80_s']:.0f} s" in capsys.readouterr().out
 
 
 def test_gif_is_written(tmp_path):

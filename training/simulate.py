@@ -7,10 +7,12 @@
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
 by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
 seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.py),
-``events.csv`` (the event log), ``gantt_agents.png``, ``gantt_tasks.png``,
-``trajectories.png``, with ``--gif`` ``rollout.gif``, and ``case.json`` (the resolved case).
-With ``--episodes N`` each episode (seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and
-DIR gets ``makespans.csv`` and ``makespans.json`` (mean and spread).
+``events.csv`` (the event log), ``schedule.csv`` (per task: crew, start, end, pauses),
+``gantt_agents.png``, ``gantt_tasks.png``, ``trajectories.png``, with ``--gif``
+``rollout.gif``, and ``case.json`` (the resolved case). With ``--episodes N`` each episode
+(seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and DIR gets ``makespans.csv``,
+``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
+(tasks ended over time, with the spread over seeds).
 
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported with the crews and tasks involved; the command then exits with 1.
@@ -127,9 +129,13 @@ def write_json(path: Path, data) -> None:
 
 def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: str,
                   lb, cpsat=None) -> dict:
+    from cmdp_pymunk.events import write_atomic
+    from cmdp_pymunk.schedule import schedule_csv
+
     folder.mkdir(parents=True, exist_ok=True)
     data = summary(env, episode, args, case_label, lb, cpsat)
     env.log.write_csv(folder / "events.csv")
+    write_atomic(folder / "schedule.csv", schedule_csv(env.log.events))
     write_json(folder / "summary.json", data)
     if args.charts:
         from media.charts import draw_run
@@ -205,6 +211,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     from cmdp_pymunk import interrupt
     from cmdp_pymunk.bounds import lower_bound
     from cmdp_pymunk.rollout import run_episode
+    from cmdp_pymunk.schedule import finish_times
 
     args = parse_args(argv)
     try:
@@ -250,7 +257,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, {len(case.tasks)} "
           f"tasks), lower bound {lb.lower_bound_s:.0f} s, evaluator {args.evaluator}, "
           f"navigator {args.navigator}", flush=True)
-    rows, failed = [], False
+    rows, finishes, failed = [], [], False
     for k in range(args.episodes):
         seed = args.seed + k
         folder = args.out if args.episodes == 1 else args.out / f"seed-{seed}"
@@ -275,6 +282,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
             interrupt.leave()
         progress.kept.append(seed)
         rows.append(data)
+        finishes.append(finish_times(env.log.events))
         if episode.stalled:
             failed = True
             print(f"cmdp-simulate: seed {seed}: STALLED at t = {env.site.time_s:.0f} s after "
@@ -290,7 +298,11 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                   f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}", flush=True)
     progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
-        write_makespans(args.out, rows)
+        stats = write_makespans(args.out, rows)
+        if args.charts:
+            from media.episodes import draw_episodes
+
+            draw_episodes(args.out, stats, finishes, len(case.tasks))
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
@@ -311,7 +323,9 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
     if stats["finished"]:
         print(f"cmdp-simulate: {stats['finished']}/{len(rows)} episodes finished; makespan mean "
               f"{stats['mean_s']:.0f} s, std {stats['std_s']:.0f} s, min {stats['min_s']:.0f}, "
-              f"max {stats['max_s']:.0f} ({stats['mean_over_lower_bound']:.2f} x lower bound)")
+              f"max {stats['max_s']:.0f} ({stats['mean_over_lower_bound']:.2f} x lower bound); "
+              f"P50 {stats['p50_s']:.0f} s, P80 {stats['p80_s']:.0f} s, "
+              f"P90 {stats['p90_s']:.0f} s")
     return stats
 
 

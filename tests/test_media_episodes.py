@@ -1,0 +1,42 @@
+"""Charts of many episodes (media/episodes.py), from hand-made makespans and finish times, and
+Fig. 10's task ids (media/charts.py) on a log of more tasks than fit an unlabelled axis."""
+
+import imageio.v3 as iio
+from conftest import make_events
+
+from cmdp_pymunk.rollout import makespan_stats
+from media import charts
+from media.episodes import draw_episodes
+
+# three episodes of 4 tasks; the third stops after 2
+FINISHES = [[130, 280, 300, 500], [100, 200, 420, 610], [150, 400]]
+ROWS = [{"makespan_s": 500.0, "reach_rate": 1.0}, {"makespan_s": 610.0, "reach_rate": 1.0},
+        {"makespan_s": None, "reach_rate": 1.0}]
+
+
+def test_histogram_and_s_curve_are_drawn(tmp_path):
+    stats = makespan_stats(ROWS)
+    assert stats["p50_s"] == 555.0  # halfway between the two finished, 500 and 610
+    hist, curve = draw_episodes(tmp_path, stats, FINISHES, total_tasks=4)
+    assert hist.name == "makespan_histogram.png" and curve.name == "s_curve.png"
+    for png in (hist, curve):
+        image = iio.imread(png)
+        assert image.shape[0] > 300 and image.shape[1] > 500
+        assert len(set(map(tuple, image[::7, ::7, :3].reshape(-1, 3)))) > 4  # not blank
+
+
+def test_no_finished_episode_still_draws(tmp_path):
+    stats = makespan_stats([{"makespan_s": None, "reach_rate": 0.0}])
+    assert stats["p90_s"] is None
+    assert all(p.stat().st_size > 1000 for p in draw_episodes(tmp_path, stats, [[]], 4))
+
+
+def test_every_task_row_carries_its_id(tmp_path, monkeypatch):
+    # 90 tasks, more than the 40 that were labelled before: every row still names its task
+    rows = [(10 * i, "task_start", "X-1", f"T-{i:02d}") for i in range(90)]
+    rows += [(10 * i + 5, "task_finish", "X-1", f"T-{i:02d}") for i in range(90)]
+    figures = []
+    monkeypatch.setattr(charts, "save_png", lambda fig, path: figures.append(fig) or path)
+    charts.gantt_tasks(make_events(sorted(rows)), tmp_path / "g.png")
+    labels = [t.get_text() for t in figures[0].axes[0].get_yticklabels()]
+    assert labels == [f"T-{i:02d}" for i in range(90)]  # by start time, the first on top

@@ -1,0 +1,65 @@
+"""The schedule of an event log (cmdp_pymunk/schedule.py), on the hand-made log of
+``conftest.RUN``: X-A 10-130 and X-B 160-280 by X-1, K-A 160-300 by K-1, M-C 370-500 by M-1
+with one pause 400-440."""
+
+import numpy as np
+from conftest import RUN, make_events
+
+from cmdp_pymunk import schedule
+
+
+def test_task_bars_by_hand():
+    bars = schedule.task_bars(make_events())
+    # Sorted by start; X-B and K-A both start at 160 and keep the log's order.
+    assert [b.task for b in bars] == ["X-A", "X-B", "K-A", "M-C"]
+    assert [b.crew for b in bars] == ["X-1", "X-1", "K-1", "M-1"]
+    assert [b.segments for b in bars] == [((10, 130),), ((160, 280),), ((160, 300),),
+                                          ((370, 400), (440, 500))]
+    mc = bars[-1]
+    assert mc.pauses == ((400, 440),)
+    assert (mc.start_s, mc.end_s, mc.finished) == (370, 500, True)
+
+
+def test_task_bars_of_a_log_cut_short():
+    # M-C paused at 400 and the log ends at 420; X-A still running at the end.
+    events = make_events([(0, "task_start", "X-1", "X-A"),
+                          (370, "task_start", "M-1", "M-C"),
+                          (400, "task_pause", "M-1", "M-C"),
+                          (420, "activity", "M-1", "fetching")])
+    bars = {b.task: b for b in schedule.task_bars(events)}
+    assert bars["X-A"].segments == ((0, 420),) and not bars["X-A"].finished
+    assert bars["M-C"].segments == ((370, 400),) and not bars["M-C"].finished
+    assert bars["M-C"].pauses == ()
+
+
+def test_makespan_log_end_and_finish_times():
+    events = make_events()
+    assert schedule.makespan_s(events) == 500  # M-C's finish
+    assert schedule.log_end_s(events) == 540
+    assert schedule.makespan_s(make_events(RUN[:5])) is None
+    assert schedule.finish_times(events) == [130, 280, 300, 500]
+
+
+def test_schedule_csv_by_hand():
+    assert schedule.schedule_csv(make_events()).splitlines() == [
+        "task,crew,start_s,end_s,pauses,paused_s,finished",
+        "X-A,X-1,10,130,0,0,true",
+        "X-B,X-1,160,280,0,0,true",
+        "K-A,K-1,160,300,0,0,true",
+        "M-C,M-1,370,500,1,40,true",  # paused 400-440
+    ]
+
+
+def test_schedule_csv_of_an_unfinished_task_has_no_end():
+    events = make_events([(0, "task_start", "X-1", "X-A"),
+                          (100, "task_pause", "X-1", "X-A"),
+                          (130, "task_resume", "X-1", "X-A"),
+                          (150, "activity", "X-1", "tasking")])
+    # worked 0-100 and 130-150 (the log's end): one pause of 30 s, no finish
+    assert schedule.schedule_csv(events).splitlines()[1] == "X-A,X-1,0,,1,30,false"
+
+
+def test_tasks_ended_counts_finishes_at_or_before_each_time():
+    ended = schedule.tasks_ended([[130, 280, 300, 500], [200]], np.array([0, 130, 299, 500]))
+    assert ended.tolist() == [[0, 1, 2, 4], [0, 0, 1, 1]]
+    assert schedule.tasks_ended([], np.array([0.0, 1.0])).shape == (0, 2)
