@@ -212,11 +212,11 @@ class Navigator:
     def act(self, crew):
         if not crew.moving:
             return STAND_STILL
-        body = self.env.world.bodies[crew.index]
-        x, y = body.position
+        pose = self.env.engine.pose(crew.index)
+        x, y = pose[0], pose[1]
         target = best_target(crew)
         if target < 0:
-            return self._idle(crew, body, x, y)
+            return self._idle(crew, pose, x, y)
         if self.goal[crew.index] != target:
             self.goal[crew.index] = target
             self.best[crew.index] = math.inf
@@ -232,7 +232,7 @@ class Navigator:
             detoured = False
         if field is None:
             tx, ty = self.site.target_xy[target]
-            return self._drive(crew, body, x, y, tx, ty)
+            return self._drive(crew, pose, x, y, tx, ty)
         here = self._value(field, x, y)
         if here < self.best[crew.index] - STUCK_PROGRESS_M:
             self.best[crew.index] = here
@@ -250,7 +250,7 @@ class Navigator:
         else:
             carrot = self._carrot(field, x, y, lowest=detoured)
             px, py = carrot if carrot is not None else self.site.target_xy[target]
-        return self._drive(crew, body, x, y, px, py)
+        return self._drive(crew, pose, x, y, px, py)
 
     def _value(self, field, x, y) -> float:
         i, j = self._cell(x, y)
@@ -299,13 +299,13 @@ class Navigator:
         for other in self.site.crews:
             if other is crew or other.status == CrewStatus.LEFT:
                 continue
-            ox, oy = self.env.world.bodies[other.index].position
+            ox, oy, _ = self.env.engine.pose(other.index)
             mask |= np.hypot(self.cx - ox, self.cy - oy) < other.spec.radius_m + r_self + 0.2
         field = self._field(crew, target, extra_blocked=mask)
         if field is not None:
             self.detour[crew.index] = (field, DETOUR_STEPS)
 
-    def _idle(self, crew, body, x, y):
+    def _idle(self, crew, pose, x, y):
         """No target: stand aside, out of active task areas and storages."""
         site = self.site
         if not site.in_congestion_area(x, y):  # the same test as the env's parking
@@ -327,9 +327,9 @@ class Navigator:
         carrot = self._carrot(field, x, y)
         if carrot is None:  # walled in by areas and components: wait for them to change
             return STAND_STILL
-        return self._drive(crew, body, x, y, *carrot)
+        return self._drive(crew, pose, x, y, *carrot)
 
-    def _drive(self, crew, body, x, y, px, py):
+    def _drive(self, crew, pose, x, y, px, py):
         """Turn toward (px, py), walk when facing it; swerve right from a crew ahead."""
         heading = math.atan2(py - y, px - x)
         dist = math.hypot(px - x, py - y)
@@ -337,7 +337,7 @@ class Navigator:
         for other in self.site.crews:
             if other is crew or other.status == CrewStatus.LEFT:
                 continue
-            ox, oy = self.env.world.bodies[other.index].position
+            ox, oy, _ = self.env.engine.pose(other.index)
             gap = math.hypot(ox - x, oy - y) - crew.spec.radius_m - other.spec.radius_m
             if gap > 1.5:
                 continue
@@ -346,7 +346,7 @@ class Navigator:
                 # keep right: swerve to the right of a crew ahead, or left if it is on the right
                 heading += math.radians(-50 if bearing >= 0 else 50)
                 forward_cap = 1 if gap < 0.5 else 2
-        error = _wrap(heading - body.angle)
+        error = _wrap(heading - pose[2])
         if abs(error) < math.radians(15):
             turn = 1
         else:

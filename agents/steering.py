@@ -27,10 +27,9 @@ def steer(env, agent: str):
     target = best_target(crew)
     if not crew.moving or target < 0:
         return STAND_STILL
-    body = env.world.bodies[i]
-    x, y = body.position
+    x, y, heading = env.engine.pose(i)
     tx, ty = env.site.target_xy[target]
-    error = math.atan2(ty - y, tx - x) - body.angle
+    error = math.atan2(ty - y, tx - x) - heading
     error = math.atan2(math.sin(error), math.cos(error))
     turn = 1 if abs(error) < math.radians(5) else (2 if error > 0 else 0)
     forward = 3 if abs(error) < math.radians(30) else (1 if abs(error) < math.radians(60) else 0)

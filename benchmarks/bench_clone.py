@@ -33,6 +33,7 @@ def run_to(env, navigator, t: float) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    cmdp_pymunk.add_version_flag(parser)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--at", default="4000,16000,28000", help="seconds of the floor")
     parser.add_argument("--repeat", type=int, default=5)

@@ -271,6 +271,14 @@ class Engine:
         if i in self.pending:
             self.pending.remove(i)
 
+    def pose(self, i: int) -> tuple[float, float, float]:
+        """Crew i's pose on the plane: x, y (m, the plane's centre at 0) and heading (rad,
+        counter-clockwise from +x). What policies, the renderer and reports read, so that
+        only the engine touches pymunk bodies."""
+        body = self.world.bodies[i]
+        x, y = body.position
+        return x, y, body.angle
+
     @property
     def makespan_s(self) -> float | None:
         """Simulated seconds until the last task ended, once every task has."""

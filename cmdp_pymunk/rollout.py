@@ -93,7 +93,7 @@ def stall_report(env, for_s: float) -> dict:
     for crew in site.crews:
         if crew.status == CrewStatus.LEFT:
             continue
-        x, y = env.world.bodies[crew.index].position
+        x, y, _ = env.engine.pose(crew.index)
         crews.append({"crew": crew.id, "activity": activity(crew),
                       "position_m": [round(x, 2), round(y, 2)],
                       "targets": sorted(target_id(site, t) for t in crew.scope),

@@ -264,21 +264,19 @@ class _Renderer:
         surface.set_clip(self.plane_rect)  # long frontal rays end beyond the walls
         for crew in env.site.crews:
             if crew.moving:
-                body = env.world.bodies[crew.index]
-                x, y = body.position
+                x, y, heading = env.engine.pose(crew.index)
                 start = vp.to_px(x, y)
-                for ex, ey, _frontal in env.rays.endpoints(x, y, body.angle):
+                for ex, ey, _frontal in env.rays.endpoints(x, y, heading):
                     pygame.draw.line(surface, RAY, start, vp.to_px(ex, ey))
         surface.set_clip(None)
 
     def _draw_crews(self, env) -> None:
-        site, world, vp, fonts = env.site, env.world, self.viewport, self.fonts
+        site, vp, fonts = env.site, self.viewport, self.fonts
         surface = self.surface
         crews = [c for c in site.crews if c.status != CrewStatus.LEFT]
         positions = {}
         for crew in crews:
-            body = world.bodies[crew.index]
-            positions[crew.index] = (body.position.x, body.position.y, body.angle)
+            positions[crew.index] = env.engine.pose(crew.index)
         surface.set_clip(self.plane_rect)
         for crew in crews:  # target lines under every disc
             if crew.moving and crew.values:
