@@ -128,18 +128,14 @@ class CMDPEnv(ParallelEnv):
         self.jump_idle = jump_idle
         self.lean_infos = lean_infos
         self.blind = blind
-        sim = case.simulation
-        self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
-                                     sim.field_of_view_deg, sim.sight_distance_m,
-                                     sim.surrounding_distance_m, sim.target_memory,
-                                     sim.reevaluate_after_steps * sim.step_s)
+        self._reaching = observe.ReachingObservations(case)
+        self.rays = self._reaching.rays
         self.possible_agents = [c.id for c in case.crews]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
-        self._obs_low, self._obs_high = observe.observation_bounds(self.rays, case)
-        self._observation_space = spaces.Box(self._obs_low, self._obs_high, dtype=np.float32)
+        self._observation_space = spaces.Box(self._reaching.low, self._reaching.high,
+                                             dtype=np.float32)
         self._action_space = spaces.MultiDiscrete(move.ACTION_NVEC)
-        self._idle_obs = np.zeros(self.rays.size, dtype=np.float32)
         self._state_low, self._state_high = state_bounds(case)
         self.state_space = spaces.Box(self._state_low, self._state_high, dtype=np.float32)
 
@@ -155,7 +151,7 @@ class CMDPEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         # the agents first: a BranchingEvaluator may branch the env inside engine.reset
         self.agents = list(self.possible_agents)
-        self._obs_cache = [None] * len(self.possible_agents)
+        self._reaching.reset()
         self.engine.reset(seed)                           # Pi_cons and V_Tar for t = 0
         observations = self._observe()                    # Eq. 3
         infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
@@ -208,33 +204,16 @@ class CMDPEnv(ParallelEnv):
         return self.engine.needs_action(crew)
 
     def _observe(self) -> dict[str, np.ndarray]:
-        """Rays are cast only for crews that need a movement decision."""
+        """Rays are cast only for crews that need a movement decision
+        (``observe.ReachingObservations``)."""
         engine = self.engine
         if engine.clock:
             engine.clock.start()
-        out = {}
-        site, world = engine.site, engine.world
-        version = world.motion_version
-        for agent in self.agents:
-            i = self.agent_index[agent]
-            crew = site.crews[i]
-            if self.blind or not engine.needs_action(crew):
-                out[agent] = self._idle_obs.copy()
-                continue
-            # Nothing moved and its scope and values are the same objects (the stages replace
-            # them, never change them in place: ``state.CrewState``): the same rays.
-            cached = self._obs_cache[i]
-            if cached is None or cached[0] != version or cached[1] is not crew.scope \
-                    or cached[2] is not crew.values:
-                cached = (version, crew.scope, crew.values,
-                          observe.observe_crew(world, self.rays, crew, site.time_s))
-                self._obs_cache[i] = cached
-            obs = out[agent] = cached[3].copy()
-            if self.rays.memory:  # the age moves on even when nothing else does
-                x, y = engine.positions[i]
-                obs[-observe.MEMORY_FEATURES:] = observe.remembered_target(
-                    self.rays, crew, x, y, world.bodies[i].angle, site.time_s)
-            np.clip(obs, self._obs_low, self._obs_high, out=obs)  # the space's promise
+        if self.blind:
+            out = {agent: self._reaching.idle.copy() for agent in self.agents}
+        else:
+            out = {agent: self._reaching.crew(engine, self.agent_index[agent])
+                   for agent in self.agents}
         if engine.clock:
             engine.clock.lap("rays")
         return out
@@ -265,14 +244,7 @@ class CMDPEnv(ParallelEnv):
                 info["stalled"] = True
         return info
 
-    # -- for the high level, the scripted policies and the media ------------------------------
-
-    def evaluation_observation(self, agent: str) -> np.ndarray:
-        """O^e of the crew (section 3.6.1), for the stage-2 target-evaluation policy."""
-        i = self.agent_index[agent]
-        body = self.world.bodies[i]
-        return observe.evaluation_observation(self.site, self.site.crews[i], self.positions[i],
-                                              body.angle)
+    # -- for centralized critics and the media -------------------------------------------------
 
     def state(self) -> np.ndarray:
         """The global state: a fixed-size float32 vector in ``state_space`` with every crew's
