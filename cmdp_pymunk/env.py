@@ -50,13 +50,6 @@ Arguments
     non-zero ``step_stats`` and ``TimeLimit.truncated`` when true (an empty dict most steps);
     for training, since SuperSuit deep-copies every info of every step (0.6-0.9 ms a step
     for 56 full infos, measured here). Default False.
-    ``external_values``: the target values come from outside (the stage-2 high-level policy,
-    ``cmdp_pymunk.highlevel``) instead of ``evaluator``. After ``reset`` and every ``step``,
-    ``pending_values`` lists the crews whose scope must be valued now (section 3.6: a new
-    scope, or ``reevaluate_after_steps`` steps without reaching); give each one its values with
-    ``set_target_values(agent, values)`` before the next ``step``, then ``observe()`` gives the
-    reaching observations with the new values (Eq. 3). The idle jump stops at such a step.
-    With the same values the schedule is the one the evaluator would have made.
     ``stall_s``: the stall guard. An episode in which no task moves on (no progress, no task
     ending) for this many simulated seconds is truncated: every agent's info gets
     ``"stalled": True`` and ``"TimeLimit.truncated": True``, and ``env.stalled`` holds
@@ -112,17 +105,14 @@ class CMDPEnv(ParallelEnv):
                  render_mode: str | None = None, jump_idle: bool = True,
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
                  park_idle: bool = False, lean_infos: bool = False,
-                 external_values: bool = False,
                  stall_s: float | None = None,
                  renderer: Callable[[CMDPEnv], np.ndarray] | None = None,
                  blind: bool = False):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
         case = as_case(case)
-        self.external_values = external_values
-        self._evaluator = make_evaluator(evaluator)
-        self.engine = Engine(case, stage, None if external_values else self._evaluator, seed,
-                             max_time_s, park_idle, stall_s, position_log_every_s)
+        self.engine = Engine(case, stage, make_evaluator(evaluator), seed, max_time_s, park_idle,
+                             stall_s, position_log_every_s)
         self.render_mode = render_mode
         self.renderer = renderer
         self.jump_idle = jump_idle
@@ -160,9 +150,6 @@ class CMDPEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        if self.engine.pending:
-            raise RuntimeError(f"crews {self.pending_values} wait for target values; call "
-                               "set_target_values(agent, values) for each before step()")
         engine, agents = self.engine, self.agents
         # move, construct, decide, evaluate, reward; on through seconds where nothing is asked
         run = engine.advance([actions.get(a, move.STAND_STILL) for a in self.possible_agents],
@@ -177,25 +164,6 @@ class CMDPEnv(ParallelEnv):
         if run.terminated or run.truncated:
             self.agents = []
         return observations, rewards, terminations, truncations, infos
-
-    # -- target values from outside (external_values) -----------------------------------------
-
-    @property
-    def pending_values(self) -> list[str]:
-        """Agents whose target scope waits for values (``external_values`` only)."""
-        return [self.possible_agents[i] for i in self.engine.pending]
-
-    def set_target_values(self, agent: str, values: dict[int, float]) -> None:
-        """V_Tar for the agent's target scope, from outside (the stage-2 policy through Eq. 4).
-
-        ``values`` maps every target of the crew's scope (target indices, ``crew.scope``'s
-        keys) to its value; Eq. 3 puts them into the crew's rays.
-        """
-        self.engine.set_target_values(self.agent_index[agent], values)
-
-    def observe(self) -> dict[str, np.ndarray]:
-        """The reaching observations now (after ``set_target_values``, with the new values)."""
-        return self._observe()
 
     # -- observations and infos ---------------------------------------------------------------
 
@@ -288,14 +256,12 @@ class CMDPEnv(ParallelEnv):
     # ``rollout.run_episode`` sets the stall guard, benchmarks a clock
     @property
     def evaluator(self) -> TargetEvaluator:
-        """Values the targets (section 3.6), unless ``external_values``."""
-        return self._evaluator
+        """Values the targets (section 3.6)."""
+        return self.engine.evaluator
 
     @evaluator.setter
     def evaluator(self, value: TargetEvaluator | str) -> None:
-        self._evaluator = value = make_evaluator(value)
-        if not self.external_values:
-            self.engine.evaluator = value
+        self.engine.evaluator = make_evaluator(value)
 
     @property
     def stage(self) -> int:
