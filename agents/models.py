@@ -24,7 +24,12 @@ import numpy as np
 
 from cmdp_pymunk.evaluate import DesiredPositionEvaluator
 from cmdp_pymunk.move import STAND_STILL
-from cmdp_pymunk.observe import evaluation_bounds, evaluation_observation, evaluation_size
+from cmdp_pymunk.observe import (
+    evaluation_bounds,
+    evaluation_observation,
+    evaluation_size,
+    ray_model,
+)
 
 ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0, out=x)}
 
@@ -226,6 +231,7 @@ class PolicyNavigator:
     """
 
     stuck_after_caps = 3
+    reads_rays = True
 
     def __init__(self, path: str | Path, deterministic: bool = False):
         self.path = Path(path)
@@ -249,19 +255,29 @@ class PolicyNavigator:
         self.rng = np.random.default_rng(seed)
 
     def bind(self, env) -> None:
-        _check_shape(self.model, env.observation_space(env.possible_agents[0]).shape[0],
-                     self.path, "the reaching observation")
+        """Drive ``env`` (an engine or an env over one): check that the model reads this
+        case's reaching observation."""
+        _check_shape(self.model, ray_model(env.case).size, self.path,
+                     "the reaching observation")
 
-    def actions(self, env, observations) -> dict:
-        crews = env.site.crews
-        movers = [a for a in env.agents if crews[env.agent_index[a]].moving]
-        out = dict.fromkeys(env.agents, STAND_STILL)
+    def actions(self, env, observations: dict) -> dict:
+        """Actions for every agent of a ``CMDPEnv``, from its observations by agent."""
+        acts = self.crew_actions(env, [observations[a] for a in env.possible_agents])
+        return dict(zip(env.possible_agents, acts, strict=True))
+
+    def crew_actions(self, engine, observations: list) -> list:
+        """Every crew's action by crew index, from their reaching observations (in crew
+        order): one batch of the moving crews' (the others stand still)."""
+        crews = engine.site.crews
+        movers = [c.index for c in crews if c.moving]
+        out = [STAND_STILL] * len(crews)
         if movers:
-            batch = np.stack([observations[a] for a in movers])
-            acts = self.actor.act(batch, self.deterministic, self.rng).tolist()
-            out.update(zip(movers, map(tuple, acts), strict=True))
+            batch = np.stack([observations[i] for i in movers])
+            for i, act in zip(movers, self.actor.act(batch, self.deterministic,
+                                                     self.rng).tolist(), strict=True):
+                out[i] = tuple(act)
         if self.deterministic:
-            check_not_stuck(env, self.stuck_after_caps)
+            check_not_stuck(engine, self.stuck_after_caps)
         return out
 
 
@@ -283,7 +299,13 @@ def check_not_stuck(env, caps: int) -> None:
 
 
 class ModelEvaluator(DesiredPositionEvaluator):
-    """A trained evaluation policy: its desired position values the targets by Eq. 4."""
+    """A trained evaluation policy: its desired position values the targets by Eq. 4.
+
+    The route of training (``cmdp_pymunk.highlevel``): O^e from
+    ``observe.evaluation_observation`` (clipped into the case's bounds), the actor's mean
+    action, and ``evaluate.desired_position_values`` (Eq. 4 as V_Tar). ``bind(env)``: the env
+    or engine whose crews it values (their headings are read there).
+    """
 
     def __init__(self, path: str | Path):
         super().__init__()
@@ -293,21 +315,18 @@ class ModelEvaluator(DesiredPositionEvaluator):
         self.env = None
 
     def bind(self, env) -> None:
-        from cmdp_pymunk.state import Site
-
-        self.env = env
-        site = env.site if env.site is not None else Site(env.case, env.stage)
-        size = evaluation_size(site)
+        size = evaluation_size(env.case)
         if self.actor.observation_size != size:
             raise ValueError(f"{self.path}: the model's actor reads {self.actor.observation_size} "
                              f"floats, but this case's evaluation observation has {size}; fix: "
                              "use a stage-2 model trained on this case")
-        self.low, self.high = evaluation_bounds(site)
+        self.env = env
+        self.bounds = evaluation_bounds(env.case)
 
-    def desired_position(self, crew, site, position) -> tuple[float, float]:
+    def desired_position(self, crew, site, position) -> np.ndarray:
+        if self.env is None:
+            raise RuntimeError(f"{self.path}: ModelEvaluator.bind(env) first (it reads the "
+                               "crews' headings there)")
         heading = self.env.world.bodies[crew.index].angle
-        # clipped as the training env clips it (a crew pressed against the plane's edge)
-        obs = np.clip(evaluation_observation(site, crew, position, heading), self.low, self.high)
-        desired = self.actor.act(obs[None], deterministic=True)[0]
-        desired = np.clip(desired, -1.0, 1.0)
-        return float(desired[0]), float(desired[1])
+        obs = evaluation_observation(site, crew, position, heading, self.bounds)
+        return self.actor.act(obs[None], deterministic=True)[0]

@@ -96,8 +96,11 @@ class _Grid:
 
 
 class Navigator:
-    """Scripted low level for a ``CMDPEnv`` (``cmdp_pymunk.policy.LowLevel``): ``bind(env)``
-    (or ``Navigator(env)``), then ``actions(env, observations)`` every step."""
+    """Scripted low level (``cmdp_pymunk.policy.LowLevel``) for an engine or a ``CMDPEnv``:
+    ``bind(env)`` (or ``Navigator(env)``), then ``crew_actions(engine)`` (by crew index) or
+    ``actions(env, observations)`` (by agent) every step. It reads the state, not the rays."""
+
+    reads_rays = False
 
     def __init__(self, env=None, cell_m: float = 0.5, clearance_m: float = -0.2):
         self.env = env
@@ -195,14 +198,20 @@ class Navigator:
     # -- acting -------------------------------------------------------------------------------
 
     def actions(self, env, observations=None) -> dict:
-        """Actions for every agent (the observations are not needed: it reads the state)."""
-        if self._episode is not env.site:
+        """Actions for every agent of a ``CMDPEnv`` (the observations are not needed: it reads
+        the state)."""
+        return dict(zip(env.possible_agents, self.crew_actions(env), strict=True))
+
+    def crew_actions(self, engine, observations=None) -> list:
+        """Every crew's action, by crew index, on the floor it is bound to (an engine or an
+        env over one); the observations are not needed."""
+        if self._episode is not engine.site:
             self._setup()
         key = tuple(sorted(self.site.active_areas))
         if key != self.area_key:  # task areas appeared or vanished: re-plan everything
             self.area_key = key
             self.fields = {}
-        return {agent: self.act(env.site.crews[env.agent_index[agent]]) for agent in env.agents}
+        return [self.act(crew) for crew in engine.site.crews]
 
     def _cell(self, x: float, y: float) -> tuple[int, int]:
         i = min(self.nx - 1, max(0, int((x + self.half_w) / self.cell_m)))

@@ -50,13 +50,6 @@ Arguments
     non-zero ``step_stats`` and ``TimeLimit.truncated`` when true (an empty dict most steps);
     for training, since SuperSuit deep-copies every info of every step (0.6-0.9 ms a step
     for 56 full infos, measured here). Default False.
-    ``external_values``: the target values come from outside (the stage-2 high-level policy,
-    ``cmdp_pymunk.highlevel``) instead of ``evaluator``. After ``reset`` and every ``step``,
-    ``pending_values`` lists the crews whose scope must be valued now (section 3.6: a new
-    scope, or ``reevaluate_after_steps`` steps without reaching); give each one its values with
-    ``set_target_values(agent, values)`` before the next ``step``, then ``observe()`` gives the
-    reaching observations with the new values (Eq. 3). The idle jump stops at such a step.
-    With the same values the schedule is the one the evaluator would have made.
     ``stall_s``: the stall guard. An episode in which no task moves on (no progress, no task
     ending) for this many simulated seconds is truncated: every agent's info gets
     ``"stalled": True`` and ``"TimeLimit.truncated": True``, and ``env.stalled`` holds
@@ -112,34 +105,27 @@ class CMDPEnv(ParallelEnv):
                  render_mode: str | None = None, jump_idle: bool = True,
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
                  park_idle: bool = False, lean_infos: bool = False,
-                 external_values: bool = False,
                  stall_s: float | None = None,
                  renderer: Callable[[CMDPEnv], np.ndarray] | None = None,
                  blind: bool = False):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
         case = as_case(case)
-        self.external_values = external_values
-        self._evaluator = make_evaluator(evaluator)
-        self.engine = Engine(case, stage, None if external_values else self._evaluator, seed,
-                             max_time_s, park_idle, stall_s, position_log_every_s)
+        self.engine = Engine(case, stage, make_evaluator(evaluator), seed, max_time_s, park_idle,
+                             stall_s, position_log_every_s)
         self.render_mode = render_mode
         self.renderer = renderer
         self.jump_idle = jump_idle
         self.lean_infos = lean_infos
         self.blind = blind
-        sim = case.simulation
-        self.rays = observe.RayModel(sim.frontal_rays, sim.surrounding_rays,
-                                     sim.field_of_view_deg, sim.sight_distance_m,
-                                     sim.surrounding_distance_m, sim.target_memory,
-                                     sim.reevaluate_after_steps * sim.step_s)
+        self._reaching = observe.ReachingObservations(case)
+        self.rays = self._reaching.rays
         self.possible_agents = [c.id for c in case.crews]
         self.agent_index = {a: i for i, a in enumerate(self.possible_agents)}
         self.agents: list[str] = []
-        self._obs_low, self._obs_high = observe.observation_bounds(self.rays, case)
-        self._observation_space = spaces.Box(self._obs_low, self._obs_high, dtype=np.float32)
+        self._observation_space = spaces.Box(self._reaching.low, self._reaching.high,
+                                             dtype=np.float32)
         self._action_space = spaces.MultiDiscrete(move.ACTION_NVEC)
-        self._idle_obs = np.zeros(self.rays.size, dtype=np.float32)
         self._state_low, self._state_high = state_bounds(case)
         self.state_space = spaces.Box(self._state_low, self._state_high, dtype=np.float32)
 
@@ -155,7 +141,7 @@ class CMDPEnv(ParallelEnv):
     def reset(self, seed: int | None = None, options: dict | None = None):
         # the agents first: a BranchingEvaluator may branch the env inside engine.reset
         self.agents = list(self.possible_agents)
-        self._obs_cache = [None] * len(self.possible_agents)
+        self._reaching.reset()
         self.engine.reset(seed)                           # Pi_cons and V_Tar for t = 0
         observations = self._observe()                    # Eq. 3
         infos = {a: self._info(i, {}, 0.0, 0, False) for i, a in enumerate(self.agents)}
@@ -164,9 +150,6 @@ class CMDPEnv(ParallelEnv):
     def step(self, actions: dict):
         if not self.agents:
             raise RuntimeError("step() called on a finished episode; call reset() first")
-        if self.engine.pending:
-            raise RuntimeError(f"crews {self.pending_values} wait for target values; call "
-                               "set_target_values(agent, values) for each before step()")
         engine, agents = self.engine, self.agents
         # move, construct, decide, evaluate, reward; on through seconds where nothing is asked
         run = engine.advance([actions.get(a, move.STAND_STILL) for a in self.possible_agents],
@@ -182,25 +165,6 @@ class CMDPEnv(ParallelEnv):
             self.agents = []
         return observations, rewards, terminations, truncations, infos
 
-    # -- target values from outside (external_values) -----------------------------------------
-
-    @property
-    def pending_values(self) -> list[str]:
-        """Agents whose target scope waits for values (``external_values`` only)."""
-        return [self.possible_agents[i] for i in self.engine.pending]
-
-    def set_target_values(self, agent: str, values: dict[int, float]) -> None:
-        """V_Tar for the agent's target scope, from outside (the stage-2 policy through Eq. 4).
-
-        ``values`` maps every target of the crew's scope (target indices, ``crew.scope``'s
-        keys) to its value; Eq. 3 puts them into the crew's rays.
-        """
-        self.engine.set_target_values(self.agent_index[agent], values)
-
-    def observe(self) -> dict[str, np.ndarray]:
-        """The reaching observations now (after ``set_target_values``, with the new values)."""
-        return self._observe()
-
     # -- observations and infos ---------------------------------------------------------------
 
     def needs_action(self, crew) -> bool:
@@ -208,33 +172,16 @@ class CMDPEnv(ParallelEnv):
         return self.engine.needs_action(crew)
 
     def _observe(self) -> dict[str, np.ndarray]:
-        """Rays are cast only for crews that need a movement decision."""
+        """Rays are cast only for crews that need a movement decision
+        (``observe.ReachingObservations``)."""
         engine = self.engine
         if engine.clock:
             engine.clock.start()
-        out = {}
-        site, world = engine.site, engine.world
-        version = world.motion_version
-        for agent in self.agents:
-            i = self.agent_index[agent]
-            crew = site.crews[i]
-            if self.blind or not engine.needs_action(crew):
-                out[agent] = self._idle_obs.copy()
-                continue
-            # Nothing moved and its scope and values are the same objects (the stages replace
-            # them, never change them in place: ``state.CrewState``): the same rays.
-            cached = self._obs_cache[i]
-            if cached is None or cached[0] != version or cached[1] is not crew.scope \
-                    or cached[2] is not crew.values:
-                cached = (version, crew.scope, crew.values,
-                          observe.observe_crew(world, self.rays, crew, site.time_s))
-                self._obs_cache[i] = cached
-            obs = out[agent] = cached[3].copy()
-            if self.rays.memory:  # the age moves on even when nothing else does
-                x, y = engine.positions[i]
-                obs[-observe.MEMORY_FEATURES:] = observe.remembered_target(
-                    self.rays, crew, x, y, world.bodies[i].angle, site.time_s)
-            np.clip(obs, self._obs_low, self._obs_high, out=obs)  # the space's promise
+        if self.blind:
+            out = {agent: self._reaching.idle.copy() for agent in self.agents}
+        else:
+            out = {agent: self._reaching.crew(engine, self.agent_index[agent])
+                   for agent in self.agents}
         if engine.clock:
             engine.clock.lap("rays")
         return out
@@ -265,14 +212,7 @@ class CMDPEnv(ParallelEnv):
                 info["stalled"] = True
         return info
 
-    # -- for the high level, the scripted policies and the media ------------------------------
-
-    def evaluation_observation(self, agent: str) -> np.ndarray:
-        """O^e of the crew (section 3.6.1), for the stage-2 target-evaluation policy."""
-        i = self.agent_index[agent]
-        body = self.world.bodies[i]
-        return observe.evaluation_observation(self.site, self.site.crews[i], self.positions[i],
-                                              body.angle)
+    # -- for centralized critics and the media -------------------------------------------------
 
     def state(self) -> np.ndarray:
         """The global state: a fixed-size float32 vector in ``state_space`` with every crew's
@@ -316,14 +256,12 @@ class CMDPEnv(ParallelEnv):
     # ``rollout.run_episode`` sets the stall guard, benchmarks a clock
     @property
     def evaluator(self) -> TargetEvaluator:
-        """Values the targets (section 3.6), unless ``external_values``."""
-        return self._evaluator
+        """Values the targets (section 3.6)."""
+        return self.engine.evaluator
 
     @evaluator.setter
     def evaluator(self, value: TargetEvaluator | str) -> None:
-        self._evaluator = value = make_evaluator(value)
-        if not self.external_values:
-            self.engine.evaluator = value
+        self.engine.evaluator = make_evaluator(value)
 
     @property
     def stage(self) -> int:

@@ -158,22 +158,37 @@ class NearestFirstEvaluator:
         return {t: 1.0 - 0.5 * d / d_max for t, d in dist.items()}
 
 
+def desired_position_values(desired, crew: CrewState, site: Site) -> dict[int, float]:
+    """V_Tar for crew's target scope from a desired position (the stage-2 policy's action),
+    Eq. 4 through ``as_target_values``: the one valuation of a desired position, in training
+    (``highlevel``) and deployment (``agents.models.ModelEvaluator``).
+
+    Args:
+        desired: (a1, a2) over the plane's half extents; clipped into [-1, 1] first (the
+            action space's bounds; a Gaussian policy's sample can leave them).
+        crew: the crew whose scope is valued.
+        site: the construction state (target positions, the plane).
+    """
+    a1 = min(max(float(desired[0]), -1.0), 1.0)
+    a2 = min(max(float(desired[1]), -1.0), 1.0)
+    half = site.case.plane.half_extents
+    return as_target_values({t: desired_position_value((a1, a2), site.target_xy[t], half)
+                             for t in crew.scope})
+
+
 class DesiredPositionEvaluator:
-    """Eq. 4 from a desired position per crew (the stage-2 policy's action), as V_Tar
-    through ``as_target_values``. ``desired_position`` is what a subclass overrides."""
+    """Eq. 4 from a desired position (``desired_position_values``): ``default`` for every
+    crew; ``desired_position`` is what a subclass overrides (the trained policy:
+    ``agents.models.ModelEvaluator``)."""
 
     def __init__(self, default: tuple[float, float] = (0.0, 0.0)):
-        self.desired: dict[int, tuple[float, float]] = {}
         self.default = default
 
     def desired_position(self, crew, site, position) -> tuple[float, float]:
-        return self.desired.get(crew.index, self.default)
+        return self.default
 
     def target_values(self, crew, site, position):
-        desired = self.desired_position(crew, site, position)
-        half = site.case.plane.half_extents
-        return as_target_values({t: desired_position_value(desired, site.target_xy[t], half)
-                                 for t in crew.scope})
+        return desired_position_values(self.desired_position(crew, site, position), crew, site)
 
 
 # evaluators by name (``make_evaluator``); every way of making an env defaults to the first

@@ -1,184 +1,239 @@
 """The stage-2 high-level env: one step is one target evaluation (sections 3.6, 3.6.1).
 
-A Gymnasium env over ``CMDPEnv`` with ``external_values=True``: the simulation runs on with an
-injected low level (the scripted navigator or the stage-1 reaching policy) until a crew needs
-its target scope valued, and the policy answers for that crew.
+``Floor`` is the stage-2 decision loop directly on an ``engine.Engine`` (no PettingZoo, no
+agent names: crews are indices): the engine runs, with the low level's actions every second
+(the scripted navigator or the stage-1 reaching policy), until a crew needs its target scope
+valued; the policy's action values that crew's scope by Eq. 4. ``TargetEvaluationEnv`` is the
+Gymnasium adapter over one floor (spaces, arrays). Training steps several floors per process
+behind one SB3 vector env (``training.vec_env.FloorsVecEnv``), with the same floors.
 
 Observation
-    O^e of section 3.6.1 from the deciding crew's view (``observe.evaluation_observation``):
-    the crew's own 5 floats, then 12 floats for every potential target of the episode, so the
-    size is fixed (``Box(5 + 12 * n_targets)``, bounded).
+    O^e of section 3.6.1 from the deciding crew's view (``observe.evaluation_observation``,
+    the function deployment reads too): the crew's own 5 floats, then 12 floats for every
+    potential target of the case, so the size is fixed (``Box(5 + 12 * n_targets)``, bounded
+    by ``observe.evaluation_bounds(case)``). With ``with_state`` (a centralized critic), the
+    global state s follows (``global_state``).
 
 Action
     ``Box(-1, 1, (2,))``: the desired position (x/x_max, y/y_max); every target in the crew's
-    scope gets V_Tar by Eq. 4 (``evaluate.DesiredPositionEvaluator``), which the low level
-    reads through Eq. 3.
+    scope gets V_Tar by Eq. 4 (``evaluate.desired_position_values``, the valuation deployment
+    uses too), which the low level reads through Eq. 3.
 
 When a decision is asked for (section 3.6)
     When a crew acquires a target scope, and after ``reevaluate_after_steps`` steps without
-    reaching a target. A scope of one target leaves nothing to choose: it is valued 1 without
-    asking the policy, and no transition enters the policy's buffer for it.
+    reaching a target (``engine.pending``). A scope of one target leaves nothing to choose: it
+    is valued 1 without asking the policy, and no transition enters the policy's buffer for it.
 
 The formulation: one shared policy makes the team's decisions in sequence
     Several crews decide at different times. The policy is shared by every crew (the crew is
     told apart by O^e's own floats and the target-scope flags), and its decisions form one
     sequence in simulated time (a semi-Markov decision process over the team). The reward of
     a decision is the team's R_e (Eq. 5) summed over the simulated seconds from that decision
-    to the next decision of any crew (``decision_reward``); two decisions at the same second
-    leave the first one 0. PPO discounts by decision, not by second. Only real decisions enter
-    the buffer: the simulation between two decisions is hidden inside ``step``.
+    to the next decision of any crew; two decisions at the same second leave the first one 0.
+    PPO discounts by decision, not by second. Only real decisions enter the buffer: the
+    simulation between two decisions is hidden inside ``step``.
 
 Episode end
     ``terminated`` when every task has ended. ``truncated`` at the time limit, or when no task
-    moves on for ``stall_s`` simulated seconds (``info["stalled"]``): a stalled floor teaches
-    nothing.
+    moves on for ``stall_s`` simulated seconds (the engine's own stall guard: ``engine.stalled``
+    says when, ``rollout.stall_report(floor.engine, ...)`` who and what): a stalled floor
+    teaches nothing.
 
 Info
-    ``time_s``, ``elapsed_s`` (simulated seconds this step ran), ``agent`` (the crew that
-    decides next), ``evaluation_terms`` (R_e's terms summed over this step), and at the end
-    ``makespan_s`` (None unless every task ended) and ``stalled``.
+    Empty but at an episode's end: ``makespan_s`` (None unless every task ended), ``stalled``,
+    ``tasks_ended``, ``time_s``, ``episode_terms`` (R_e's terms summed over the episode) and
+    ``idle_steps`` by cause.
+
+Arguments (``Floor``)
+    ``case``, ``make_low_level(engine)`` (a ``policy.LowLevel`` bound to the engine, e.g.
+    ``agents.navigator.Navigator``), ``max_time_s`` (None: the case's), ``park_idle`` (see
+    ``env``; for the scripted navigator), ``stall_s``, ``with_state``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
+from dataclasses import dataclass
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from . import observe, reward
-from .env import CMDPEnv
-from .evaluate import DesiredPositionEvaluator
+from . import observe
+from .case import Case, as_case
+from .engine import Engine
+from .evaluate import desired_position_of_first_choice, desired_position_values
+from .global_state import global_state, state_bounds
 from .policy import LowLevel
+from .reward import EVALUATION_TERMS
+
+IDLE_CAUSES = ("predecessor", "area", "no_target")  # state.IdleCause's names
 
 
-def decision_reward(step_terms: list[Mapping[str, float]]) -> float:
-    """The reward credited to one decision: the team's R_e (Eq. 5) summed over the simulated
-    steps from that decision to the next one, ``step_terms`` holding each step's terms."""
-    return float(sum(sum(terms.values()) for terms in step_terms))
+@dataclass
+class Outcome:
+    """What a decision led to: R_e summed until the next decision, and how the episode
+    stands."""
+
+    reward: float
+    terminated: bool
+    truncated: bool
 
 
-class TargetEvaluationEnv(gym.Env):
-    """One step = one target evaluation by the shared high-level policy (see the module doc).
+def value_scope(engine: Engine, i: int, values: dict[int, float]) -> None:
+    """``engine.set_target_values`` for a crew whose scope the engine asks to be valued
+    (``engine.pending``); a ValueError naming the crews asked for any other."""
+    if i not in engine.pending:
+        crews = engine.site.crews
+        asked = ", ".join(f"{j} ({crews[j].id})" for j in engine.pending) or "none"
+        raise ValueError(f"crew {i} ({crews[i].id}) was not asked for target values; the "
+                         f"engine asks for crews: {asked}; fix: value only crews in "
+                         "engine.pending")
+    engine.set_target_values(i, values)
 
-    ``make_low_level(env)`` builds the low level over the inner ``CMDPEnv`` (e.g.
-    ``agents.navigator.Navigator``, a ``policy.LowLevel``); its ``reset(seed)`` is called every
-    episode.
-    ``stall_s``: truncate an episode in which no task moves on for this long.
-    Other keyword arguments go to ``CMDPEnv``.
-    """
 
-    metadata = {"render_modes": []}
+class Floor:
+    """One stage-2 floor: decisions in, R_e out (see the module doc)."""
 
-    def __init__(self, make_low_level: Callable[[CMDPEnv], LowLevel], case=None,
-                 stall_s: float = 3600.0, **env_kwargs):
-        self.env = CMDPEnv(case=case, stage=2, external_values=True, **env_kwargs)
-        self.low_level = make_low_level(self.env)
-        self.stall_s = float(stall_s)
-        self.evaluator = DesiredPositionEvaluator()
-        self.env.reset(seed=0)  # to size O^e
-        size = observe.evaluation_size(self.env.site)
-        low, high = observe.evaluation_bounds(self.env.site)
-        self.observation_space = spaces.Box(low, high, (size,), np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
-        self._queue: list[str] = []
-        self._agent: str | None = None
-        self._observations: dict = {}
+    def __init__(self, case: Case | None, make_low_level: Callable[[Engine], LowLevel], *,
+                 max_time_s: float | None = None, park_idle: bool = False,
+                 stall_s: float | None = 3600.0, with_state: bool = False):
+        case = as_case(case)
+        self.case = case
+        self.engine = Engine(case, stage=2, evaluator=None, max_time_s=max_time_s,
+                             park_idle=park_idle, stall_s=stall_s)
+        self.low_level = make_low_level(self.engine)
+        self.rays = observe.ReachingObservations(case) if self.low_level.reads_rays else None
+        self.evaluation_bounds = observe.evaluation_bounds(case)
+        self.actor_size = len(self.evaluation_bounds[0])
+        self.with_state = with_state
+        self.state_bounds = state_bounds(case)
+        low, high = self.evaluation_bounds
+        if with_state:
+            low = np.concatenate([low, self.state_bounds[0]])
+            high = np.concatenate([high, self.state_bounds[1]])
+        self.low, self.high = low, high
+        self.deciding: int | None = None  # the crew whose scope the next action values
+        self.terms = dict.fromkeys(EVALUATION_TERMS, 0.0)  # R_e's terms over the episode
 
     # -- the decisions ------------------------------------------------------------------------
 
-    @property
-    def deciding_agent(self) -> str | None:
-        """The crew whose scope the next action values."""
-        return self._agent
+    def reset(self, seed: int) -> float:
+        """A new episode on ``seed``, run to the first decision; returns R_e until then
+        (credited to no decision)."""
+        self.engine.reset(seed)
+        self.low_level.reset(seed)
+        if self.rays is not None:
+            self.rays.reset()
+        self.deciding = None
+        self.terms = dict.fromkeys(EVALUATION_TERMS, 0.0)
+        out = self._run()
+        if out.terminated or out.truncated:  # a floor with nothing to choose: nothing to learn
+            raise RuntimeError("the episode ended before any crew had a choice to make")
+        return out.reward
 
-    def _decision_observation(self) -> np.ndarray:
-        env, i = self.env, self.env.agent_index[self._agent]
-        obs = observe.evaluation_observation(env.site, env.site.crews[i], env.positions[i],
-                                             env.world.bodies[i].angle)
-        return np.clip(obs, self.observation_space.low, self.observation_space.high)
+    def decide(self, desired) -> Outcome:
+        """The deciding crew's scope valued by Eq. 4 from ``desired`` (the action), then the
+        floor runs on to the next decision or the episode's end."""
+        i = self.deciding
+        if i is None:
+            raise RuntimeError("decide() with no crew deciding: the episode has ended; call "
+                               "reset(seed) first")
+        self.deciding = None
+        value_scope(self.engine, i, desired_position_values(desired, self.engine.site.crews[i],
+                                                            self.engine.site))
+        return self._run()
+
+    def _run(self) -> Outcome:
+        """Advance with the low level until a crew must choose among several targets or the
+        episode ends; R_e (Eq. 5, the team's) summed over the seconds run."""
+        engine, reward = self.engine, 0.0
+        while not self._next_decision():
+            observations = self.rays.all(engine) if self.rays is not None else None
+            run = engine.advance(self.low_level.crew_actions(engine, observations),
+                                 until=engine.decision_due)
+            reward += sum(run.terms.values())
+            for k, v in run.terms.items():
+                self.terms[k] += v
+            if run.terminated or run.truncated:
+                return Outcome(reward, run.terminated, not run.terminated)
+        return Outcome(reward, False, False)
 
     def _next_decision(self) -> bool:
-        """Take the next crew that must choose among several targets; value lone targets."""
-        env = self.env
-        while True:
-            if not self._queue:
-                self._queue = list(env.pending_values)
-                if not self._queue:
-                    return False
-            agent = self._queue.pop(0)
-            scope = env.site.crews[env.agent_index[agent]].scope
+        """Take the next crew asked that must choose among several targets; value lone
+        targets 1."""
+        engine = self.engine
+        while engine.pending:
+            i = engine.pending[0]
+            scope = engine.site.crews[i].scope
             if len(scope) > 1:
-                self._agent = agent
+                self.deciding = i
                 return True
-            env.set_target_values(agent, {t: 1.0 for t in scope})
+            value_scope(engine, i, {t: 1.0 for t in scope})
+        return False
 
-    def _run_until_decision(self) -> tuple[list[dict], bool, bool]:
-        """Advance the simulation with the low level until a crew must decide or it ends."""
-        env, site = self.env, self.env.site
-        step_terms: list[dict] = []
-        stalled = False
-        while True:
-            if self._next_decision():
-                return step_terms, False, False
-            self._observations = env.observe()
-            _, _, terms, truncs, infos = env.step(self.low_level.actions(env,
-                                                                         self._observations))
-            info = next(iter(infos.values()))
-            step_terms.append(info["evaluation_terms"])
-            moved = sum(t.progress for t in site.tasks) + site.tasks_ended
-            if moved != self._progress[1]:
-                self._progress = (site.time_s, moved)
-            elif site.time_s - self._progress[0] >= self.stall_s:
-                stalled = True
-            if not env.agents or stalled:
-                self._stalled = stalled
-                return step_terms, site.done, not site.done
+    # -- what the policy reads ----------------------------------------------------------------
 
-    # -- gymnasium ----------------------------------------------------------------------------
+    def observe(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The deciding crew's O^e (then the global state with ``with_state``), into ``out``
+        if given."""
+        engine, i = self.engine, self.deciding
+        if out is None:
+            out = np.empty(len(self.low), np.float32)
+        out[:self.actor_size] = observe.evaluation_observation(
+            engine.site, engine.site.crews[i], engine.positions[i], engine.world.bodies[i].angle,
+            self.evaluation_bounds)
+        if self.with_state:
+            out[self.actor_size:] = self.state()
+        return out
+
+    def state(self) -> np.ndarray:
+        """The global state s (``global_state``), clipped into its bounds."""
+        engine = self.engine
+        headings = [body.angle for body in engine.world.bodies]
+        out = global_state(engine.site, engine.positions, headings, engine.max_time_s)
+        return np.clip(out, *self.state_bounds, out=out)
+
+    def teacher_action(self) -> np.ndarray:
+        """The priority heuristic's choice (Eq. 9) for the deciding crew as a desired
+        position, so that Eq. 4 ranks its target first."""
+        engine, i = self.engine, self.deciding
+        return np.array(desired_position_of_first_choice(engine.site.crews[i], engine.site,
+                                                         engine.positions[i]), np.float32)
+
+    def end_info(self) -> dict:
+        """The episode's end (see the module doc's Info)."""
+        site = self.engine.site
+        idle = dict.fromkeys(IDLE_CAUSES, 0)
+        for crew in site.crews:
+            for cause, steps in crew.stats.idle_steps.items():
+                idle[cause.name.lower()] += steps
+        return {"makespan_s": self.engine.makespan_s, "stalled": self.engine.stalled is not None,
+                "tasks_ended": site.tasks_ended, "time_s": site.time_s,
+                "episode_terms": dict(self.terms), "idle_steps": idle}
+
+
+class TargetEvaluationEnv(gym.Env):
+    """One step = one target evaluation by the shared high-level policy, on ``floor`` (see
+    the module doc)."""
+
+    metadata = {"render_modes": []}
+
+    def __init__(self, floor: Floor):
+        self.floor = floor
+        self.observation_space = spaces.Box(floor.low, floor.high, dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
         if seed is None:  # one generator for the whole run, drawn from gymnasium's
             seed = int(self.np_random.integers(2**31))
-        self._observations, _ = self.env.reset(seed=seed)
-        self.low_level.reset(seed)
-        self._queue, self._agent, self._stalled = [], None, False
-        self._progress = (0.0, -1.0)
-        self._start_s = 0.0
-        step_terms, terminated, truncated = self._run_until_decision()
-        if terminated or truncated:  # a floor with nothing to choose: nothing to learn
-            raise RuntimeError("the episode ended before any crew had a choice to make")
-        return self._decision_observation(), self._info(step_terms)
+        self.floor.reset(seed)
+        return self.floor.observe(), {}
 
     def step(self, action):
-        if self._agent is None:
-            raise RuntimeError("step() called on a finished episode; call reset() first")
-        env, agent = self.env, self._agent
-        i = env.agent_index[agent]
-        crew = env.site.crews[i]
-        a = np.clip(np.asarray(action, dtype=np.float64), -1.0, 1.0)
-        self.evaluator.desired[i] = (float(a[0]), float(a[1]))
-        env.set_target_values(agent, self.evaluator.target_values(crew, env.site,
-                                                                  env.positions[i]))
-        self._agent = None
-        self._start_s = env.site.time_s
-        step_terms, terminated, truncated = self._run_until_decision()
-        info = self._info(step_terms)
-        if terminated or truncated:
-            info["makespan_s"] = env.makespan_s
-            info["stalled"] = self._stalled
-            info["tasks_ended"] = env.site.tasks_ended
-            obs = np.zeros(self.observation_space.shape, np.float32)
-        else:
-            obs = self._decision_observation()
-        return obs, decision_reward(step_terms), terminated, truncated, info
-
-    def _info(self, step_terms: list[dict]) -> dict:
-        totals = dict.fromkeys(reward.EVALUATION_TERMS, 0.0)
-        for terms in step_terms:
-            for k, v in terms.items():
-                totals[k] += v
-        return {"time_s": self.env.site.time_s, "elapsed_s": self.env.site.time_s - self._start_s,
-                "agent": self._agent, "evaluation_terms": totals}
+        out = self.floor.decide(action)
+        if out.terminated or out.truncated:
+            return np.zeros(self.observation_space.shape, np.float32), out.reward, \
+                out.terminated, out.truncated, self.floor.end_info()
+        return self.floor.observe(), out.reward, False, False, {}

@@ -93,6 +93,14 @@ class RayModel:
                 for ux, uy, length, frontal in self.rays]
 
 
+def ray_model(case) -> RayModel:
+    """The case's ray layout (its simulation settings)."""
+    sim = case.simulation
+    return RayModel(sim.frontal_rays, sim.surrounding_rays, sim.field_of_view_deg,
+                    sim.sight_distance_m, sim.surrounding_distance_m, sim.target_memory,
+                    sim.reevaluate_after_steps * sim.step_s)
+
+
 def observation_bounds(rays: RayModel, case) -> tuple[np.ndarray, np.ndarray]:
     """(low, high) of every reaching-observation float, from what each feature can be.
 
@@ -209,6 +217,51 @@ def remembered_target(rays: RayModel, crew: CrewState, x: float, y: float, headi
             min(1.0, (now_s - latest[2]) / rays.memory_age_s))
 
 
+class ReachingObservations:
+    """Every crew's reaching observation on an engine's floor, by crew index: the one place
+    rays are cast for a low level (the PettingZoo env and the stage-2 env both ask here).
+
+    Rays are cast only for crews that need a movement decision (``engine.needs_action``);
+    the others get all zeros. A crew's rays are cast again only when something moved
+    (``world.motion_version``) or its scope or values changed (the stages replace them, never
+    change them in place: ``state.CrewState``). The memory age moves on every second. Every
+    observation is clipped into ``bounds`` (``observation_bounds``). ``reset()`` at every
+    episode.
+    """
+
+    def __init__(self, case):
+        self.rays = ray_model(case)
+        self.low, self.high = observation_bounds(self.rays, case)
+        self.idle = np.zeros(self.rays.size, dtype=np.float32)
+        self._cache: list = [None] * len(case.crews)
+
+    def reset(self) -> None:
+        self._cache = [None] * len(self._cache)
+
+    def crew(self, engine, i: int) -> np.ndarray:
+        """Crew i's reaching observation now (a fresh array)."""
+        site, world = engine.site, engine.world
+        crew = site.crews[i]
+        if not engine.needs_action(crew):
+            return self.idle.copy()
+        cached = self._cache[i]
+        if cached is None or cached[0] != world.motion_version or cached[1] is not crew.scope \
+                or cached[2] is not crew.values:
+            cached = (world.motion_version, crew.scope, crew.values,
+                      observe_crew(world, self.rays, crew, site.time_s))
+            self._cache[i] = cached
+        obs = cached[3].copy()
+        if self.rays.memory:  # the age moves on even when nothing else does
+            x, y = engine.positions[i]
+            obs[-MEMORY_FEATURES:] = remembered_target(self.rays, crew, x, y,
+                                                       world.bodies[i].angle, site.time_s)
+        return np.clip(obs, self.low, self.high, out=obs)  # the space's promise
+
+    def all(self, engine) -> list[np.ndarray]:
+        """Every crew's reaching observation, in crew order."""
+        return [self.crew(engine, i) for i in range(len(engine.site.crews))]
+
+
 # -- the evaluation policy's observation O^e (section 3.6.1) -----------------------------------
 
 CREW_FEATURES = 5  # x/x_max, y/y_max, cos(heading), sin(heading), load / capacity
@@ -216,32 +269,42 @@ TARGET_FEATURES = 12
 EXPECTED_TIME_SCALE_S = 3600.0
 
 
-def evaluation_size(site: Site) -> int:
-    return CREW_FEATURES + TARGET_FEATURES * site.n_targets
+def n_targets(case) -> int:
+    """Every potential target of the case: its components, its storages and the outlet."""
+    return len(case.components) + len(case.storages) + 1
 
 
-def evaluation_bounds(site: Site) -> tuple[np.ndarray, np.ndarray]:
-    """The bounds of every float of ``evaluation_observation`` for this site's case.
+def evaluation_size(case) -> int:
+    """The length of O^e for the case: the crew's 5 floats and 12 per potential target."""
+    return CREW_FEATURES + TARGET_FEATURES * n_targets(case)
+
+
+def evaluation_bounds(case) -> tuple[np.ndarray, np.ndarray]:
+    """(low, high) of every float of ``evaluation_observation`` for the case, from the case
+    alone (no episode needed).
 
     All are in [-1, 1] but two columns of each target row: the congestion-area scale
     (largest area distance / 3 m) and the expected action time (the longest task's mean
     duration / 3600 s), whose highs come from the case.
     """
-    case = site.case
     area_high = max(t.area_distance_m for t in case.task_types.values()) / 3.0
     time_high = max(case.crew_types[case.task_types[t.type].crew_type].mean_seconds(t.work)
-                    for t in site.tasks) / EXPECTED_TIME_SCALE_S
+                    for t in case.tasks) / EXPECTED_TIME_SCALE_S
     row_low = np.array([0, 0, 0, -1, -1, -1, 0, 0, 0, 0, 0, 0], dtype=np.float32)
     row_high = np.array([1, 1, 1, 1, 1, 1, max(1.0, area_high), max(1.0, time_high), 1, 1, 1, 1],
                         dtype=np.float32)
-    low = np.concatenate([np.array([-1, -1, -1, -1, 0], np.float32),
-                          np.tile(row_low, site.n_targets)])
-    high = np.concatenate([np.ones(CREW_FEATURES, np.float32), np.tile(row_high, site.n_targets)])
+    targets = n_targets(case)
+    low = np.concatenate([np.array([-1, -1, -1, -1, 0], np.float32), np.tile(row_low, targets)])
+    high = np.concatenate([np.ones(CREW_FEATURES, np.float32), np.tile(row_high, targets)])
     return low, high
 
 
-def evaluation_observation(site: Site, crew: CrewState, position, heading: float) -> np.ndarray:
-    """O^e0..O^e4 for every potential target of the episode (fixed size), from the crew's view.
+def evaluation_observation(site: Site, crew: CrewState, position, heading: float,
+                           bounds: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """O^e0..O^e4 for every potential target of the episode (fixed size), from the crew's view,
+    clipped into ``bounds`` (``evaluation_bounds(case)``, made once by the caller): a crew
+    pressed against the plane's edge stands a hair past it. The one O^e that training and
+    deployment (``agents.models.ModelEvaluator``) both read.
 
     The crew's own 5 floats (x/x_max, y/y_max, cos and sin of its heading, load share), then
     per target (components, then storages, then the outlet) 12 floats:
@@ -253,11 +316,15 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
     - O^e2 (9): distance to the crew over the plane's diagonal;
     - O^e3 (10): all successors of the crew's task there, over the number of tasks;
     - O^e4 (11): tasks in queue or wait whose areas conflict with it, over the number of tasks.
+
+    Args:
+        site: the construction state; crew: the deciding crew; position: its (x, y) in m;
+        heading: its heading in radians; bounds: (low, high) as above.
     """
     half_w, half_h = site.case.plane.half_extents
     diag = 2.0 * math.hypot(half_w, half_h)
     n_tasks = len(site.tasks)
-    out = np.zeros(evaluation_size(site), dtype=np.float32)
+    out = np.zeros(CREW_FEATURES + TARGET_FEATURES * site.n_targets, dtype=np.float32)
     out[:CREW_FEATURES] = (position[0] / half_w, position[1] / half_h, math.cos(heading),
                            math.sin(heading), crew.load / crew.capacity if crew.capacity else 0.0)
     mine = {site.tasks[t].component: site.tasks[t] for t in site.tasks_of_crew_type[crew.type]}
@@ -282,4 +349,4 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
                           for o in task.conflicts) / n_tasks
         row[8] = 1.0 if target in crew.scope else 0.0
         row[9] = math.hypot(tx - position[0], ty - position[1]) / diag
-    return out
+    return np.clip(out, bounds[0], bounds[1], out=out)

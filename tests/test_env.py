@@ -7,6 +7,7 @@ from conftest import run_episode, tiny_dict
 from agents.steering import steer_all
 from cmdp_pymunk import parallel_env
 from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.observe import evaluation_size
 from cmdp_pymunk.state import CrewStatus
 
 
@@ -34,7 +35,8 @@ def test_builtin_case_spaces_and_agents():
     assert list(env.action_space("RC-1").nvec) == [4, 3, 3]
     assert env.observation_space("RC-1") is env.observation_space("RC-1")
     assert all(o.shape == (119,) and o.dtype == np.float32 for o in obs.values())
-    assert len(env.evaluation_observation("RC-1")) == 5 + 12 * (36 + 3 + 1)
+    # O^e (stage 2): 5 floats of the crew's, 12 per target (36 components, 3 storages, outlet)
+    assert evaluation_size(env.case) == 5 + 12 * (36 + 3 + 1)
 
 
 def test_whole_episode_is_deterministic_and_finishes():

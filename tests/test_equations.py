@@ -71,7 +71,11 @@ def test_eq6_reaching_reward():
 
 
 def test_ranking_scores_become_target_values():
-    from cmdp_pymunk.evaluate import DesiredPositionEvaluator, as_target_values
+    from cmdp_pymunk.evaluate import (
+        DesiredPositionEvaluator,
+        as_target_values,
+        desired_position_values,
+    )
 
     # Eq. 4 scores 1 - 2.83 .. 1 all become [0.5, 1] with the best at 1
     assert as_target_values({1: -1.0, 2: 0.0, 3: 1.0}) == pytest.approx({1: 0.5, 2: 0.75, 3: 1.0})
@@ -85,7 +89,21 @@ def test_ranking_scores_become_target_values():
                 half_extents = (10.0, 5.0)
         target_xy = [(5.0, 0.0), (-5.0, 2.5)]
 
-    ev = DesiredPositionEvaluator()
-    ev.desired[0] = (0.5, 0.0)  # exactly on target 0: Eq. 4 gives 1 there
+    ev = DesiredPositionEvaluator(default=(0.5, 0.0))  # exactly on target 0: Eq. 4 gives 1
     values = ev.target_values(Crew, Site, (0.0, 0.0))
     assert values[0] == 1.0 and values[1] == 0.5
+
+    # A desired position outside [-1, 1] is clipped first (a Gaussian sample can leave the
+    # action space). A third target at (9, 4) m, (0.9, 0.8) over the half extents; from
+    # (1, 0) Eq. 4 gives target 0 1 - 0.5 = 0.5, target 1 1 - hypot(1.5, 0.5) = -0.581,
+    # target 2 1 - hypot(0.1, 0.8) = 0.194: V = 1, 0.5, 0.5 + 0.5 * 0.775 / 1.081 = 0.858.
+    # Unclipped, (3, 0) would rank target 2 first (-1.247 against -1.5).
+    class Crew3:
+        index, scope = 0, {0: -1, 1: -1, 2: -1}
+
+    class Site3(Site):
+        target_xy = [(5.0, 0.0), (-5.0, 2.5), (9.0, 4.0)]
+
+    values = desired_position_values((3.0, 0.0), Crew3, Site3)
+    assert values == pytest.approx({0: 1.0, 1: 0.5, 2: 0.85838}, abs=1e-5)
+    assert values == desired_position_values((1.0, 0.0), Crew3, Site3)

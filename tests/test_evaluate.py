@@ -105,12 +105,13 @@ def test_two_workers_give_the_same_episodes(tmp_path):
 def test_a_stage2_model_is_a_strategy(tmp_path):
     """An (untrained) stage-2 model .zip goes through make_evaluator like any strategy."""
     from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from training.stage2 import Stage2Config, Stage2Env
+    from training.stage2 import Stage2Config, make_floor, training_case
+    from training.vec_env import FloorsVecEnv
 
-    env = Stage2Env(Stage2Config(case=TINY, central_critic=False))
-    model = PPO("MlpPolicy", DummyVecEnv([lambda: env]), n_steps=8, batch_size=8,
+    config = Stage2Config(case=TINY, central_critic=False)
+    venv = FloorsVecEnv([lambda: make_floor(config, training_case(config))])
+    model = PPO("MlpPolicy", venv, n_steps=8, batch_size=8,
                 policy_kwargs={"net_arch": [8]}, device="cpu", seed=0)
     path = tmp_path / "stage2.zip"
     model.save(path)

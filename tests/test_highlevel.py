@@ -1,113 +1,170 @@
-"""The stage-2 high-level env: API, reward attribution, and the external-values seam."""
+"""The stage-2 env on the engine: the floor alone, its Gymnasium adapter, reward attribution,
+and that it adds nothing to the engine's dynamics."""
+
+from pathlib import Path
 
 import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
+from test_layering import imported_modules
 
 from agents.navigator import Navigator
 from cmdp_pymunk import parallel_env
-from cmdp_pymunk.evaluate import PriorityEvaluator, desired_position_of_first_choice
-from cmdp_pymunk.highlevel import TargetEvaluationEnv, decision_reward
+from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.evaluate import (
+    DesiredPositionEvaluator,
+    PriorityEvaluator,
+    desired_position_of_first_choice,
+)
+from cmdp_pymunk.highlevel import Floor, TargetEvaluationEnv, value_scope
 
 SHORT_S = 5000.0  # long enough for several decisions, short enough for a fast test
+HIGHLEVEL = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "highlevel.py"
 
 
-def heuristic_action(hl: TargetEvaluationEnv) -> np.ndarray:
-    """The desired position that makes Eq. 4 rank first the target Eq. 9 ranks first."""
-    env = hl.env
-    i = env.agent_index[hl.deciding_agent]
-    return np.array(desired_position_of_first_choice(env.site.crews[i], env.site,
-                                                     env.positions[i]), dtype=np.float32)
+def floor(**kwargs) -> Floor:
+    return Floor(None, Navigator, max_time_s=SHORT_S, **kwargs)
 
 
-def test_decision_reward_sums_every_term_of_every_step():
-    # two steps: (-0.01 - 0.02 + 0.005 - 0.001 - 0.003) + (0.01 - 0.001) = -0.029 + 0.009 = -0.02
-    steps = [{"idle_pre": -0.01, "idle_area": -0.02, "efficiency": 0.005, "episode": -0.001,
-              "path": -0.003},
-             {"idle_pre": 0.0, "idle_area": 0.0, "efficiency": 0.01, "episode": -0.001,
-              "path": 0.0}]
-    assert decision_reward(steps) == pytest.approx(-0.02)
-    assert decision_reward([]) == 0.0  # a second decision at the same second gets nothing
+def schedule(log, values: bool = True):
+    """The event log as tuples; ``values`` False leaves out the values reached (Eq. 4's and
+    Eq. 9's values differ, their first choice does not)."""
+    return [(e.time_s, e.kind, e.crew, e.subject) for e in log.events
+            if values or e.kind != "reach"]
+
+
+def play(fl: Floor, seed: int, choose) -> list:
+    """Every decision's (crew, reward, terminated, truncated) of one episode on ``seed``."""
+    fl.reset(seed)
+    return play_on(fl, choose)
+
+
+def play_on(fl: Floor, choose) -> list:
+    """``play`` from the floor's current decision on."""
+    trace = []
+    while True:
+        crew = fl.deciding
+        out = fl.decide(choose(fl))
+        trace.append((crew, out.reward, out.terminated, out.truncated))
+        if out.terminated or out.truncated:
+            return trace
+
+
+def test_the_floor_steps_the_engine_alone():
+    """No PettingZoo env under the stage-2 env: the floor holds an engine and asks only for
+    decisions among several targets, by crew index."""
+    names = imported_modules(HIGHLEVEL)
+    assert "cmdp_pymunk.env" not in names and "pettingzoo" not in {n.split(".")[0]
+                                                                     for n in names}
+    fl = floor()
+    assert isinstance(fl.engine, Engine) and fl.engine.evaluator is None
+    fl.reset(seed=2)
+    for _ in range(5):
+        i = fl.deciding
+        assert i == fl.engine.pending[0] and len(fl.engine.site.crews[i].scope) > 1
+        obs = fl.observe()
+        assert obs.shape == fl.low.shape and np.all((obs >= fl.low) & (obs <= fl.high))
+        out = fl.decide((0.0, 0.0))
+        assert not (out.terminated or out.truncated) and fl.deciding is not None
 
 
 def test_passes_gymnasium_env_checker():
-    hl = TargetEvaluationEnv(Navigator, max_time_s=SHORT_S)
-    check_env(hl, skip_render_check=True)
+    check_env(TargetEvaluationEnv(floor()), skip_render_check=True)
+
+
+def test_the_floor_adds_nothing_to_the_engine():
+    """Eq. 4 at the heuristic's first choice, through the floor's decisions (training) and
+    through an evaluator injected into the engine (deployment, as ``ModelEvaluator``): the
+    same event log, values reached included."""
+
+    class FirstChoice(DesiredPositionEvaluator):
+        def desired_position(self, crew, site, position):
+            return desired_position_of_first_choice(crew, site, position)
+
+    engine = Engine(floor().case, stage=2, evaluator=FirstChoice(), max_time_s=SHORT_S)
+    navigator = Navigator(engine)
+    engine.reset(seed=4)
+    while True:
+        run = engine.advance(navigator.crew_actions(engine), until=engine.decision_due)
+        if run.terminated or run.truncated:
+            break
+
+    fl = floor()
+    decisions = play(fl, 4, lambda f: f.teacher_action())
+    assert len(decisions) > 4
+    assert schedule(fl.engine.log) == schedule(engine.log)
 
 
 def test_external_values_with_the_heuristic_reproduce_its_schedule():
-    """Feeding Eq. 9's choice through Eq. 4 from outside gives the heuristic's own schedule."""
+    """Feeding Eq. 9's choice through Eq. 4 gives the PettingZoo env's heuristic schedule."""
     reference = parallel_env(seed=3, evaluator=PriorityEvaluator(), max_time_s=SHORT_S)
     navigator = Navigator(reference)
     obs, _ = reference.reset(seed=3)
     while reference.agents:
         obs, *_ = reference.step(navigator.actions(reference, obs))
 
-    hl = TargetEvaluationEnv(Navigator, max_time_s=SHORT_S)
-    hl.reset(seed=3)
-    decisions = 0
-    while True:
-        _, _, terminated, truncated, _ = hl.step(heuristic_action(hl))
-        decisions += 1
-        if terminated or truncated:
-            break
-    assert decisions > 4
-    # the same schedule: every event but the reached value (Eq. 4's and Eq. 9's values differ,
-    # their first choice does not)
-    def schedule(log):
-        return [(e.time_s, e.kind, e.crew, e.subject) for e in log.events]
+    fl = floor()
+    play(fl, 3, lambda f: f.teacher_action())
+    assert schedule(fl.engine.log, values=False) == schedule(reference.log, values=False)
 
-    assert schedule(hl.env.log) == schedule(reference.log)
+
+def test_a_value_for_a_crew_that_was_not_asked_is_refused():
+    fl = floor()
+    fl.reset(seed=0)
+    engine = fl.engine
+    other = next(c for c in engine.site.crews if c.index not in engine.pending)
+    before = dict(other.values)
+    with pytest.raises(ValueError, match=rf"crew {other.index} \({other.id}\) was not asked "
+                                         r"for target values; the engine asks for crews: "
+                                         rf"{fl.deciding} \("):
+        value_scope(engine, other.index, {t: 0.7 for t in other.scope})
+    assert other.values == before
+    with pytest.raises(ValueError, match="one value per target in scope"):
+        value_scope(engine, fl.deciding, {})  # the engine's own check
+
+
+def test_a_finished_floor_asks_for_a_reset():
+    fl = Floor(None, Navigator, max_time_s=600.0)
+    fl.reset(seed=0)
+    while not (out := fl.decide((0.0, 0.0))).truncated:
+        assert not out.terminated
+    with pytest.raises(RuntimeError, match=r"no crew deciding.*reset\(seed\)"):
+        fl.decide((0.0, 0.0))
 
 
 def test_rewards_credit_every_second_after_the_first_decision_once():
-    """The decisions' rewards add up to R_e summed over every simulated second from the first
-    decision to the end, as the inner env reports it: nothing lost or counted twice."""
-    hl = TargetEvaluationEnv(Navigator, max_time_s=SHORT_S)
+    """The decisions' rewards add up to R_e summed over every simulated second from the
+    first decision to the end, as the engine reports it: nothing lost or counted twice."""
+    fl = floor()
     reported = []
-    inner_step = hl.env.step
+    advance = fl.engine.advance
 
-    def recording_step(actions):
-        out = inner_step(actions)
-        reported.append(next(iter(out[4].values()))["evaluation_reward"])
-        return out
+    def recording_advance(actions, until=None):
+        run = advance(actions, until)
+        reported.append(sum(run.terms.values()))
+        return run
 
-    hl.env.step = recording_step
-    hl.reset(seed=1)
-    reported.clear()  # R_e before the first decision is credited to no decision
-    total, rng = 0.0, np.random.default_rng(0)
-    while True:
-        _, r, terminated, truncated, info = hl.step(rng.uniform(-1, 1, 2))
-        total += r
-        if terminated or truncated:
-            break
-    assert info["time_s"] == SHORT_S
+    fl.engine.advance = recording_advance
+    before = fl.reset(seed=1)
+    assert before == pytest.approx(sum(reported))  # credited to no decision
+    reported.clear()
+    rng = np.random.default_rng(0)
+    trace = play_on(fl, lambda _: rng.uniform(-1, 1, 2))
+    assert fl.engine.site.time_s == SHORT_S and trace[-1][3]  # cut at the time limit
     assert len(reported) > 100
-    assert total == pytest.approx(sum(reported))
-
-
-def test_step_refuses_to_run_while_values_are_pending():
-    env = parallel_env(seed=0, external_values=True, max_time_s=SHORT_S)
-    env.reset(seed=0)
-    assert env.pending_values  # every crew acquires its first scope at reset
-    with pytest.raises(RuntimeError, match="set_target_values"):
-        env.step({})
-    agent = env.pending_values[0]
-    crew = env.site.crews[env.agent_index[agent]]
-    with pytest.raises(ValueError, match="one value per target in scope"):
-        env.set_target_values(agent, {})
-    env.set_target_values(agent, {t: 1.0 for t in crew.scope})
-    assert agent not in env.pending_values
+    assert sum(r for _, r, *_ in trace) == pytest.approx(sum(reported))
+    assert sum(fl.end_info()["episode_terms"].values()) == pytest.approx(
+        before + sum(reported))
 
 
 def test_same_seed_same_decisions():
     def run():
-        hl = TargetEvaluationEnv(Navigator, max_time_s=SHORT_S)
-        obs, _ = hl.reset(seed=5)
+        env = TargetEvaluationEnv(floor(with_state=True))
+        obs, _ = env.reset(seed=5)
         trace = [obs.tobytes()]
         rng = np.random.default_rng(1)
         while True:
-            obs, r, terminated, truncated, _ = hl.step(rng.uniform(-1, 1, 2))
+            obs, r, terminated, truncated, _ = env.step(rng.uniform(-1, 1, 2))
             trace.append((obs.tobytes(), r))
             if terminated or truncated:
                 return trace
@@ -115,19 +172,37 @@ def test_same_seed_same_decisions():
 
 
 def test_the_crew_values_highest_the_target_nearest_the_desired_position():
-    hl = TargetEvaluationEnv(Navigator, max_time_s=SHORT_S)
+    fl = floor()
     given = []
-    inner_set = hl.env.set_target_values
-    hl.env.set_target_values = lambda agent, values: (given.append(dict(values)),
-                                                      inner_set(agent, values))
-    hl.reset(seed=0)
-    env = hl.env
-    crew = env.site.crews[env.agent_index[hl.deciding_agent]]
-    half_w, half_h = env.case.plane.half_extents
-    east = max(crew.scope, key=lambda t: env.site.target_xy[t][0])
-    x, y = env.site.target_xy[east]
+    inner_set = fl.engine.set_target_values
+    fl.engine.set_target_values = lambda i, values: (given.append(dict(values)),
+                                                     inner_set(i, values))
+    fl.reset(seed=0)
+    site = fl.engine.site
+    crew = site.crews[fl.deciding]
+    half_w, half_h = site.case.plane.half_extents
+    east = max(crew.scope, key=lambda t: site.target_xy[t][0])
+    x, y = site.target_xy[east]
     given.clear()
-    hl.step(np.array([x / half_w, y / half_h]))
+    fl.decide(np.array([x / half_w, y / half_h]))
     values = given[0]
     assert max(values, key=values.get) == east and values[east] == 1.0
     assert min(values.values()) == 0.5  # as_target_values: the scope spread over [0.5, 1]
+
+
+def test_a_stalled_floor_is_cut_by_the_engine_guard_and_says_so():
+    """One stall guard, the engine's: a floor whose crews never move (the low level stands
+    them still) is truncated after ``stall_s`` without progress, and the end info says so."""
+
+    class StandStill(Navigator):
+        def crew_actions(self, engine, observations=None):
+            return [(0, 1, 1)] * len(engine.site.crews)
+
+    fl = Floor(None, StandStill, stall_s=600.0)
+    fl.reset(seed=0)
+    while not (out := fl.decide((0.0, 0.0))).truncated:
+        assert not out.terminated
+    info = fl.end_info()
+    assert info["stalled"] and info["makespan_s"] is None
+    assert fl.engine.stalled["after_s"] == pytest.approx(600.0)
+    assert info["time_s"] < fl.engine.max_time_s

@@ -3,6 +3,7 @@ critic, a short run that writes its files, resumes and reproduces its weights, a
 model as an evaluator."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,7 +11,9 @@ import torch as th
 
 from cmdp_pymunk.observe import CREW_FEATURES, TARGET_FEATURES
 from training import stage2
-from training.stage2 import Stage2Config, Stage2Env, first_choice
+from training.stage2 import Stage2Config, first_choice
+
+DATA = Path(__file__).resolve().parent / "data"
 
 
 def observation_with(targets: list[tuple[float, float, bool]]) -> np.ndarray:
@@ -45,35 +48,66 @@ def test_bad_settings_are_refused_with_their_fix(override, message):
                           else [override])
 
 
-def test_training_env_appends_the_global_state_for_the_central_critic():
+def test_training_floor_appends_the_global_state_for_the_central_critic():
     config = Stage2Config(central_critic=True)
-    env = Stage2Env(config)
-    obs, _ = env.reset(seed=3)
-    assert obs.shape == env.observation_space.shape
-    assert env.observation_space.contains(obs)
-    assert np.array_equal(obs[env.actor_size:], env.inner.env.state())
-    plain = Stage2Env(Stage2Config(central_critic=False))
-    assert plain.observation_space.shape == (env.actor_size,)
+    case = stage2.training_case(config)
+    floor = stage2.make_floor(config, case)
+    floor.reset(seed=3)
+    obs = floor.observe()
+    assert obs.shape == floor.low.shape and obs.dtype == np.float32
+    assert np.all((obs >= floor.low) & (obs <= floor.high))
+    assert np.array_equal(obs[floor.actor_size:], floor.state())
+    plain = stage2.make_floor(Stage2Config(central_critic=False), case)
+    assert plain.low.shape == (floor.actor_size,)
     # the teacher names a target in the deciding crew's scope
-    act = env.teacher_action()
-    assert first_choice(obs[:env.actor_size], act) in \
-        env.inner.env.site.crews[env.inner.env.agent_index[env.inner.deciding_agent]].scope
+    act = floor.teacher_action()
+    assert first_choice(obs[:floor.actor_size], act) in \
+        floor.engine.site.crews[floor.deciding].scope
+
+
+def test_decisions_as_recorded_before_the_floor_moved_onto_the_engine():
+    """O^e, the global state, the deciding crews and the rewards of 41 decisions on seed 3 (40
+    random actions), recorded with the stage-2 env of commit fcdc414 (``Stage2Env`` over
+    ``TargetEvaluationEnv`` over ``CMDPEnv``): the floor on the engine gives every float
+    exactly."""
+    recorded = np.load(DATA / "stage2_decisions.npz")
+    config = Stage2Config(central_critic=True)
+    floor = stage2.make_floor(config, stage2.training_case(config))
+    assert floor.actor_size == int(recorded["actor_size"])
+    floor.reset(int(recorded["seed"]))
+    observations, crews, rewards, times = [floor.observe()], [floor.deciding], [], \
+        [floor.engine.site.time_s]
+    for action in recorded["actions"]:
+        out = floor.decide(action)
+        assert not (out.terminated or out.truncated)
+        observations.append(floor.observe())
+        crews.append(floor.deciding)
+        rewards.append(out.reward)
+        times.append(floor.engine.site.time_s)
+    np.testing.assert_array_equal(np.array(observations), recorded["observations"])
+    np.testing.assert_array_equal(crews, recorded["crews"])
+    np.testing.assert_array_equal(rewards, recorded["rewards"])
+    np.testing.assert_array_equal(times, recorded["time_s"])
 
 
 def test_central_critic_actor_ignores_the_state_and_the_lean_actor_matches():
     from stable_baselines3 import PPO
-    from stable_baselines3.common.vec_env import DummyVecEnv
 
     from agents.central_critic import CentralCriticPolicy
     from agents.models import LeanActor
+    from training.vec_env import FloorsVecEnv
 
-    env = Stage2Env(Stage2Config(central_critic=True))
-    model = PPO(CentralCriticPolicy, DummyVecEnv([lambda: env]), n_steps=8, batch_size=8,
-                policy_kwargs={"actor_size": env.actor_size, "net_arch": [16, 16]},
+    config = Stage2Config(central_critic=True)
+    case = stage2.training_case(config)
+    venv = FloorsVecEnv([lambda: stage2.make_floor(config, case)])
+    floor = venv.floors[0]
+    model = PPO(CentralCriticPolicy, venv, n_steps=8, batch_size=8,
+                policy_kwargs={"actor_size": floor.actor_size, "net_arch": [16, 16]},
                 device="cpu", seed=0)
-    obs, _ = env.reset(seed=0)
+    floor.reset(seed=0)
+    obs = floor.observe()
     other = obs.copy()
-    other[env.actor_size:] = np.random.default_rng(0).random(len(obs) - env.actor_size)
+    other[floor.actor_size:] = np.random.default_rng(0).random(len(obs) - floor.actor_size)
     with th.no_grad():
         pair = th.as_tensor(np.stack([obs, other]))
         means = model.policy.get_distribution(pair).distribution.mean.numpy()
@@ -81,8 +115,8 @@ def test_central_critic_actor_ignores_the_state_and_the_lean_actor_matches():
     assert np.allclose(means[0], means[1])  # the actor reads O^e only
     assert not np.allclose(values[0], values[1])  # the critic reads the state too
     lean = LeanActor.from_sb3(model)
-    assert lean.observation_size == env.actor_size
-    assert np.allclose(lean.act(obs[None, :env.actor_size])[0],
+    assert lean.observation_size == floor.actor_size
+    assert np.allclose(lean.act(obs[None, :floor.actor_size])[0],
                        np.clip(means[0], -1, 1), atol=1e-5)
 
 
@@ -132,13 +166,13 @@ def test_short_run_writes_its_files_resumes_and_repeats_its_weights(tmp_path):
     env_values = []
     for _ in range(2):
         evaluator = ModelEvaluator(run / "final_model.zip")
-        hl = stage2.Stage2Env(Stage2Config())
-        hl.reset(seed=5)
-        inner = hl.inner.env
-        evaluator.bind(inner)
-        i = inner.agent_index[hl.inner.deciding_agent]
-        env_values.append(evaluator.target_values(inner.site.crews[i], inner.site,
-                                                  inner.positions[i]))
+        config = Stage2Config()
+        floor = stage2.make_floor(config, stage2.training_case(config))
+        floor.reset(seed=5)
+        engine, i = floor.engine, floor.deciding
+        evaluator.bind(engine)
+        env_values.append(evaluator.target_values(engine.site.crews[i], engine.site,
+                                                  engine.positions[i]))
     assert env_values[0] == env_values[1] and len(env_values[0]) > 1
     assert simulate(["--evaluator", str(run / "final_model.zip"), "--seed", "1",
                      "--max-time-s", "3000", "--no-charts", "--no-progress",

@@ -1,6 +1,6 @@
 """``num_cpus`` means worker processes: ``ProcessGroupsVecEnv`` steps k env copies in fewer
 processes, exactly as one ``DummyVecEnv`` of them would (seeds, auto-resets, infos), and stage
-2 builds it from its settings."""
+2 builds it from its settings; ``FloorsVecEnv`` steps k stage-2 floors as k envs would."""
 
 import gymnasium as gym
 import numpy as np
@@ -8,9 +8,11 @@ import pytest
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 import cmdp_pymunk
+from agents.navigator import Navigator
+from cmdp_pymunk.highlevel import Floor, TargetEvaluationEnv
 from training import stage2
 from training.scaffold import vec_env
-from training.vec_env import ProcessGroupsVecEnv
+from training.vec_env import FloorsVecEnv, ProcessGroupsVecEnv
 
 
 class Dice(gym.Env):
@@ -91,6 +93,53 @@ def test_attributes_and_methods_reach_the_right_copies():
         ProcessGroupsVecEnv([Dice] * 5, 6)
 
 
+def short_floor() -> Floor:
+    """A built-in floor cut at 2,000 s: episodes of 3 decisions, so 8 steps of a vector
+    cross episode ends."""
+    return Floor(None, Navigator, park_idle=True, max_time_s=2000.0, with_state=True)
+
+
+def lean(info: dict) -> dict:
+    """An info as ``FloorsVecEnv`` gives it: ``TimeLimit.truncated`` only when true."""
+    return {k: v for k, v in info.items() if k != "TimeLimit.truncated" or v}
+
+
+def test_a_vector_of_floors_steps_each_as_its_own_env():
+    """k floors in one ``FloorsVecEnv`` (and in two processes of them) give every floor the
+    trajectory of its own ``TargetEvaluationEnv`` in a ``DummyVecEnv``: observations, rewards,
+    ends, end infos, and the seeds of the episodes after the first."""
+    k, steps = 3, 8
+    actions = np.random.default_rng(0).uniform(-1, 1, (steps, k, 2)).astype(np.float32)
+
+    def trace(venv):
+        venv.seed(11)
+        out = [venv.reset()]
+        for a in actions:
+            obs, rewards, dones, infos = venv.step(a)
+            out.append((obs, rewards, dones, [lean(i) for i in infos]))
+        venv.close()
+        return out
+
+    want = trace(DummyVecEnv([lambda: TargetEvaluationEnv(short_floor())] * k))
+    assert sum(d.sum() for _, _, d, _ in want[1:]) >= k  # every floor ended at least once
+    for venv in (FloorsVecEnv([short_floor] * k),
+                 ProcessGroupsVecEnv([short_floor] * k, 2, vectorize=FloorsVecEnv)):
+        got = trace(venv)
+        np.testing.assert_array_equal(got[0], want[0])
+        for (obs, rewards, dones, infos), (w_obs, w_rewards, w_dones, w_infos) in \
+                zip(got[1:], want[1:], strict=True):
+            np.testing.assert_array_equal(obs, w_obs)
+            assert rewards.dtype == w_rewards.dtype and np.array_equal(rewards, w_rewards)
+            np.testing.assert_array_equal(dones, w_dones)
+            for info, w_info in zip(infos, w_infos, strict=True):
+                assert info.keys() == w_info.keys()
+                for key, value in w_info.items():
+                    if key == "terminal_observation":
+                        np.testing.assert_array_equal(info[key], value)
+                    else:
+                        assert info[key] == value, key
+
+
 def test_scaffold_vec_env_is_in_process_for_one_cpu():
     assert isinstance(vec_env([Dice] * 3, 1), DummyVecEnv)
 
@@ -107,7 +156,7 @@ def test_stage2_runs_num_cpus_processes():
         venv.close()
     alone = stage2.make_vec_env(config.model_copy(update={"num_cpus": 1}), case, seed=4)
     try:
-        assert isinstance(alone.venv, DummyVecEnv)
+        assert isinstance(alone.venv, FloorsVecEnv)
         np.testing.assert_array_equal(alone.reset(), obs)
     finally:
         alone.close()

@@ -188,18 +188,20 @@ def train_ppo(run: Run, make_venv: Callable[[], Any], new_model: Callable[[Any],
     return final
 
 
-def vec_env(env_fns: list[Callable[[], Any]], num_cpus: int):
-    """An SB3 vector env of ``len(env_fns)`` Gymnasium env copies stepped by ``num_cpus``
-    processes: all in this process for 1 (``DummyVecEnv``), else that many worker processes,
-    each stepping its share of the copies (``vec_env.ProcessGroupsVecEnv``). Copy k is seeded
-    ``seed + k`` by ``venv.seed(seed)`` either way, so ``num_cpus`` changes no result."""
+def vec_env(env_fns: list[Callable[[], Any]], num_cpus: int, vectorize=None):
+    """An SB3 vector env of ``len(env_fns)`` env copies stepped by ``num_cpus`` processes:
+    all in this process for 1 (``vectorize(env_fns)``; default ``DummyVecEnv`` of Gymnasium
+    envs), else that many worker processes, each stepping its share of the copies in one
+    ``vectorize`` (``vec_env.ProcessGroupsVecEnv``). Copy k is seeded ``seed + k`` by
+    ``venv.seed(seed)`` either way, so ``num_cpus`` changes no result."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
+    vectorize = vectorize or DummyVecEnv
     if num_cpus == 1:
-        return DummyVecEnv(env_fns)
+        return vectorize(env_fns)
     from .vec_env import ProcessGroupsVecEnv
 
-    return ProcessGroupsVecEnv(env_fns, num_cpus)
+    return ProcessGroupsVecEnv(env_fns, num_cpus, vectorize=vectorize)
 
 
 # -- evaluation and checkpoints ----------------------------------------------------------------

@@ -3,13 +3,14 @@
     cmdp-train stage2 [--config training/configs/stage2.toml] [--set key=value ...]
                       [--out runs/stage2] [--resume CHECKPOINT.zip]
 
-Data flow: ``Stage2Env`` (``cmdp_pymunk.highlevel.TargetEvaluationEnv``: one step = one target
-evaluation; between two decisions the floor runs on with the low level, the scripted navigator
-or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs`` copies in
-``num_cpus`` processes) -> ``VecMonitor`` -> one PPO policy whose weights every crew shares.
-Its action is the desired position (Box(2), Eq. 4). The formulation (one shared policy making
-the team's decisions in sequence, each rewarded with the team's R_e until the next decision)
-is written down in ``cmdp_pymunk/highlevel.py``.
+Data flow: ``make_floor`` (``cmdp_pymunk.highlevel.Floor``, an engine: one decision = one
+target evaluation; between two decisions the floor runs on with the low level, the scripted
+navigator or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs``
+floors in ``num_cpus`` processes, each stepping its share in one ``vec_env.FloorsVecEnv``) ->
+``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
+position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
+sequence, each rewarded with the team's R_e until the next decision) is written down in
+``cmdp_pymunk/highlevel.py``.
 
 With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
 global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
@@ -32,25 +33,22 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 from typing import NamedTuple
 
-import gymnasium as gym
 import numpy as np
 from pydantic import model_validator
 
 import cmdp_pymunk
-from cmdp_pymunk import global_state as gs
-from cmdp_pymunk.evaluate import desired_position_of_first_choice
 from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.highlevel import TargetEvaluationEnv
+from cmdp_pymunk.highlevel import IDLE_CAUSES, Floor
 from cmdp_pymunk.reward import EVALUATION_TERMS
 
 from . import scaffold
 from .config import CountOrZero, Rate
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "stage2.toml"
-IDLE_CAUSES = ("predecessor", "area", "no_target")
 
 
 class Stage2Config(scaffold.PPOSettings):
@@ -100,84 +98,33 @@ def training_case(config: Stage2Config):
 
 
 def low_level_factory(spec: str):
-    """``make_low_level(env)`` for ``TargetEvaluationEnv``: the scripted navigator, or a
+    """``make_low_level(engine)`` for ``highlevel.Floor``: the scripted navigator, or a
     stage-1 model sampling its actions."""
-    def make(env):
+    def make(engine):
         from agents.specs import make_navigator
 
-        return make_navigator(spec, env, deterministic=False)
+        return make_navigator(spec, engine, deterministic=False)
 
     return make
 
 
-class Stage2Env(gym.Env):
-    """``TargetEvaluationEnv`` for training: its observation O^e, followed by the global state
-    when ``central_critic`` (bounds from both); ``teacher_action()`` is the priority
-    heuristic's choice as a desired position. Episode-end infos carry ``idle_steps`` by cause
-    and R_e's terms summed over the episode (``episode_terms``)."""
-
-    metadata = {"render_modes": []}
-
-    def __init__(self, config: Stage2Config, case=None):
-        self.config = config
-        case = case if case is not None else training_case(config)
-        # the scripted navigator reads the state, not the rays: idle crews are parked and no
-        # rays are cast (as cmdp-simulate does; the schedules are the same)
-        scripted = config.low_level == "scripted"
-        self.inner = TargetEvaluationEnv(low_level_factory(config.low_level), case=case,
-                                         stall_s=config.stall_s,
-                                         park_idle=scripted, blind=scripted)
-        self.actor_size = self.inner.observation_space.shape[0]
-        low, high = self.inner.observation_space.low, self.inner.observation_space.high
-        if config.central_critic:
-            s_low, s_high = gs.state_bounds(case)
-            low, high = np.concatenate([low, s_low]), np.concatenate([high, s_high])
-        self.observation_space = gym.spaces.Box(low, high, dtype=np.float32)
-        self.action_space = self.inner.action_space
-        self._terms = dict.fromkeys(EVALUATION_TERMS, 0.0)
-
-    def _observe(self, obs: np.ndarray) -> np.ndarray:
-        if not self.config.central_critic:
-            return obs
-        return np.concatenate([obs, self.inner.env.state()])
-
-    def reset(self, seed: int | None = None, options: dict | None = None):
-        super().reset(seed=seed)
-        if seed is None:
-            seed = int(self.np_random.integers(2**31))
-        obs, info = self.inner.reset(seed=seed)
-        self._terms = dict(info["evaluation_terms"])
-        return self._observe(obs), info
-
-    def step(self, action):
-        obs, rew, terminated, truncated, info = self.inner.step(action)
-        for k, v in info["evaluation_terms"].items():
-            self._terms[k] += v
-        if terminated or truncated:
-            info["episode_terms"] = dict(self._terms)
-            idle = dict.fromkeys(IDLE_CAUSES, 0)
-            for crew in self.inner.env.site.crews:
-                for cause, steps in crew.stats.idle_steps.items():
-                    idle[cause.name.lower()] += steps
-            info["idle_steps"] = idle
-            return np.zeros(self.observation_space.shape, np.float32), rew, terminated, \
-                truncated, info
-        return self._observe(obs), rew, terminated, truncated, info
-
-    def teacher_action(self) -> np.ndarray:
-        """The priority heuristic's choice for the deciding crew as a desired position."""
-        env = self.inner.env
-        i = env.agent_index[self.inner.deciding_agent]
-        return np.array(desired_position_of_first_choice(env.site.crews[i], env.site,
-                                                         env.positions[i]), dtype=np.float32)
+def make_floor(config: Stage2Config, case) -> Floor:
+    """A training floor: the config's low level and stall guard, the global state after O^e
+    with ``central_critic``. The scripted navigator reads the state, not the rays: idle crews
+    are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast."""
+    return Floor(case, low_level_factory(config.low_level), stall_s=config.stall_s,
+                 park_idle=config.low_level == "scripted", with_state=config.central_critic)
 
 
 def make_vec_env(config: Stage2Config, case, seed: int):
-    """``n_envs`` copies of ``Stage2Env`` stepped by ``num_cpus`` processes; copy k gets
-    ``seed + k``."""
+    """``n_envs`` floors stepped by ``num_cpus`` processes, each holding its share in one
+    ``FloorsVecEnv``; floor k gets ``seed + k``."""
     from stable_baselines3.common.vec_env import VecMonitor
 
-    venv = scaffold.vec_env([lambda: Stage2Env(config, case)] * config.n_envs, config.num_cpus)
+    from .vec_env import FloorsVecEnv
+
+    venv = scaffold.vec_env([partial(make_floor, config, case)] * config.n_envs,
+                            config.num_cpus, vectorize=FloorsVecEnv)
     venv.seed(seed)
     return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
 
@@ -191,36 +138,38 @@ class Decision(NamedTuple):
     info: dict
 
 
-def play_floor(env: Stage2Env, seed: int, choose: Callable[[np.ndarray], np.ndarray]) \
+def play_floor(floor: Floor, seed: int, choose: Callable[[np.ndarray], np.ndarray]) \
         -> list[Decision]:
-    """One floor of ``env`` on ``seed``, ``choose(observation)`` making every decision; the
-    last decision's info is the episode's end."""
-    obs, _ = env.reset(seed=seed)
-    decisions, done = [], False
-    while not done:
+    """One episode of ``floor`` on ``seed``, ``choose(observation)`` making every decision;
+    the last decision's info is the episode's end."""
+    floor.reset(seed)
+    decisions = []
+    while True:
+        obs = floor.observe()
         action = choose(obs)
-        next_obs, reward, terminated, truncated, info = env.step(action)
-        decisions.append(Decision(obs, action, reward, info))
-        obs, done = next_obs, terminated or truncated
-    return decisions
+        out = floor.decide(action)
+        done = out.terminated or out.truncated
+        decisions.append(Decision(obs, action, out.reward, floor.end_info() if done else {}))
+        if done:
+            return decisions
 
 
 def heuristic_samples(config: Stage2Config, case, episodes: int, seed: int, log=print):
     """(observations, teacher actions, discounted returns) of every decision of ``episodes``
     floors driven by the priority heuristic (through Eq. 4 at its best target)."""
-    env = Stage2Env(config, case)
+    floor = make_floor(config, case)
     observations, actions, returns = [], [], []
     for k in range(episodes):
-        floor = play_floor(env, seed + k, lambda _: env.teacher_action())
-        observations += [d.observation for d in floor]
-        actions += [d.action for d in floor]
+        played = play_floor(floor, seed + k, lambda _: floor.teacher_action())
+        observations += [d.observation for d in played]
+        actions += [d.action for d in played]
         g, back = 0.0, []
-        for d in reversed(floor):
+        for d in reversed(played):
             g = d.reward + config.gamma * g
             back.append(g)
         returns.extend(reversed(back))
-        log(f"heuristic episode {k + 1}/{episodes}: {len(floor)} decisions, makespan "
-            f"{floor[-1].info.get('makespan_s')}")
+        log(f"heuristic episode {k + 1}/{episodes}: {len(played)} decisions, makespan "
+            f"{played[-1].info.get('makespan_s')}")
     return (np.asarray(observations, np.float32), np.asarray(actions, np.float32),
             np.asarray(returns, np.float32))
 
@@ -308,17 +257,17 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
 
     if not isinstance(actor, LeanActor):
         actor = LeanActor.from_sb3(actor)
-    env = Stage2Env(config, case)
+    floor = make_floor(config, case)
     makespans, finished, stalled, decisions = [], 0, 0, 0
     for seed in seeds:
-        floor = play_floor(env, seed, lambda obs: actor.act(obs[None, :env.actor_size],
-                                                            deterministic=True)[0])
-        decisions += len(floor)
-        info = floor[-1].info
+        played = play_floor(floor, seed, lambda obs: actor.act(obs[None, :floor.actor_size],
+                                                               deterministic=True)[0])
+        decisions += len(played)
+        info = played[-1].info
         finished += info["makespan_s"] is not None
         stalled += bool(info["stalled"])
         makespans.append(info["makespan_s"] if info["makespan_s"] is not None
-                         else env.inner.env.site.time_s)
+                         else info["time_s"])
     return {"mean_makespan_s": float(np.mean(makespans)), "finished": finished,
             "stalled": stalled, "episodes": len(seeds), "decisions": decisions}
 
