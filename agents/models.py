@@ -289,7 +289,7 @@ def check_not_stuck(env, caps: int) -> None:
     limit = caps * env.case.simulation.reevaluate_after_steps
     for crew in env.site.crews:
         if crew.moving and crew.scope and crew.steps_since_reach >= limit:
-            x, y = env.world.bodies[crew.index].position
+            x, y, _ = env.engine.pose(crew.index)
             targets = ", ".join(sorted(target_id(env.site, t) for t in crew.scope))
             raise PolicyStuck(
                 f"the argmax navigator is stuck: {crew.id} has held its target(s) {targets} "
@@ -327,6 +327,6 @@ class ModelEvaluator(DesiredPositionEvaluator):
         if self.env is None:
             raise RuntimeError(f"{self.path}: ModelEvaluator.bind(env) first (it reads the "
                                "crews' headings there)")
-        heading = self.env.world.bodies[crew.index].angle
+        heading = self.env.engine.pose(crew.index)[2]
         obs = evaluation_observation(site, crew, position, heading, self.bounds)
         return self.actor.act(obs[None], deterministic=True)[0]

@@ -118,6 +118,11 @@ class Navigator:
         self.env = env
         self._episode = None
 
+    @property
+    def engine(self):
+        """The engine of the floor it drives (bound to an env over one, or to the engine)."""
+        return getattr(self.env, "engine", self.env)
+
     # -- set-up per episode -------------------------------------------------------------------
 
     def _setup(self) -> None:
@@ -221,7 +226,7 @@ class Navigator:
     def act(self, crew):
         if not crew.moving:
             return STAND_STILL
-        pose = self.env.engine.pose(crew.index)
+        pose = self.engine.pose(crew.index)
         x, y = pose[0], pose[1]
         target = best_target(crew)
         if target < 0:
@@ -308,7 +313,7 @@ class Navigator:
         for other in self.site.crews:
             if other is crew or other.status == CrewStatus.LEFT:
                 continue
-            ox, oy, _ = self.env.engine.pose(other.index)
+            ox, oy, _ = self.engine.pose(other.index)
             mask |= np.hypot(self.cx - ox, self.cy - oy) < other.spec.radius_m + r_self + 0.2
         field = self._field(crew, target, extra_blocked=mask)
         if field is not None:
@@ -346,7 +351,7 @@ class Navigator:
         for other in self.site.crews:
             if other is crew or other.status == CrewStatus.LEFT:
                 continue
-            ox, oy, _ = self.env.engine.pose(other.index)
+            ox, oy, _ = self.engine.pose(other.index)
             gap = math.hypot(ox - x, oy - y) - crew.spec.radius_m - other.spec.radius_m
             if gap > 1.5:
                 continue

@@ -262,14 +262,20 @@ class Engine:
 
     def set_target_values(self, i: int, values: dict[int, float]) -> None:
         """V_Tar for crew i's target scope, from outside (e.g. the stage-2 policy by Eq. 4):
-        one value per target of ``crew.scope``; Eq. 3 puts them into the crew's rays."""
-        crew = self.site.crews[i]
+        one value per target of ``crew.scope``; Eq. 3 puts them into the crew's rays. Only a
+        crew the engine asks for (``pending``) may be valued: a ValueError names them."""
+        crews = self.site.crews
+        if i not in self.pending:
+            asked = ", ".join(f"{j} ({crews[j].id})" for j in self.pending) or "none"
+            raise ValueError(f"crew {i} ({crews[i].id}) was not asked for target values; the "
+                             f"engine asks for crews: {asked}; fix: value only crews in "
+                             "engine.pending")
+        crew = crews[i]
         if values.keys() != crew.scope.keys():
             raise ValueError(f"{crew.id}: values for targets {sorted(values)}, but its scope is "
                              f"{sorted(crew.scope)}; fix: give one value per target in scope")
         crew.values = dict(values)
-        if i in self.pending:
-            self.pending.remove(i)
+        self.pending.remove(i)
 
     def pose(self, i: int) -> tuple[float, float, float]:
         """Crew i's pose on the plane: x, y (m, the plane's centre at 0) and heading (rad,

@@ -80,18 +80,6 @@ class Outcome:
     truncated: bool
 
 
-def value_scope(engine: Engine, i: int, values: dict[int, float]) -> None:
-    """``engine.set_target_values`` for a crew whose scope the engine asks to be valued
-    (``engine.pending``); a ValueError naming the crews asked for any other."""
-    if i not in engine.pending:
-        crews = engine.site.crews
-        asked = ", ".join(f"{j} ({crews[j].id})" for j in engine.pending) or "none"
-        raise ValueError(f"crew {i} ({crews[i].id}) was not asked for target values; the "
-                         f"engine asks for crews: {asked}; fix: value only crews in "
-                         "engine.pending")
-    engine.set_target_values(i, values)
-
-
 class Floor:
     """One stage-2 floor: decisions in, R_e out (see the module doc)."""
 
@@ -140,7 +128,7 @@ class Floor:
             raise RuntimeError("decide() with no crew deciding: the episode has ended; call "
                                "reset(seed) first")
         self.deciding = None
-        value_scope(self.engine, i, desired_position_values(desired, self.engine.site.crews[i],
+        self.engine.set_target_values(i, desired_position_values(desired, self.engine.site.crews[i],
                                                             self.engine.site))
         return self._run()
 
@@ -169,7 +157,7 @@ class Floor:
             if len(scope) > 1:
                 self.deciding = i
                 return True
-            value_scope(engine, i, {t: 1.0 for t in scope})
+            engine.set_target_values(i, {t: 1.0 for t in scope})
         return False
 
     # -- what the policy reads ----------------------------------------------------------------
@@ -181,7 +169,7 @@ class Floor:
         if out is None:
             out = np.empty(len(self.low), np.float32)
         out[:self.actor_size] = observe.evaluation_observation(
-            engine.site, engine.site.crews[i], engine.positions[i], engine.world.bodies[i].angle,
+            engine.site, engine.site.crews[i], engine.positions[i], engine.pose(i)[2],
             self.evaluation_bounds)
         if self.with_state:
             out[self.actor_size:] = self.state()

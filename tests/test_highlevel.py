@@ -16,7 +16,7 @@ from cmdp_pymunk.evaluate import (
     PriorityEvaluator,
     desired_position_of_first_choice,
 )
-from cmdp_pymunk.highlevel import Floor, TargetEvaluationEnv, value_scope
+from cmdp_pymunk.highlevel import Floor, TargetEvaluationEnv
 
 SHORT_S = 5000.0  # long enough for several decisions, short enough for a fast test
 HIGHLEVEL = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "highlevel.py"
@@ -117,10 +117,10 @@ def test_a_value_for_a_crew_that_was_not_asked_is_refused():
     with pytest.raises(ValueError, match=rf"crew {other.index} \({other.id}\) was not asked "
                                          r"for target values; the engine asks for crews: "
                                          rf"{fl.deciding} \("):
-        value_scope(engine, other.index, {t: 0.7 for t in other.scope})
+        engine.set_target_values(other.index, {t: 0.7 for t in other.scope})
     assert other.values == before
     with pytest.raises(ValueError, match="one value per target in scope"):
-        value_scope(engine, fl.deciding, {})  # the engine's own check
+        engine.set_target_values(fl.deciding, {})  # the engine's own check
 
 
 def test_a_finished_floor_asks_for_a_reset():
