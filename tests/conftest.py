@@ -173,3 +173,31 @@ def make_log(rows=RUN) -> EventLog:
 
 def make_events(rows=RUN) -> list[Event]:
     return make_log(rows).events
+
+
+def scripted_floor(evaluator="priority", case=None, seed: int = 0):
+    """The built-in (or given) floor with the scripted navigator bound as ``cmdp-simulate``
+    binds it (an evaluator's ``bind``, the lookahead's low level), reset: (env, navigator)."""
+    import cmdp_pymunk
+    from agents.specs import make_navigator
+
+    env = cmdp_pymunk.parallel_env(case=case, seed=seed, evaluator=evaluator, park_idle=True,
+                                   blind=True, stall_s=3600.0)
+    if hasattr(env.evaluator, "bind"):
+        env.evaluator.bind(env)
+    navigator = make_navigator("scripted", env)
+    env.reset(seed=seed)
+    navigator.reset(seed)
+    return env, navigator
+
+
+def play(env, navigator, until_s: float | None = None):
+    """Step the floor to its end (or to ``until_s``); returns the env."""
+    while env.agents and (until_s is None or env.site.time_s < until_s):
+        env.step(navigator.actions(env, None))
+    return env
+
+
+def play_floor(evaluator="priority", case=None, seed: int = 0):
+    """A whole floor under ``evaluator`` with the scripted navigator; returns the env."""
+    return play(*scripted_floor(evaluator, case, seed))

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import pytest
-from conftest import place
+from conftest import place, play, scripted_floor
 
-import cmdp_pymunk
-from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
 from cmdp_pymunk.construct import draw_pace
 from cmdp_pymunk.engine import Engine
@@ -16,17 +14,11 @@ from cmdp_pymunk.world import STORAGE
 
 
 def floor(evaluator=None, seed: int = 0):
-    env = cmdp_pymunk.parallel_env(seed=seed, evaluator=evaluator or PriorityEvaluator(),
-                                   park_idle=True, blind=True)
-    navigator = Navigator(env)
-    env.reset(seed=seed)
-    navigator.reset(seed)
-    return env, navigator
+    return scripted_floor(evaluator or PriorityEvaluator(), seed=seed)
 
 
 def run(env, navigator, until_s: float | None = None) -> None:
-    while env.agents and (until_s is None or env.site.time_s < until_s):
-        env.step(navigator.actions(env, None))
+    play(env, navigator, until_s)
 
 
 def paces(env) -> dict[str, float]:

@@ -7,28 +7,18 @@ import json
 
 import numpy as np
 import pytest
+from conftest import play_floor
 
 import cmdp_pymunk
 from agents.features import FEATURE_NAMES, FloorFacts
-from agents.navigator import Navigator
 from agents.student import StudentEvaluator
 from cmdp_pymunk.evaluate import PriorityEvaluator
 from training import distill
 
 
-def floor(evaluator, seed: int = 0):
-    env = cmdp_pymunk.parallel_env(seed=seed, evaluator=evaluator, park_idle=True, blind=True)
-    navigator = Navigator(env)
-    env.reset(seed=seed)
-    navigator.reset(seed)
-    while env.agents:
-        env.step(navigator.actions(env, None))
-    return env
-
-
 def test_a_student_without_weights_is_eq_9_exactly():
     zero = {t: [0.0] * len(FEATURE_NAMES) for t in ("JCC", "HIC", "GC", "RC", "FC")}
-    student, base = floor(StudentEvaluator(zero)), floor(PriorityEvaluator())
+    student, base = play_floor(StudentEvaluator(zero)), play_floor(PriorityEvaluator())
     assert student.log.events == base.log.events
 
 
@@ -36,8 +26,8 @@ def test_a_student_with_weights_changes_choices_and_holds_them():
     # a large weight against nearness (far targets first) overrides Eq. 9 on the floor
     w = [0.0] * len(FEATURE_NAMES)
     w[FEATURE_NAMES.index("nearness")] = -5.0
-    env = floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
-    assert env.site.done and env.log.events != floor(PriorityEvaluator()).log.events
+    env = play_floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
+    assert env.site.done and env.log.events != play_floor(PriorityEvaluator()).log.events
 
 
 def test_floor_facts_tail_by_hand(tiny_case):

@@ -5,27 +5,12 @@ from __future__ import annotations
 import json
 
 import pytest
+from conftest import play_floor
 
 import cmdp_pymunk
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings, promote, ranked
-from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
-from agents.specs import make_evaluator, make_navigator
-
-
-def floor(evaluator, case=None, seed: int = 0):
-    env = cmdp_pymunk.parallel_env(case=case, seed=seed, evaluator=evaluator, park_idle=True,
-                                   blind=True, stall_s=3600.0)
-    if hasattr(evaluator, "bind"):
-        evaluator.bind(env)
-    make_navigator("scripted", env)
-    navigator = env.evaluator.navigator if hasattr(env.evaluator, "navigator") else None
-    navigator = navigator or Navigator(env)
-    env.reset(seed=seed)
-    navigator.reset(seed)
-    while env.agents:
-        env.step(navigator.actions(env, None))
-    return env
+from agents.specs import make_evaluator
 
 
 def test_promote_swaps_the_chosen_target_with_the_best():
@@ -37,8 +22,8 @@ def test_promote_swaps_the_chosen_target_with_the_best():
 
 def test_one_candidate_is_the_base_rule_exactly():
     lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=0))
-    env = floor(lookahead)
-    base = floor(PriorityEvaluator())
+    env = play_floor(lookahead)
+    base = play_floor(PriorityEvaluator())
     assert env.site.done and env.makespan_s == base.makespan_s
     assert env.log.events == base.log.events
     assert lookahead.decisions == []
@@ -56,7 +41,7 @@ class Recording(LookaheadEvaluator):
 
 def test_candidates_meet_the_same_sampled_futures(tiny_case):
     lookahead = Recording(settings=LookaheadSettings(candidates=2, futures=2))
-    env = floor(lookahead, tiny_case)
+    env = play_floor(lookahead, tiny_case)
     assert env.site.done and lookahead.decisions
     by_decision: dict = {}
     for decision, _, target, scenario in lookahead.calls:
@@ -76,8 +61,8 @@ def test_the_true_future_branch_replays_the_floor(tiny_case):
     # futures=0 branches into the floor's own future: the branch that takes the base rule's
     # choice is the base rule's floor itself
     lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=0))
-    floor(lookahead, tiny_case)
-    base = floor(PriorityEvaluator(), tiny_case)
+    play_floor(lookahead, tiny_case)
+    base = play_floor(PriorityEvaluator(), tiny_case)
     first = lookahead.decisions[0]
     assert first.makespans_s[first.candidates.index(first.base_choice)] == base.makespan_s
 
@@ -118,7 +103,7 @@ def test_worker_processes_choose_as_this_process_does(tiny_case):
     one = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=2))
     two = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=2, workers=2))
     try:
-        env_one, env_two = floor(one, tiny_case), floor(two, tiny_case)
+        env_one, env_two = play_floor(one, tiny_case), play_floor(two, tiny_case)
     finally:
         two.close()
     assert [(d.candidates, d.makespans_s, d.choice) for d in one.decisions] == \
