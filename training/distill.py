@@ -167,7 +167,7 @@ def fit_weights(data: dict, tau_s: float, l2: float) -> tuple[dict[str, np.ndarr
             logits = np.where(mask, beta * (v0 + phi @ w), -np.inf)
             top = logits.max(axis=1, keepdims=True)
             logp = logits - top - np.log(np.exp(logits - top).sum(axis=1, keepdims=True))
-            ce = -np.sum(np.where(mask, p * logp, 0.0)) / len(v0)
+            ce = -np.sum(p * np.where(mask, logp, 0.0)) / len(v0)  # padded: p = 0
             return ce + l2 * float(w @ w) / len(v0)
 
         x0 = np.zeros(1 + nf)
