@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.evaluate import DesiredPositionEvaluator
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.observe import (
@@ -289,7 +290,7 @@ def check_not_stuck(env, caps: int) -> None:
     limit = caps * env.case.simulation.reevaluate_after_steps
     for crew in env.site.crews:
         if crew.moving and crew.scope and crew.steps_since_reach >= limit:
-            x, y, _ = env.engine.pose(crew.index)
+            x, y, _ = engine_of(env).pose(crew.index)
             targets = ", ".join(sorted(target_id(env.site, t) for t in crew.scope))
             raise PolicyStuck(
                 f"the argmax navigator is stuck: {crew.id} has held its target(s) {targets} "
@@ -327,6 +328,6 @@ class ModelEvaluator(DesiredPositionEvaluator):
         if self.env is None:
             raise RuntimeError(f"{self.path}: ModelEvaluator.bind(env) first (it reads the "
                                "crews' headings there)")
-        heading = self.env.engine.pose(crew.index)[2]
+        heading = engine_of(self.env).pose(crew.index)[2]
         obs = evaluation_observation(site, crew, position, heading, self.bounds)
         return self.actor.act(obs[None], deterministic=True)[0]

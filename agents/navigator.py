@@ -29,6 +29,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.state import CrewStatus, ScopeKind
 
@@ -121,7 +122,7 @@ class Navigator:
     @property
     def engine(self):
         """The engine of the floor it drives (bound to an env over one, or to the engine)."""
-        return getattr(self.env, "engine", self.env)
+        return engine_of(self.env)
 
     # -- set-up per episode -------------------------------------------------------------------
 

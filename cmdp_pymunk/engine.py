@@ -53,6 +53,11 @@ from .streams import RandomStreams
 from .world import World
 
 
+def engine_of(floor) -> Engine:
+    """The engine of a floor given as an engine or as an env over one (``env.engine``)."""
+    return getattr(floor, "engine", floor)
+
+
 @dataclass
 class Second:
     """What one simulated second did, per crew: for rewards' and metrics' sake."""
