@@ -92,13 +92,12 @@ def candidate_features(facts: FloorFacts, crew, site, position, targets: list[in
     unlock = [facts.unlock_s[task.index] for task in tasks]
     now = [sum(all(site.tasks[p].pool == Pool.END for p in site.tasks[s].predecessors
                    if p != task.index) for s in task.successors) for task in tasks]
-    others = [(c, site.crews[c.index]) for c in site.crews
-              if c.index != crew.index and c.status != CrewStatus.LEFT]
+    others = [c for c in site.crews if c.index != crew.index and c.status != CrewStatus.LEFT]
     xy = [site.target_xy[t] for t in targets]
-    pos = {c.index: position_of(c) for c, _ in others}
+    pos = {c.index: position_of(c) for c in others}
     teammate = [float(any(c.type == crew.type and math.dist(pos[c.index], xy[k]) < dist[k]
-                          for c, _ in others)) for k in range(len(targets))]
-    crowd = [sum(math.dist(pos[c.index], xy[k]) < NEAR_M for c, _ in others)
+                          for c in others)) for k in range(len(targets))]
+    crowd = [sum(math.dist(pos[c.index], xy[k]) < NEAR_M for c in others)
              for k in range(len(targets))]
     areas = [sum(_rect_distance(site.tasks[a].area, xy[k]) < NEAR_M for a in site.active_areas)
              for k in range(len(targets))]

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cmdp_pymunk.evaluate import PriorityEvaluator
+from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values
 from cmdp_pymunk.state import ScopeKind
 
 from .features import FEATURE_NAMES, FloorFacts, candidate_features
@@ -61,7 +61,7 @@ class StudentEvaluator:
 
     def target_values(self, crew, site, position) -> dict[int, float]:
         priorities = self.base.priorities(crew, site, position)
-        values = self.base.target_values(crew, site, position)
+        values = as_target_values(priorities)  # Eq. 9's V_Tar, from V' computed once
         held = self._held.setdefault(site, {})
         if crew.index in held:
             target, reaches = held[crew.index]
