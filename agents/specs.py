@@ -43,9 +43,14 @@ def make_evaluator(spec: str):
         return StudentEvaluator.load(spec.split(":", 1)[1])
     if spec == "lookahead" or spec.startswith("lookahead:"):
         return make_lookahead(spec.partition(":")[2])
+    path = model_path(spec, "--evaluator")
+    from .candidates import CandidateModelEvaluator, is_candidate_model
+
+    if is_candidate_model(path):  # a masked choice (MaskablePPO), not a desired position
+        return CandidateModelEvaluator(path)
     from .models import ModelEvaluator  # needs stable-baselines3
 
-    return ModelEvaluator(model_path(spec, "--evaluator"))
+    return ModelEvaluator(path)
 
 
 def make_lookahead(options: str):

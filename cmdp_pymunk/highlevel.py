@@ -127,9 +127,19 @@ class Floor:
         if i is None:
             raise RuntimeError("decide() with no crew deciding: the episode has ended; call "
                                "reset(seed) first")
+        return self.value_scope(desired_position_values(desired, self.engine.site.crews[i],
+                                                        self.engine.site))
+
+    def value_scope(self, values: dict[int, float]) -> Outcome:
+        """The deciding crew's scope valued ``values`` (V_Tar per target), then the floor runs
+        on to the next decision or the episode's end (``decide`` with Eq. 4; other action
+        forms, such as the masked choice of ``agents.candidates``, give their values here)."""
+        i = self.deciding
+        if i is None:
+            raise RuntimeError("value_scope() with no crew deciding: the episode has ended; "
+                               "call reset(seed) first")
         self.deciding = None
-        self.engine.set_target_values(i, desired_position_values(desired, self.engine.site.crews[i],
-                                                            self.engine.site))
+        self.engine.set_target_values(i, values)
         return self._run()
 
     def _run(self) -> Outcome:
