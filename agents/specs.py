@@ -18,8 +18,9 @@ EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority 
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
                   "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
                   "(branch the floor at each decision; futures=0 sees the true durations), "
-                  "student:PATH (Eq. 9 plus a residual fitted to the lookahead), "
-                  "or a stage-2 model .zip")
+                  "student:PATH (Eq. 9 plus a residual: fitted to the lookahead, or a "
+                  "cmdp-search-rule rule.json), or a stage-2 model .zip (a desired position "
+                  "or a masked choice)")
 
 
 def make_evaluator(spec: str):

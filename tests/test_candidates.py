@@ -127,3 +127,33 @@ def test_a_short_candidate_run_resumes_and_deploys(tmp_path):
 
     row = EpisodeRunner(load_case(TINY_CASE)).run(evaluator, "scripted", 0)
     assert row["finished"]
+
+
+def test_terminal_term_against_the_heuristic_by_hand():
+    from training.candidates import terminal_term
+
+    # R_e's makespan term -0.001 per second; Eq. 9 took 30,000 s on this seed.
+    # Finished in 32,000 s: +30 at the end, so the floor's makespan part is
+    # -32 + 30 = -2 = -0.001 * (32,000 - 30,000)
+    assert terminal_term(-0.001, 30_000.0, 32_000.0, True, 80_000.0) == pytest.approx(30.0)
+    # stalled at 5,000 s of an 80,000 s limit: counted as 160,000 s, so -5 + (30 - 155) = -130
+    assert terminal_term(-0.001, 30_000.0, 5_000.0, False, 80_000.0) == pytest.approx(-125.0)
+
+
+def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
+    # Eq. 9 itself (row 0 everywhere) on a pooled seed (4 mod 3 = 1): the rewards sum to the
+    # floor's R_e terms plus 0.001 x its own makespan, so the makespan part cancels
+    case = far_start_case()
+    floor = stage2.make_floor(candidate_config(against_heuristic=True, seed_pool=3), case)
+    total = floor.reset(4)
+    while True:
+        out = floor.decide(0)
+        total += out.reward
+        if out.terminated or out.truncated:
+            break
+    makespan = floor.engine.makespan_s
+    assert out.terminated and floor.heuristic_makespan_s(1) == makespan
+    terms = sum(floor.floor.terms.values())  # includes -0.001 x makespan and the completion
+    assert total == pytest.approx(terms + 0.001 * makespan)
+    assert terms + 0.001 * makespan == pytest.approx(terms - case.evaluation_reward.episode
+                                                     * makespan)

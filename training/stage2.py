@@ -87,9 +87,18 @@ class Stage2Config(scaffold.PPOSettings):
     # the candidate policy starts as this searched rule (a student file of cmdp-search-rule,
     # one weight vector for every crew type) instead of Eq. 9; "" for Eq. 9
     start_rule: str = ""
+    # reward: at a floor's end, R_e's makespan term against Eq. 9's makespan on the same seed
+    # (training.candidates.terminal_term; candidate action only), and the training seeds
+    # taken modulo seed_pool (0: any seed) so that Eq. 9 plays each seed once
+    against_heuristic: bool = False
+    seed_pool: CountOrZero = 0
 
     @model_validator(mode="after")
     def _candidate_settings(self) -> Stage2Config:
+        if (self.start_rule or self.against_heuristic or self.seed_pool) \
+                and self.action != "candidate":
+            raise ValueError("start_rule, against_heuristic and seed_pool are for action = "
+                             "\"candidate\"; fix: --set action=candidate, or drop them")
         if self.start_rule and self.action != "candidate":
             raise ValueError("start_rule is for action = \"candidate\"; fix: --set "
                              "action=candidate, or drop start_rule")
@@ -141,7 +150,9 @@ def make_floor(config: Stage2Config, case):
     if config.action == "candidate":
         from .candidates import CandidateFloor
 
-        return CandidateFloor(floor, config.candidates)
+        plain = config.model_copy(update={"action": "desired_position", "start_rule": ""})
+        reference = partial(make_floor, plain, case) if config.against_heuristic else None
+        return CandidateFloor(floor, config.candidates, reference, config.seed_pool)
     return floor
 
 
@@ -284,6 +295,8 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
     SB3 model): makespans, how many finished, how many stalled."""
     from agents.models import LeanActor
 
+    # the evaluation's own seeds as given, and no reference floors: only makespans are read
+    config = config.model_copy(update={"against_heuristic": False, "seed_pool": 0})
     floor = make_floor(config, case)
     if config.action == "candidate":
         def choose(obs):
