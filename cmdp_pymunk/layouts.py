@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import BUILTIN_CASE, case_from_dict
+from .floorplan import PRECAST_RECIPE, build_tasks
 
 LAYOUT_DIR = Path(__file__).with_name("cases") / "layouts"
 TRAIN_SEEDS = tuple(range(6))
@@ -40,9 +41,6 @@ MARGIN_X_M = 7.0  # open floor beside the outer components: crews start and leav
 MARGIN_Y_M = 8.0  # room for the storages along the top and bottom edges
 PRECAST_M = 2.0
 JOINT_LONG_M, JOINT_SHORT_M = 2.0, 1.2
-REBAR_M3_PER_JOINT = 0.5
-FORMWORK_M2_PER_JOINT = 12.0
-STRUT_SETS_PER_PRECAST = 1.0
 STORAGES = (("ST-rebars", "rebars", 6.0, 3.0, 3.0, 0.5),  # id, material, w, h, capacity, I
             ("ST-templates", "templates", 6.0, 3.0, 80.0, 0.5),
             ("ST-struts", "struts", 5.0, 3.0, 12.0, 0.6))
@@ -105,7 +103,7 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
                          "capacity": capacity, "congestion_index_full": index})
 
     precast = {}
-    components, tasks = [], []
+    components = []
     for r, y in enumerate(ys):
         for c, x in enumerate(xs):
             pid = f"P-{r + 1}{c + 1}"
@@ -126,20 +124,8 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
     for jid, x, y, w, h, _ in joints:
         components.append({"id": jid, "kind": "cast-in-place", "x_m": x, "y_m": y,
                            "width_m": w, "height_m": h})
-    for pid in precast.values():
-        tasks.append({"id": f"JC-{pid}", "type": "JC", "component": pid})
-        tasks.append({"id": f"HI-{pid}", "type": "HI", "component": pid,
-                      "material_quantity": STRUT_SETS_PER_PRECAST,
-                      "predecessors": [f"JC-{pid}"]})
-        tasks.append({"id": f"G-{pid}", "type": "G", "component": pid,
-                      "predecessors": [f"HI-{pid}"]})
-    for jid, *_, ends in joints:
-        tasks.append({"id": f"R-{jid}", "type": "R", "component": jid,
-                      "work": REBAR_M3_PER_JOINT, "material_quantity": REBAR_M3_PER_JOINT,
-                      "predecessors": [f"HI-{p}" for p in ends]})
-        tasks.append({"id": f"F-{jid}", "type": "F", "component": jid,
-                      "work": FORMWORK_M2_PER_JOINT, "material_quantity": FORMWORK_M2_PER_JOINT,
-                      "predecessors": [f"R-{jid}"]})
+    ends = {jid: joint_ends for jid, *_, joint_ends in joints}
+    tasks = build_tasks([(c["id"], c["kind"]) for c in components], PRECAST_RECIPE, ends)
 
     simulation = dict(base["simulation"])
     simulation["max_time_s"] = max(simulation["max_time_s"],
