@@ -1,0 +1,218 @@
+"""The IFC importer and the 4D export (``cmdp_pymunk.ifc``, ``cmdp-import-ifc``,
+``cmdp-simulate --ifc``) on models built in the test with ``ifcopenshell.api``
+(``tests/ifc_models.py``). Skipped without the [ifc] extra."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+
+ifcopenshell = pytest.importorskip("ifcopenshell")
+
+from cmdp_pymunk.case import CaseError, load_case  # noqa: E402
+from cmdp_pymunk.ifc import import_storey, load_overlay, read_4d  # noqa: E402
+from tests import ifc_models  # noqa: E402
+from training import import_ifc, simulate  # noqa: E402
+
+
+@pytest.fixture(scope="module", params=["IFC4", "IFC2X3"])
+def two_by_two(request, tmp_path_factory):
+    f, elements = ifc_models.two_by_two(request.param)
+    path = tmp_path_factory.mktemp(request.param) / "floor.ifc"
+    f.write(str(path))
+    return path, {n: e.GlobalId for n, e in elements.items()}
+
+
+def test_two_by_two_components_by_hand(two_by_two):
+    path, guids = two_by_two
+    data, report = import_storey(path, "Level 1")
+    comps = {c["id"]: c for c in data["components"]}
+    # the floor spans x 99..111, y 49..61: its centre (105, 55) is the origin
+    assert {k: (c["kind"], c["x_m"], c["y_m"], c["width_m"], c["height_m"])
+            for k, c in comps.items()} == {
+        "S-11": ("precast", -5.0, 5.0, 2.0, 2.0), "S-12": ("precast", 5.0, 5.0, 2.0, 2.0),
+        "S-21": ("precast", -5.0, -5.0, 2.0, 2.0), "S-22": ("precast", 5.0, -5.0, 2.0, 2.0),
+        "B-H1": ("cast-in-place", 0.0, 5.0, 2.0, 1.2),
+        "B-H2": ("cast-in-place", 0.0, -5.0, 2.0, 1.2),
+        "B-V1": ("cast-in-place", -5.0, 0.0, 1.2, 2.0),
+        "B-V2": ("cast-in-place", 5.0, 0.0, 1.2, 2.0)}
+    assert {k: c["ifc_guid"] for k, c in comps.items()} == guids
+    # plane: 12 x 12 m of components plus the default margins 6 (x) and 7 (y) on each side
+    assert data["plane"]["width_m"] == 24.0 and data["plane"]["height_m"] == 26.0
+    assert data["plane"]["outlet_x_m"] == -11.0
+    assert report.components_by_class == {"IfcSlab": 4, "IfcBeam": 4}
+    assert report.skipped_by_class == {"IfcWindow": 1}
+    assert report.precedences == "recipe"
+
+
+def test_two_by_two_tasks_and_precedences_by_hand(two_by_two):
+    data, report = import_storey(two_by_two[0], "Level 1")
+    preds = {t["id"]: t.get("predecessors", []) for t in data["tasks"]}
+    # 4 slabs x (JC, HI, G) + 4 beams x (R, F) = 20; R waits for HI on the slabs it joins,
+    # listed top row first, then left to right
+    assert report.tasks == len(preds) == 20
+    assert preds["JC-S-11"] == [] and preds["HI-S-11"] == ["JC-S-11"]
+    assert preds["G-S-22"] == ["HI-S-22"]
+    assert preds["R-B-H1"] == ["HI-S-11", "HI-S-12"]
+    assert preds["R-B-H2"] == ["HI-S-21", "HI-S-22"]
+    assert preds["R-B-V1"] == ["HI-S-11", "HI-S-21"]
+    assert preds["R-B-V2"] == ["HI-S-12", "HI-S-22"]
+    assert preds["F-B-V2"] == ["R-B-V2"]
+    tasks = {t["id"]: t for t in data["tasks"]}
+    assert tasks["HI-S-11"]["material_quantity"] == 1.0  # a strut set per slab
+    assert (tasks["R-B-H1"]["work"], tasks["F-B-H1"]["work"]) == (0.5, 12.0)
+    # seven crews as the built-in case, in the left margin, 3 m apart, centred on y = 0
+    assert [c["id"] for c in data["crews"]] == ["JCC-1", "HIC-1", "GC-1", "RC-1", "RC-2",
+                                                "FC-1", "FC-2"]
+    assert [c["start_y_m"] for c in data["crews"]] == [-9.0, -6.0, -3.0, 0.0, 3.0, 6.0, 9.0]
+    assert {c["start_x_m"] for c in data["crews"]} == {-9.5}
+
+
+def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    case_file = tmp_path / "floor.toml"
+    assert import_ifc.main([str(model), "--storey", "Level 1", "--out", str(case_file)]) == 0
+    out = capsys.readouterr().out
+    assert "8 components (4 IfcBeam, 4 IfcSlab), 20 tasks, 7 crews" in out
+    assert "skipped (not in the recipe): 1 IfcWindow" in out
+    case = load_case(case_file)
+    assert len(case.tasks) == 20
+    run = tmp_path / "run"
+    assert simulate.main(["--case", str(case_file), "--out", str(run), "--no-charts",
+                          "--no-progress", "--ifc", str(model),
+                          "--ifc-start", "2026-03-02T07:00:00"]) == 0
+    rows = (run / "schedule.csv").read_text().splitlines()[1:]
+    assert len(rows) == 20
+    sim = {r.split(",")[0]: r.split(",") for r in rows}
+    tasks = {t["id"]: t for t in read_4d(run / "floor-4d.ifc")}
+    assert set(tasks) == set(sim)
+    import datetime
+
+    t0 = datetime.datetime(2026, 3, 2, 7, 0, 0)
+    for task_id, (_, crew, start_s, end_s, *_rest) in sim.items():
+        got = tasks[task_id]
+        assert got["start"] == (t0 + datetime.timedelta(seconds=float(start_s))).isoformat()
+        assert got["finish"] == (t0 + datetime.timedelta(seconds=float(end_s))).isoformat()
+        assert got["crews"] == [crew]
+        component = task_id.split("-", 1)[1]
+        assert got["products"] == [elements[component].GlobalId]
+    assert sorted(tasks["R-B-H1"]["predecessors"]) == ["HI-S-11", "HI-S-12"]
+    # the exported model imports again: its sequences now give the precedences
+    data, report = import_storey(run / "floor-4d.ifc", "Level 1")
+    assert report.precedences == "model"
+    again = {t["id"]: sorted(t.get("predecessors", [])) for t in data["tasks"]}
+    assert again == {t.id: sorted(t.predecessors) for t in case.tasks}
+
+
+def test_a_4d_sequence_replaces_the_recipes_links(tmp_path):
+    f, elements = ifc_models.two_by_two("IFC4")
+    # "Install S-11" stands for S-11's whole chain; "HI S-12" for HI on S-12 only
+    ifc_models.add_schedule(f, elements, {"Install S-11": ["S-11"], "HI S-12": ["S-12"],
+                                          "Beam B-H1": ["B-H1"]},
+                            [("Install S-11", "HI S-12"), ("HI S-12", "Beam B-H1")])
+    path = tmp_path / "4d.ifc"
+    f.write(str(path))
+    data, report = import_storey(path, "Level 1")
+    preds = {t["id"]: t.get("predecessors", []) for t in data["tasks"]}
+    assert report.precedences == "model"
+    assert preds["HI-S-12"] == ["JC-S-12", "G-S-11"]  # its chain, then the end of S-11's
+    assert preds["R-B-H1"] == ["HI-S-12"]  # the model's link, not the recipe's two
+    assert preds["R-B-V1"] == []  # no sequence reaches it: the recipe's links are gone
+    assert preds["F-B-H1"] == ["R-B-H1"]
+
+
+def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    out = tmp_path / "case.toml"
+
+    def fails(args, *expected):
+        assert import_ifc.main(args + ["--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        for text in expected:
+            assert text in err, err
+        assert not out.exists()
+
+    text = tmp_path / "notes.ifc"
+    text.write_text("hello")
+    fails([str(text), "--storey", "Level 1"], "notes.ifc: is not an IFC file")
+    fails([str(model), "--storey", "Level 9"], 'has no storey "Level 9"',
+          'use one of its storeys: "Level 1", "Level 2"')
+    fails([str(model), "--storey", "Level 2"], 'storey "Level 2" has no elements of the '
+          "recipe's classes")
+    overlay = tmp_path / "overlay.toml"
+    overlay.write_text('[crews]\nJCC = 1\nHXC = 1\n[recipe.classes]\nIfcSlab = "precast"\n'
+                       '[recipe.chains]\nprecast = [{type = "JC"}, {type = "HX"}]\n')
+    fails([str(model), "--storey", "Level 1", "--overlay", str(overlay)],
+          'overlay.toml: crews.HXC: names unknown crew type "HXC"; did you mean "HIC"?',
+          'recipe.chains.precast[1]: type names unknown task type "HX"; fix: use one of "JC", '
+          '"HI", "G", "R", "F"')
+    overlay.write_text('[task_types.JC]\nname = "x"\ncrew_type = "JXC"\narea_distance_m = 1.0\n'
+                       "congestion_index = 0.5\n")
+    fails([str(model), "--storey", "Level 1", "--overlay", str(overlay)],
+          'task type JC needs crew type "JXC", which is not in [crew_types]')
+
+
+def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    level = f.by_type("IfcBuildingStorey")[0]
+    body = f.by_type("IfcGeometricRepresentationSubContext")[0]
+    # a slab over S-11's top-right corner, and an L-shaped slab away from the floor
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-X", ifc_models.box(101, 61, 2, 2))
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-L",
+                           [(90, 50), (94, 50), (94, 51), (91, 51), (91, 54), (90, 54)])
+    path = tmp_path / "bad.ifc"
+    f.write(str(path))
+    with pytest.raises(CaseError) as err:
+        import_storey(path, "Level 1")
+    # L: 4 + 3 = 7 m2 of its 4 x 4 = 16 m2 rectangle -> 44%
+    assert 'IfcSlab "S-L"' in str(err.value) and "fills 44% of its 4.00 x 4.00 m" in str(err.value)
+    assert "min_fill = 0.43" in str(err.value)
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[import]\nmin_fill = 0.4\n")
+    with pytest.raises(CaseError) as err:
+        import_storey(path, "Level 1", load_overlay(overlay))
+    assert 'IfcSlab "S-11"' in str(err.value) and 'IfcSlab "S-X"' in str(err.value)
+    assert "footprints overlap by 1.00 x 1.00 m" in str(err.value)
+
+
+def test_a_fixed_plane_too_small_is_reported(two_by_two, tmp_path):
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[plane]\nwidth_m = 10.0\n")
+    with pytest.raises(CaseError, match="outside the plane"):
+        import_storey(two_by_two[0], "Level 1", load_overlay(overlay))
+
+
+def test_a_cycle_in_the_4d_sequence_is_reported(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    ifc_models.add_schedule(f, elements, {"A": ["S-11"], "B": ["S-12"]}, [("A", "B"), ("B", "A")])
+    path = tmp_path / "cycle.ifc"
+    f.write(str(path))
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out",
+                            str(tmp_path / "c.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "cycle of IfcRelSequence" in err and 'IfcTask "A"' in err and 'IfcTask "B"' in err
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_ifc2x3_cannot_take_a_4d_schedule(two_by_two, tmp_path, capsys):
+    path, _ = two_by_two
+    if ifcopenshell.open(str(path)).schema != "IFC2X3":
+        pytest.skip("IFC2X3 only")
+    case_file = tmp_path / "c.toml"
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(case_file)]) == 0
+    assert simulate.main(["--case", str(case_file), "--out", str(tmp_path / "r"), "--ifc",
+                          str(path), "--no-progress", "--no-charts"]) == 2
+    assert "IFC2X3, which has no IfcTaskTime" in capsys.readouterr().err
+
+
+def test_the_written_file_is_toml_with_the_guids(two_by_two, tmp_path):
+    case_file = tmp_path / "c.toml"
+    assert import_ifc.main([str(two_by_two[0]), "--storey", "Level 1", "--out",
+                            str(case_file)]) == 0
+    data = tomllib.loads(case_file.read_text())
+    assert {c["id"]: c["ifc_guid"] for c in data["components"]} == two_by_two[1]
