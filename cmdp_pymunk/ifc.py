@@ -616,6 +616,70 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes)
 
 
+# -- a case as a model -----------------------------------------------------------------------
+
+def model_from_case(case, storey: str = "Level 1", origin: tuple[float, float] = (0.0, 0.0),
+                    classes: dict[str, str] | None = None, seed: str = "cmdp"):
+    """An IFC4 model of a case's components: one storey, each component a box 0.3 m thick
+    (IfcSlab for "precast", IfcBeam for "cast-in-place", by default; other kinds
+    IfcBuildingElementProxy) named by its id, its centre at ``origin`` + the component's
+    centre. GlobalIds are derived from ``seed`` and the ids, and the header's time stamp is
+    fixed, so one case gives one file byte for byte. The model's length unit is the
+    millimetre, as BIM tools write; the importer reads metres back."""
+    require_ifcopenshell()
+    import uuid
+
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.context
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.project
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+    import ifcopenshell.api.unit
+    import ifcopenshell.guid
+    import numpy as np
+
+    api = ifcopenshell.api
+    classes = classes or {"precast": "IfcSlab", "cast-in-place": "IfcBeam"}
+    f = api.project.create_file(version="IFC4")
+    made = []
+
+    def entity(ifc_class: str, name: str):
+        e = api.root.create_entity(f, ifc_class=ifc_class, name=name)
+        e.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(uuid.NAMESPACE_URL,
+                                                           f"{seed}/{ifc_class}/{name}").hex)
+        made.append(e)
+        return e
+
+    project = entity("IfcProject", case.case.name)
+    api.unit.assign_unit(f)
+    model = api.context.add_context(f, context_type="Model")
+    body = api.context.add_context(f, context_type="Model", context_identifier="Body",
+                                   target_view="MODEL_VIEW", parent=model)
+    site, building = entity("IfcSite", "Site"), entity("IfcBuilding", "Building")
+    level = entity("IfcBuildingStorey", storey)
+    api.aggregate.assign_object(f, products=[site], relating_object=project)
+    api.aggregate.assign_object(f, products=[building], relating_object=site)
+    api.aggregate.assign_object(f, products=[level], relating_object=building)
+    elements = []
+    for comp in case.components:
+        element = entity(classes.get(comp.kind, "IfcBuildingElementProxy"), comp.id)
+        w, h = comp.width_m, comp.height_m
+        rep = api.geometry.add_slab_representation(f, context=body, depth=0.3,
+                                                   polyline=[(0, 0), (w, 0), (w, h), (0, h)])
+        api.geometry.assign_representation(f, product=element, representation=rep)
+        matrix = np.eye(4)
+        matrix[:2, 3] = (origin[0] + comp.x_m - w / 2, origin[1] + comp.y_m - h / 2)
+        api.geometry.edit_object_placement(f, product=element, matrix=matrix)
+        elements.append(element)
+    api.spatial.assign_container(f, products=elements, relating_structure=level)
+    for k, rel in enumerate(f.by_type("IfcRelationship")):  # made by the API: number them
+        rel.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(uuid.NAMESPACE_URL,
+                                                             f"{seed}/rel/{k}").hex)
+    f.header.file_name.time_stamp = "2026-01-01T00:00:00"
+    return f
+
+
 # -- 4D export -------------------------------------------------------------------------------
 
 def _iso(t: dt.datetime) -> str:

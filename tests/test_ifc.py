@@ -216,3 +216,41 @@ def test_the_written_file_is_toml_with_the_guids(two_by_two, tmp_path):
                             str(case_file)]) == 0
     data = tomllib.loads(case_file.read_text())
     assert {c["id"]: c["ifc_guid"] for c in data["components"]} == two_by_two[1]
+
+
+def test_the_sample_model_gives_the_built_in_case_back():
+    """cases/precast_floor.ifc is the built-in floor as BIM (tools/make_sample_ifc.py): the
+    importer's default overlay and recipe give back its components, tasks, crews, storages,
+    plane and crane; only the name and the time limit (1,000 s per task) differ."""
+    import cmdp_pymunk
+    from cmdp_pymunk.case import case_from_dict
+
+    sample = cmdp_pymunk.BUILTIN_CASE.with_name("precast_floor.ifc")
+    data, report = import_storey(sample, "Level 1")
+    imported = case_from_dict(data).model_dump()
+    builtin = load_case().model_dump()
+    assert all(c.pop("ifc_guid") for c in imported["components"])
+    assert not any(c.pop("ifc_guid") for c in builtin["components"])
+    for case in (imported, builtin):
+        case.pop("case")
+        case["simulation"].pop("max_time_s")
+    assert imported == builtin
+    assert report.components_by_class == {"IfcSlab": 15, "IfcBeam": 21}
+
+
+def test_the_sample_model_is_what_its_tool_writes():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    sample = root / "cmdp_pymunk" / "cases" / "precast_floor.ifc"
+    code = ("import sys; sys.path.insert(0, 'tools'); import make_sample_ifc as m; "
+            "import cmdp_pymunk; "
+            "print(m.model_from_case(cmdp_pymunk.load_case(), storey='Level 1', "
+            "origin=m.ORIGIN_M, seed='precast-floor').to_string(), end='')")
+    # a fresh process: a second model built in one process numbers its entities differently
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
+                         text=True, check=True).stdout
+    assert out == sample.read_text(), "run python tools/make_sample_ifc.py"
+    assert len(out) < 300_000
