@@ -254,3 +254,25 @@ def test_the_sample_model_is_what_its_tool_writes():
                          text=True, check=True).stdout
     assert out == sample.read_text(), "run python tools/make_sample_ifc.py"
     assert len(out) < 300_000
+
+
+def test_the_docs_overlay_example_loads_and_imports_the_sample(tmp_path):
+    """docs/ifc.md's overlay (every section, at the defaults but for the storages' places
+    and the columns it maps to an obstacle kind, of which the sample has none) gives the
+    same components and tasks as no overlay."""
+    import re
+    from pathlib import Path
+
+    import cmdp_pymunk
+
+    page = (Path(__file__).resolve().parent.parent / "docs" / "ifc.md").read_text()
+    block = re.search(r"```toml\n(.*?)```", page, re.S).group(1)
+    overlay = tmp_path / "overlay.toml"
+    overlay.write_text(block)
+    sample = cmdp_pymunk.BUILTIN_CASE.with_name("precast_floor.ifc")
+    with_overlay, _ = import_storey(sample, "Level 1", load_overlay(overlay))
+    default, _ = import_storey(sample, "Level 1")
+    assert with_overlay["tasks"] == default["tasks"]
+    assert with_overlay["components"] == default["components"]
+    # x_frac -0.44 of the half width 27 m: -11.88 m instead of the default -12
+    assert [s["x_m"] for s in with_overlay["storages"]] == [-11.88, 11.88, 0.0]
