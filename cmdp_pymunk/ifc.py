@@ -79,6 +79,11 @@ DEFAULT_OVERLAY: dict = {
 }
 _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
+_OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
+                 "import": ("min_fill", "neighbour_gap_m"),
+                 "crane": ("lift_time_s", "assist_time_s")}
+_STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
+                 "edge", "x_frac")
 TIME_LIMIT_S_PER_TASK = 1000.0  # as the generated layouts: at least this much per task
 EDGE_INSET_M = 1.0  # storages stand this far from the top or bottom wall
 CREW_INSET_M = 2.5  # crews start this far from the left wall
@@ -158,9 +163,14 @@ def _recipe_from(data: dict | None, source: str, problems: list[str]) -> Recipe:
                               float(step.get("material_quantity", 0.0)),
                               step.get("after_neighbours")))
         chains[kind] = tuple(built)
-    classes = dict(data.get("classes", PRECAST_RECIPE.classes))
-    gap = data.get("neighbour_gap_m", PRECAST_RECIPE.neighbour_gap_m)
-    return Recipe(chains=chains, classes=classes, neighbour_gap_m=float(gap))
+    for key in set(data) - {"classes", "chains"}:
+        problems.append(f"recipe.{key}: unknown field; fix: the recipe has classes and chains "
+                        "(the neighbours' distance is import.neighbour_gap_m)")
+    return Recipe(chains=chains, classes=dict(data.get("classes", PRECAST_RECIPE.classes)))
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def load_overlay(path: str | Path | None = None) -> Overlay:
@@ -190,11 +200,44 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
     base = {k: raw.get(k, base_toml[k]) for k in ("simulation", "reaching_reward", "task_types",
                                                    "crew_types", "materials")}
     recipe = _recipe_from(raw.get("recipe"), source, problems)
+    gap = data["import"]["neighbour_gap_m"]
+    if _is_number(gap):
+        recipe = Recipe(recipe.chains, recipe.classes, float(gap))
 
-    for key, value in {**data["plane"], **data["import"]}.items():
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or value < 0:
-            problems.append(f"{key} = {value!r}: write a number of 0 or more")
-    if not 0 <= data["import"].get("min_fill", 0.9) <= 1:
+    for section, value in data.items():
+        if section == "storages":
+            continue
+        allowed = _OVERLAY_KEYS.get(section)
+        if allowed is None:
+            continue
+        for key in value:
+            if key not in allowed:
+                problems.append(f"{section}.{key}: unknown field"
+                                + _did_you_mean(key, list(allowed)))
+            elif not _is_number(value[key]) or value[key] < 0:
+                problems.append(f"{section}.{key} = {value[key]!r}: write a number of 0 or "
+                                "more")
+    if not isinstance(data["storages"], list):
+        problems.append("storages: write [[storages]] entries; fix: see docs/ifc.md")
+        data["storages"] = []
+    for k, st in enumerate(data["storages"]):
+        where = f"storages[{k}]"
+        if not isinstance(st, dict):
+            problems.append(f"{where}: write a table; fix: see docs/ifc.md")
+            continue
+        for key in ("id", "material", "width_m", "height_m", "capacity"):
+            if key not in st:
+                problems.append(f"{where}: {key} missing; fix: add {key} = ...")
+        for key in st:
+            if key not in _STORAGE_KEYS:
+                problems.append(f"{where}: {key}: unknown field"
+                                + _did_you_mean(key, list(_STORAGE_KEYS)))
+        if st.get("edge", "top") not in ("top", "bottom"):
+            problems.append(f'{where}: edge = {st["edge"]!r}; fix: write "top" or "bottom"')
+        if not _is_number(st.get("x_frac", 0.0)) or not -1 <= st.get("x_frac", 0.0) <= 1:
+            problems.append(f"{where}: x_frac = {st['x_frac']!r}; fix: a number from -1 (left "
+                            "wall) to 1 (right wall)")
+    if _is_number(data["import"]["min_fill"]) and not 0 <= data["import"]["min_fill"] <= 1:
         problems.append("import.min_fill: a share of the rectangle, from 0 to 1; fix: e.g. 0.9")
     crew_types = base["crew_types"] if isinstance(base["crew_types"], dict) else {}
     task_types = base["task_types"] if isinstance(base["task_types"], dict) else {}

@@ -276,3 +276,21 @@ def test_the_docs_overlay_example_loads_and_imports_the_sample(tmp_path):
     assert with_overlay["components"] == default["components"]
     # x_frac -0.44 of the half width 27 m: -11.88 m instead of the default -12
     assert [s["x_m"] for s in with_overlay["storages"]] == [-11.88, 11.88, 0.0]
+
+
+def test_overlay_typos_and_bad_storages_are_named(tmp_path):
+    overlay = tmp_path / "o.toml"
+    overlay.write_text('[plane]\nmargin_x = 5.0\n[import]\nmin_fill = "high"\n'
+                       '[[storages]]\nid = "S"\nmaterial = "rebars"\nwidth = 2.0\n'
+                       'edge = "left"\n[recipe]\nneighbour_gap_m = 3.0\n'
+                       '[recipe.chains]\nprecast = [{type = "JC"}]\n[wheels]\n')
+    with pytest.raises(CaseError) as err:
+        load_overlay(overlay)
+    text = str(err.value)
+    for expected in ('plane.margin_x: unknown field; did you mean "margin_x_m"?',
+                     "import.min_fill = 'high': write a number",
+                     "storages[0]: width_m missing", 'storages[0]: width: unknown field',
+                     'storages[0]: edge = \'left\'; fix: write "top" or "bottom"',
+                     "recipe.neighbour_gap_m: unknown field", "[wheels]: unknown section"):
+        assert expected in text, text
+    assert text.startswith("o.toml: ")
