@@ -1,11 +1,14 @@
-"""A floor plan as rectangles, and the task recipes that turn a plan into a case's tasks.
+"""A floor plan as rectangles, the task recipes that give it tasks, and the plan -> case builder.
 
 The precast floor's task chains (JC -> HI -> G on a precast component, R -> F on a
 cast-in-place joint, each R waiting for the installation HI of the components the joint
-connects) are data here, a :class:`Recipe`, so that the layout generator (``layouts``) and the
-IFC importer (``ifc``) build tasks the same way. A recipe says which component kinds get which
-chain of task steps, and which step waits for a step on the neighbours (the components a joint
-connects).
+connects) are data here, a :class:`Recipe`. :func:`plan_case` turns components and a recipe
+into case data, placing crews, storages, crane and outlet by one set of rules, so that the
+built-in case's tool (``tools/make_precast_floor.py``), the layout generator (``layouts``)
+and the IFC importer (``ifc``) build floors the same way. A recipe says which component kinds
+(and, for IFC, which element classes) get which chain of task steps, and which step waits for
+a step on the neighbours (the components a joint connects). The case check (``case``) uses
+:class:`Rect` for its overlaps.
 
 Geometry: a :class:`Rect` is an axis-aligned rectangle in metres, ``x0 < x1`` and ``y0 < y1``;
 two rectangles overlap when their interiors meet (touching edges do not overlap).
@@ -186,3 +189,69 @@ def build_tasks(components: Sequence[tuple[str, str]], recipe: Recipe,
             tasks.append(task)
             before = task["id"]
     return tasks
+
+
+# -- the site around the components, and the whole case ---------------------------------------
+
+CREW_INSET_M = 2.5  # crews start this far from the left wall
+CREW_SPACING_M = 3.0  # and this far apart (closer on a low plane)
+EDGE_INSET_M = 1.0  # storages stand this far from the top or bottom wall
+CRANE_INSET_M = 1.5  # the crane stands at the top wall's middle, this far in
+OUTLET_INSET_M = 1.0  # the outlet: the left wall's middle, this far in
+
+
+@dataclass(frozen=True)
+class StorageSpot:
+    """A storage of a floor plan: a ``width_m`` x ``height_m`` rectangle at ``x_m`` along the
+    top (``edge`` +1) or bottom (-1) wall, ``EDGE_INSET_M`` from it."""
+
+    id: str
+    material: str
+    width_m: float
+    height_m: float
+    capacity: float
+    congestion_index_full: float
+    edge: int
+    x_m: float
+
+
+def plan_case(*, name: str, description: str, half_width_m: float, half_height_m: float,
+              base: Mapping, crane_times: Mapping, crews: Sequence[tuple[str, str]],
+              storages: Sequence[StorageSpot], components: Sequence[dict], recipe: Recipe,
+              ends: Mapping[str, Sequence[str]], time_limit_s_per_task: float) -> dict:
+    """A floor plan as case data: the plane ``2 half_width_m x 2 half_height_m`` centred on
+    the origin, the outlet at the left wall's middle, the crane at the top wall's middle,
+    crews in a column near the left wall, storages along the top and bottom walls, the
+    components (case entries, in order) and their tasks from ``recipe`` (``build_tasks``).
+
+    ``base`` gives the tables a plan does not change: ``simulation`` (its ``max_time_s``
+    raised to ``time_limit_s_per_task`` per task if lower), ``reaching_reward``,
+    ``task_types``, ``materials``, ``crew_types``. ``crane_times``: the crane's
+    ``lift_time_s`` and ``assist_time_s``. Used by the generated layouts (``layouts``), the
+    built-in case's tool and the IFC importer (``ifc``).
+    """
+    half_w, half_h = half_width_m, half_height_m
+    tasks = build_tasks([(c["id"], c["kind"]) for c in components], recipe, ends)
+    spread = min(CREW_SPACING_M, (2 * half_h - 6.0) / max(1, len(crews) - 1))
+    crew_rows = [{"id": cid, "type": ctype, "start_x_m": -half_w + CREW_INSET_M,
+                  "start_y_m": round((k - (len(crews) - 1) / 2) * spread, 3),
+                  "start_heading_deg": 0.0} for k, (cid, ctype) in enumerate(crews)]
+    storage_rows = [{"id": s.id, "material": s.material, "x_m": s.x_m,
+                     "y_m": s.edge * (half_h - EDGE_INSET_M - s.height_m / 2),
+                     "width_m": s.width_m, "height_m": s.height_m, "capacity": s.capacity,
+                     "congestion_index_full": s.congestion_index_full} for s in storages]
+    simulation = dict(base["simulation"])
+    simulation["max_time_s"] = max(simulation["max_time_s"], time_limit_s_per_task * len(tasks))
+    return {
+        "case": {"name": name, "description": description},
+        "plane": {"width_m": 2 * half_w, "height_m": 2 * half_h,
+                  "outlet_x_m": -half_w + OUTLET_INSET_M, "outlet_y_m": 0.0,
+                  "outlet_radius_m": 1.5},
+        "simulation": simulation,
+        "reaching_reward": base["reaching_reward"],
+        "crane": {"x_m": 0.0, "y_m": half_h - CRANE_INSET_M, **crane_times},
+        "task_types": base["task_types"], "materials": base["materials"],
+        "crew_types": base["crew_types"],
+        "crews": crew_rows, "storages": storage_rows, "components": list(components),
+        "tasks": tasks,
+    }

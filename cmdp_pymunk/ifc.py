@@ -51,10 +51,11 @@ from .floorplan import (
     Recipe,
     Rect,
     Step,
+    StorageSpot,
     bounding_rect,
-    build_tasks,
     neighbours,
     overlapping_pairs,
+    plan_case,
 )
 
 INSTALL_HINT = "pip install 'cmdp-pymunk[ifc]'"
@@ -85,8 +86,6 @@ _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
                  "edge", "x_frac")
 TIME_LIMIT_S_PER_TASK = 1000.0  # as the generated layouts: at least this much per task
-EDGE_INSET_M = 1.0  # storages stand this far from the top or bottom wall
-CREW_INSET_M = 2.5  # crews start this far from the left wall
 
 
 class IfcUnavailable(ImportError):
@@ -573,7 +572,22 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     ends = {} if use_model else {
         ids[k]: [ids[j] for j in neighbours(rects, k, with_tasks, recipe.neighbour_gap_m)]
         for k in with_tasks}
-    tasks = build_tasks([(c["id"], c["kind"]) for c in components], recipe, ends)
+    crews = [(f"{ct}-{k + 1}", ct) for ct, n in overlay.data["crews"].items() for k in range(n)]
+    storages = [StorageSpot(st["id"], st["material"], st["width_m"], st["height_m"],
+                            st["capacity"], st.get("congestion_index_full", 0.5),
+                            1 if st.get("edge", "top") == "top" else -1,
+                            _r(float(st.get("x_frac", 0.0)) * half_w))
+                for st in overlay.data["storages"]]
+    data = plan_case(name=name, description=description, half_width_m=half_w,
+                     half_height_m=half_h, base=overlay.base, crane_times=overlay.data["crane"],
+                     crews=crews, storages=storages, components=components, recipe=recipe,
+                     ends=ends, time_limit_s_per_task=TIME_LIMIT_S_PER_TASK)
+    data["case"].update(overlay.data.get("case", {}))
+    tasks = data["tasks"]
+    if not tasks:
+        raise CaseError(source, ["the recipe gives the storey's elements no tasks (their kinds "
+                                 "have no chain); fix: add [recipe.chains] for "
+                                 + ", ".join(sorted({e.kind for e in elements}))])
     if use_model:
         cycle = _schedule_cycle(schedule)
         if cycle:
@@ -590,38 +604,6 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
                 t["predecessors"] = list(dict.fromkeys(t.get("predecessors", [])
                                                        + extra[t["id"]]))
         notes += schedule.notes
-    if not tasks:
-        raise CaseError(source, ["the recipe gives the storey's elements no tasks (their kinds "
-                                 "have no chain); fix: add [recipe.chains] for "
-                                 + ", ".join(sorted({e.kind for e in elements}))])
-
-    crews = [(f"{ct}-{k + 1}", ct) for ct, n in overlay.data["crews"].items() for k in range(n)]
-    spread = min(3.0, (2 * half_h - 6.0) / max(1, len(crews) - 1))
-    crew_rows = [{"id": cid, "type": ct, "start_x_m": _r(-half_w + CREW_INSET_M),
-                  "start_y_m": _r((k - (len(crews) - 1) / 2) * spread), "start_heading_deg": 0.0}
-                 for k, (cid, ct) in enumerate(crews)]
-    storages = []
-    for st in overlay.data["storages"]:
-        st = dict(st)
-        edge = 1.0 if st.pop("edge", "top") == "top" else -1.0
-        frac = float(st.pop("x_frac", 0.0))
-        storages.append({"id": st.pop("id"), "material": st.pop("material"),
-                         "x_m": _r(frac * half_w),
-                         "y_m": _r(edge * (half_h - EDGE_INSET_M - st["height_m"] / 2)), **st})
-    simulation = dict(overlay.base["simulation"])
-    simulation["max_time_s"] = max(float(simulation.get("max_time_s", 0.0)),
-                                   TIME_LIMIT_S_PER_TASK * len(tasks))
-    data = {
-        "case": {"name": name, "description": description, **overlay.data.get("case", {})},
-        "plane": {"width_m": 2 * half_w, "height_m": 2 * half_h,
-                  "outlet_x_m": _r(-half_w + 1.0), "outlet_y_m": 0.0, "outlet_radius_m": 1.5},
-        "simulation": simulation,
-        "reaching_reward": overlay.base["reaching_reward"],
-        "crane": {"x_m": 0.0, "y_m": _r(half_h - 1.5), **overlay.data["crane"]},
-        "task_types": overlay.base["task_types"], "materials": overlay.base["materials"],
-        "crew_types": overlay.base["crew_types"],
-        "crews": crew_rows, "storages": storages, "components": components, "tasks": tasks,
-    }
     return data, notes, "model" if use_model else "recipe"
 
 

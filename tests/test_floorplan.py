@@ -36,3 +36,28 @@ def test_recipe_kind_of_prefers_a_predefined_type_and_follows_superclasses():
     assert recipe.kind_of(["IfcSlabStandardCase", "IfcSlab", "IfcElement"], None) == "precast"
     assert recipe.kind_of(["IfcSlab"], "LANDING") == "obstacle"
     assert recipe.kind_of(["IfcWindow"], None) is None
+
+
+def test_plan_case_places_the_site_by_hand():
+    """A 24 x 26 m plane (half 12 x 13): outlet at x = -12 + 1; crane at y = 13 - 1.5; two
+    crews at x = -12 + 2.5, 3 m apart about y = 0; a 3 m high storage on the bottom wall at
+    y = -(13 - 1 - 1.5)."""
+    import tomllib
+
+    import cmdp_pymunk
+
+    base = tomllib.loads(cmdp_pymunk.BUILTIN_CASE.read_text())
+    data = floorplan.plan_case(
+        name="n", description="d", half_width_m=12.0, half_height_m=13.0, base=base,
+        crane_times={"lift_time_s": 60.0, "assist_time_s": 30.0},
+        crews=[("JCC-1", "JCC"), ("HIC-1", "HIC")],
+        storages=[floorplan.StorageSpot("S", "struts", 5.0, 3.0, 12.0, 0.6, -1, 2.0)],
+        components=[{"id": "P", "kind": "precast", "x_m": 0.0, "y_m": 0.0, "width_m": 2.0,
+                     "height_m": 2.0}],
+        recipe=floorplan.PRECAST_RECIPE, ends={}, time_limit_s_per_task=30000.0)
+    assert data["plane"]["outlet_x_m"] == -11.0 and data["crane"]["y_m"] == 11.5
+    assert [(c["start_x_m"], c["start_y_m"]) for c in data["crews"]] == [(-9.5, -1.5),
+                                                                          (-9.5, 1.5)]
+    assert (data["storages"][0]["x_m"], data["storages"][0]["y_m"]) == (2.0, -10.5)
+    assert [t["id"] for t in data["tasks"]] == ["JC-P", "HI-P", "G-P"]
+    assert data["simulation"]["max_time_s"] == 90000.0  # 3 tasks x 30,000 s > 80,000 s

@@ -3,19 +3,21 @@
 The paper gives counts and parameters (Tables 2-3, section 5) but no geometry; this script
 holds the reconstruction (see docs/case-study.md): a 5 x 3 grid of precast components
 (JC -> HI -> G) and 21 cast-in-place joints between them (R -> F), each joint's R waiting for
-the installation (HI) of the precast components it connects. The task chains are data,
-``cmdp_pymunk.floorplan.PRECAST_RECIPE``, shared with the generated layouts and the IFC
-importer. Run it after changing a rule:
+the installation (HI) of the precast components it connects. The task chains
+(``PRECAST_RECIPE``) and the placing of crews, storages, crane and outlet (``plan_case``) are
+``cmdp_pymunk.floorplan``'s, shared with the generated layouts and the IFC importer
+(tests/test_case.py checks the file is what this writes). Run it after changing a rule:
 
     python tools/make_precast_floor.py
 """
 
 import sys
+import tomllib
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from cmdp_pymunk.floorplan import PRECAST_RECIPE, build_tasks  # noqa: E402
+from cmdp_pymunk.floorplan import PRECAST_RECIPE, StorageSpot, plan_case  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "cases" / "precast_floor.toml"
 
@@ -174,51 +176,36 @@ carry_capacity = 8.0
 '''
 
 
-def main() -> None:
-    out = [HEADER]
-    crews = [("JCC-1", "JCC"), ("HIC-1", "HIC"), ("GC-1", "GC"), ("RC-1", "RC"), ("RC-2", "RC"),
-             ("FC-1", "FC"), ("FC-2", "FC")]
-    for i, (cid, ctype) in enumerate(crews):
-        y = -9.0 + 3.0 * i
-        out.append(f'[[crews]]\nid = "{cid}"\ntype = "{ctype}"\nstart_x_m = -24.5\n'
-                   f"start_y_m = {y}\nstart_heading_deg = 0.0\n")
-    out.append("""[[storages]]
-id = "ST-rebars"
-material = "rebars"
-x_m = -12.0
-y_m = 15.5
-width_m = 6.0
-height_m = 3.0
-capacity = 3.0
-congestion_index_full = 0.5
+# id, material, width, height, capacity, congestion when full, edge (+1 top, -1 bottom), x
+STORAGES = (StorageSpot("ST-rebars", "rebars", 6.0, 3.0, 3.0, 0.5, 1, -12.0),
+            StorageSpot("ST-templates", "templates", 6.0, 3.0, 80.0, 0.5, 1, 12.0),
+            StorageSpot("ST-struts", "struts", 5.0, 3.0, 12.0, 0.6, -1, 0.0))
+CREWS = (("JCC-1", "JCC"), ("HIC-1", "HIC"), ("GC-1", "GC"), ("RC-1", "RC"), ("RC-2", "RC"),
+         ("FC-1", "FC"), ("FC-2", "FC"))
 
-[[storages]]
-id = "ST-templates"
-material = "templates"
-x_m = 12.0
-y_m = 15.5
-width_m = 6.0
-height_m = 3.0
-capacity = 80.0
-congestion_index_full = 0.5
 
-[[storages]]
-id = "ST-struts"
-material = "struts"
-x_m = 0.0
-y_m = -15.5
-width_m = 5.0
-height_m = 3.0
-capacity = 12.0
-congestion_index_full = 0.6
-""")
+def _value(v) -> str:
+    if isinstance(v, str):
+        return f'"{v}"'
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    return str(v)
+
+
+def _entry(section: str, row: dict) -> str:
+    return f"[[{section}]]\n" + "".join(f"{k} = {_value(v)}\n" for k, v in row.items())
+
+
+def main(out_path: Path | None = None) -> None:
+    out_path = out_path or OUT
     precast = {}
-    components, tasks = [], []
+    components = []
     for r, y in enumerate(ROWS_Y):
         for c, x in enumerate(COLUMNS_X):
             pid = f"P-{r + 1}{c + 1}"
             precast[(r, c)] = pid
-            components.append((pid, "precast", x, y, PRECAST_SIZE_M, PRECAST_SIZE_M))
+            components.append({"id": pid, "kind": "precast", "x_m": x, "y_m": y,
+                               "width_m": PRECAST_SIZE_M, "height_m": PRECAST_SIZE_M})
     joints = []
     for r, y in enumerate(ROWS_Y):  # horizontal joints within a row
         for c in range(len(COLUMNS_X) - 1):
@@ -233,21 +220,32 @@ congestion_index_full = 0.6
             joints.append((f"V-{r + 1}{c + 1}", x, y, JOINT_SHORT_M, JOINT_LONG_M,
                            (precast[(r, c)], precast[(r + 1, c)])))
     for jid, x, y, w, h, _ in joints:
-        components.append((jid, "cast-in-place", x, y, w, h))
-    ends = {jid: joint_ends for jid, *_, joint_ends in joints}
-    for t in build_tasks([(c[0], c[1]) for c in components], PRECAST_RECIPE, ends):
-        tasks.append((t["id"], t["type"], t["component"], t.get("work", 1.0),
-                      t.get("material_quantity", 0.0), tuple(t.get("predecessors", ()))))
-    for cid, kind, x, y, w, h in components:
-        out.append(f'[[components]]\nid = "{cid}"\nkind = "{kind}"\nx_m = {x}\ny_m = {y}\n'
-                   f"width_m = {w}\nheight_m = {h}\n")
-    for tid, ttype, comp, work, mat, preds in tasks:
-        plist = ", ".join(f'"{p}"' for p in preds)
-        out.append(f'[[tasks]]\nid = "{tid}"\ntype = "{ttype}"\ncomponent = "{comp}"\n'
-                   f"work = {work}\nmaterial_quantity = {mat}\npredecessors = [{plist}]\n")
+        components.append({"id": jid, "kind": "cast-in-place", "x_m": x, "y_m": y,
+                           "width_m": w, "height_m": h})
+    # The header holds the tables this floor does not change; the shared floor-plan rules
+    # place the rest (crews, storages, components, tasks) and must agree with its plane.
+    base = tomllib.loads(HEADER)
+    data = plan_case(name=base["case"]["name"], description=base["case"]["description"],
+                     half_width_m=base["plane"]["width_m"] / 2,
+                     half_height_m=base["plane"]["height_m"] / 2, base=base,
+                     crane_times={k: base["crane"][k] for k in ("lift_time_s", "assist_time_s")},
+                     crews=CREWS, storages=STORAGES, components=components,
+                     recipe=PRECAST_RECIPE,
+                     ends={jid: joint_ends for jid, *_, joint_ends in joints},
+                     time_limit_s_per_task=0.0)
+    for key in ("plane", "crane", "simulation"):
+        assert data[key] == base[key], (key, data[key], base[key])
+    tasks = [{"id": t["id"], "type": t["type"], "component": t["component"],
+              "work": t.get("work", 1.0), "material_quantity": t.get("material_quantity", 0.0),
+              "predecessors": t.get("predecessors", [])} for t in data["tasks"]]
+    lines = [HEADER]
+    lines += [_entry("crews", row) for row in data["crews"]]
+    lines += [_entry("storages", row) for row in data["storages"]]
+    lines += [_entry("components", row) for row in data["components"]]
+    lines += [_entry("tasks", row) for row in tasks]
     assert len(components) == 36 and len(tasks) == 87, (len(components), len(tasks))
-    OUT.write_text("\n".join(out), encoding="utf-8")
-    print(f"wrote {OUT} ({len(components)} components, {len(tasks)} tasks)")
+    out_path.write_text("\n".join(lines), encoding="utf-8")
+    print(f"wrote {out_path} ({len(components)} components, {len(tasks)} tasks)")
 
 
 if __name__ == "__main__":
