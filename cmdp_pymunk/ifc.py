@@ -53,6 +53,7 @@ from .floorplan import (
     Step,
     StorageSpot,
     bounding_rect,
+    narrow_lanes,
     neighbours,
     overlapping_pairs,
     plan_case,
@@ -566,6 +567,14 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         w, h = e.rect.size
         components.append({"id": cid, "kind": e.kind, "x_m": _r(x - cx), "y_m": _r(y - cy),
                            "width_m": _r(w), "height_m": _r(h), "ifc_guid": e.guid})
+    crew_types = overlay.base["crew_types"]
+    widest = max(2 * math.sqrt(crew_types[ct]["occupation_area_m2"] / math.pi)
+                 for ct in overlay.data["crews"] if overlay.data["crews"][ct] > 0) \
+        if any(overlay.data["crews"].values()) else 0.0
+    for i, j, gap in narrow_lanes(rects, widest):
+        notes.append(f"the lane between {elements[i].label} and {elements[j].label} is "
+                     f"{gap:.2f} m wide, narrower than the widest crew ({widest:.2f} m): no "
+                     "crew passes there")
     recipe = overlay.recipe
     with_tasks = [k for k, e in enumerate(elements) if recipe.chains.get(e.kind)]
     use_model = schedule is not None and bool(schedule.sequences)

@@ -61,3 +61,10 @@ def test_plan_case_places_the_site_by_hand():
     assert (data["storages"][0]["x_m"], data["storages"][0]["y_m"]) == (2.0, -10.5)
     assert [t["id"] for t in data["tasks"]] == ["JC-P", "HI-P", "G-P"]
     assert data["simulation"]["max_time_s"] == 90000.0  # 3 tasks x 30,000 s > 80,000 s
+
+
+def test_narrow_lanes_by_hand():
+    """Gaps: a-b 1.0 m (narrower than 2.52), a-c 3.0 m (wide enough), b-d touching (no lane)."""
+    a, b = floorplan.Rect(0, 0, 2, 2), floorplan.Rect(3, 0, 5, 2)
+    c, d = floorplan.Rect(-5, 0, -3, 2), floorplan.Rect(5, 0, 6, 2)
+    assert floorplan.narrow_lanes([a, b, c, d], 2.52) == [(0, 1, 1.0)]

@@ -294,3 +294,19 @@ def test_overlay_typos_and_bad_storages_are_named(tmp_path):
                      "recipe.neighbour_gap_m: unknown field", "[wheels]: unknown section"):
         assert expected in text, text
     assert text.startswith("o.toml: ")
+
+
+def test_a_lane_narrower_than_a_crew_is_noted(tmp_path):
+    """A slab 1 m right of S-22 (x 112..114): the lane between them is 1 m, narrower than the
+    HIC (5 m2: 2 sqrt(5 / pi) = 2.52 m across)."""
+    f, elements = ifc_models.two_by_two("IFC4")
+    level = f.by_type("IfcBuildingStorey")[0]
+    body = f.by_type("IfcGeometricRepresentationSubContext")[0]
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-23", ifc_models.box(113, 50, 2, 2))
+    path = tmp_path / "lane.ifc"
+    f.write(str(path))
+    _, report = import_storey(path, "Level 1")
+    assert report.notes == ['the lane between IfcSlab "S-22" ({}) and IfcSlab "S-23" ({}) is '
+                            "1.00 m wide, narrower than the widest crew (2.52 m): no crew "
+                            "passes there".format(elements["S-22"].GlobalId,
+                                                  f.by_type("IfcSlab")[-1].GlobalId)]
