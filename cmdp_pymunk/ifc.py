@@ -412,8 +412,13 @@ class ModelSchedule:
     notes: list[str] = field(default_factory=list)
 
 
+def _task_code(task) -> str:
+    """A task's Identification (IFC4), or TaskId (IFC2X3), or ""."""
+    return getattr(task, "Identification", None) or getattr(task, "TaskId", None) or ""
+
+
 def _task_label(task) -> str:
-    return f'IfcTask "{task.Name or task.Identification or ""}" ({task.GlobalId})'
+    return f'IfcTask "{task.Name or _task_code(task)}" ({task.GlobalId})'
 
 
 def model_schedule(model, component_of: dict[str, str], recipe: Recipe) -> ModelSchedule:
@@ -430,7 +435,7 @@ def model_schedule(model, component_of: dict[str, str], recipe: Recipe) -> Model
         for task in rel.RelatedObjects:
             if not task.is_a("IfcTask"):
                 continue
-            words = re.split(r"[^A-Za-z0-9]+", f"{task.Identification or ''} {task.Name or ''}")
+            words = re.split(r"[^A-Za-z0-9]+", f"{_task_code(task)} {task.Name or ''}")
             step = next((w for w in words if w in types), None)
             label, comps, _ = schedule.tasks.get(task.GlobalId, (_task_label(task), [], step))
             schedule.tasks[task.GlobalId] = (label, [*comps, comp], step)

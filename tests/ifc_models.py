@@ -91,18 +91,33 @@ def two_by_two(schema: str = "IFC4"):
 
 def add_schedule(f, elements, tasks: dict[str, list[str]], sequences, kind="FINISH_START"):
     """A work schedule with IfcTasks (name -> the elements each builds) and IfcRelSequence
-    (relating task name, related task name); returns the tasks by name."""
+    (relating task name, related task name); returns the tasks by name. IFC2X3: the entities
+    are made by hand (the sequence API reads IfcTask.TaskTime, which IFC2X3 lacks)."""
+    import ifcopenshell.api.owner
+    import ifcopenshell.api.root
     import ifcopenshell.api.sequence
+    import ifcopenshell.guid
 
     api = ifcopenshell.api
-    schedule = api.sequence.add_work_schedule(f, name="Plan")
+    old = f.schema == "IFC2X3"
+    schedule = None if old else api.sequence.add_work_schedule(f, name="Plan")
     made = {}
-    for name, builds in tasks.items():
-        made[name] = api.sequence.add_task(f, work_schedule=schedule, name=name)
+    for k, (name, builds) in enumerate(tasks.items()):
+        if old:
+            made[name] = api.root.create_entity(f, ifc_class="IfcTask", name=name)
+            made[name].TaskId, made[name].IsMilestone = f"T{k + 1}", False
+        else:
+            made[name] = api.sequence.add_task(f, work_schedule=schedule, name=name)
         for element in builds:
             api.sequence.assign_product(f, relating_product=elements[element],
                                         related_object=made[name])
     for a, b in sequences:
-        api.sequence.assign_sequence(f, relating_process=made[a], related_process=made[b],
-                                     sequence_type=kind)
+        if old:
+            f.create_entity("IfcRelSequence", GlobalId=ifcopenshell.guid.new(),
+                            OwnerHistory=api.owner.create_owner_history(f),
+                            RelatingProcess=made[a], RelatedProcess=made[b], TimeLag=0.0,
+                            SequenceType=kind)
+        else:
+            api.sequence.assign_sequence(f, relating_process=made[a], related_process=made[b],
+                                         sequence_type=kind)
     return made

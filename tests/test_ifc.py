@@ -107,8 +107,9 @@ def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsy
     assert again == {t.id: sorted(t.predecessors) for t in case.tasks}
 
 
-def test_a_4d_sequence_replaces_the_recipes_links(tmp_path):
-    f, elements = ifc_models.two_by_two("IFC4")
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_a_4d_sequence_replaces_the_recipes_links(tmp_path, schema):
+    f, elements = ifc_models.two_by_two(schema)
     # "Install S-11" stands for S-11's whole chain; "HI S-12" for HI on S-12 only
     ifc_models.add_schedule(f, elements, {"Install S-11": ["S-11"], "HI S-12": ["S-12"],
                                           "Beam B-H1": ["B-H1"]},
@@ -310,3 +311,15 @@ def test_a_lane_narrower_than_a_crew_is_noted(tmp_path):
                             "1.00 m wide, narrower than the widest crew (2.52 m): no crew "
                             "passes there".format(elements["S-22"].GlobalId,
                                                   f.by_type("IfcSlab")[-1].GlobalId)]
+
+
+def test_a_start_start_sequence_is_noted_and_read_as_finish_start(tmp_path):
+    f, elements = ifc_models.two_by_two("IFC4")
+    ifc_models.add_schedule(f, elements, {"A": ["S-11"], "B": ["S-12"]}, [("A", "B")],
+                            kind="START_START")
+    path = tmp_path / "ss.ifc"
+    f.write(str(path))
+    data, report = import_storey(path, "Level 1")
+    assert len(report.notes) == 1 and 'IfcTask "A"' in report.notes[0]
+    assert report.notes[0].endswith("is START_START; read as FINISH_START")
+    assert {t["id"]: t.get("predecessors") for t in data["tasks"]}["JC-S-12"] == ["G-S-11"]
