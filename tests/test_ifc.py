@@ -100,6 +100,11 @@ def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsy
         component = task_id.split("-", 1)[1]
         assert got["products"] == [elements[component].GlobalId]
     assert sorted(tasks["R-B-H1"]["predecessors"]) == ["HI-S-11", "HI-S-12"]
+    import ifcopenshell.validate
+
+    logger = ifcopenshell.validate.json_logger()  # the schema (EXPRESS rules: a slow test)
+    ifcopenshell.validate.validate(ifcopenshell.open(str(run / "floor-4d.ifc")), logger)
+    assert logger.statements == []
     # the exported model imports again: its sequences now give the precedences
     data, report = import_storey(run / "floor-4d.ifc", "Level 1")
     assert report.precedences == "model"
@@ -323,3 +328,33 @@ def test_a_start_start_sequence_is_noted_and_read_as_finish_start(tmp_path):
     assert len(report.notes) == 1 and 'IfcTask "A"' in report.notes[0]
     assert report.notes[0].endswith("is START_START; read as FINISH_START")
     assert {t["id"]: t.get("predecessors") for t in data["tasks"]}["JC-S-12"] == ["G-S-11"]
+
+
+@pytest.mark.slow
+def test_the_4d_export_passes_the_express_rules(tmp_path):
+    """The export of a hand-made schedule (no simulation) against IFC4's EXPRESS rules too
+    (about 5 s: the rules are loaded)."""
+    import datetime
+
+    import ifcopenshell.validate
+
+    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.ifc import export_4d
+    from cmdp_pymunk.schedule import TaskBar
+
+    f, _ = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    case = case_from_dict(import_storey(model, "Level 1")[0])
+    bars = [TaskBar("JC-S-11", "JCC-1", ((0.0, 700.0),), True),
+            TaskBar("HI-S-11", "HIC-1", ((700.0, 900.0), (1000.0, 1500.0)), False)]
+    counts = export_4d(model, case, bars, tmp_path / "4d.ifc", datetime.datetime(2026, 1, 5, 8))
+    assert counts == {"tasks": 20, "timed": 2, "sequences": 20, "crews": 7}
+    logger = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(ifcopenshell.open(str(tmp_path / "4d.ifc")), logger,
+                                   express_rules=True)
+    assert logger.statements == []
+    tasks = {t["id"]: t for t in read_4d(tmp_path / "4d.ifc")}
+    assert (tasks["HI-S-11"]["start"], tasks["HI-S-11"]["finish"]) == ("2026-01-05T08:11:40",
+                                                                      "2026-01-05T08:25:00")
+    assert tasks["G-S-11"]["start"] is None  # not started: no times
