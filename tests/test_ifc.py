@@ -358,3 +358,25 @@ def test_the_4d_export_passes_the_express_rules(tmp_path):
     assert (tasks["HI-S-11"]["start"], tasks["HI-S-11"]["finish"]) == ("2026-01-05T08:11:40",
                                                                       "2026-01-05T08:25:00")
     assert tasks["G-S-11"]["start"] is None  # not started: no times
+
+
+def test_duplicate_names_get_class_numbered_ids_and_missing_geometry_is_reported(tmp_path):
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+
+    f, body, storeys = ifc_models.new_model("IFC4")
+    level = storeys["Level 1"]
+    for x in (0.0, 10.0):
+        ifc_models.add_element(f, body, level, "IfcSlab", "Slab", ifc_models.box(x, 0, 2, 2))
+    ifc_models.add_element(f, body, level, "IfcBeam", "", ifc_models.box(5, 0, 2, 1.2))
+    path = tmp_path / "dup.ifc"
+    f.write(str(path))
+    data, _ = import_storey(path, "Level 1")
+    assert [c["id"] for c in data["components"]] == ["Slab-1", "Slab-2", "Beam-1"]
+    assert {t["id"]: t.get("predecessors") for t in data["tasks"]}["R-Beam-1"] == [
+        "HI-Slab-1", "HI-Slab-2"]
+    column = ifcopenshell.api.root.create_entity(f, ifc_class="IfcColumn", name="C-1")
+    ifcopenshell.api.spatial.assign_container(f, products=[column], relating_structure=level)
+    f.write(str(path))
+    with pytest.raises(CaseError, match='IfcColumn "C-1" .*: has no body geometry'):
+        import_storey(path, "Level 1")
