@@ -41,6 +41,7 @@ from .case_model import (  # noqa: F401  (re-exported: the models are part of th
     TaskType,
     UnitIndex,
 )
+from .floorplan import Rect
 
 BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
 # the tiny case of the docs, the command-line tests and cmdp/TinyFloor-v1
@@ -290,17 +291,12 @@ def _parts(data: dict, case: Case | None) -> _Parts:
                   **mappings, **lists)
 
 
-def _rect(item) -> tuple[float, float, float, float]:
-    return (
-        item.x_m - item.width_m / 2,
-        item.y_m - item.height_m / 2,
-        item.x_m + item.width_m / 2,
-        item.y_m + item.height_m / 2,
-    )
+def _rect(item) -> Rect:
+    return Rect.centred(item.x_m, item.y_m, item.width_m, item.height_m)
 
 
-def _overlap(a, b) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+def _overlap(a: Rect, b: Rect) -> bool:
+    return a.overlaps(b)
 
 
 def _semantic_problems(parts: _Parts) -> list[str]:

@@ -188,7 +188,11 @@ class Crew(_Model):
 
 
 class Component(_Model):
-    """A structural component: an axis-aligned rectangle, a static obstacle on the plane."""
+    """A structural component: an axis-aligned rectangle, a static obstacle on the plane.
+
+    ``ifc_guid``: the GlobalId of the IFC element it was imported from (``cmdp-import-ifc``);
+    the 4D export (``cmdp-simulate --ifc``) assigns the component's tasks to that element.
+    """
 
     id: str
     kind: str = ""
@@ -196,6 +200,7 @@ class Component(_Model):
     y_m: Number
     width_m: Positive
     height_m: Positive
+    ifc_guid: str | None = None
 
 
 class Storage(_Model):
