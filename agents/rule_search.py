@@ -14,10 +14,15 @@ and a candidate's fitness is the mean over them of (its makespan - Eq. 9's makes
 same seed); Eq. 9's makespans are run once per seed and cached. An unfinished floor scores
 ``agents.ga.unfinished_makespan_s``.
 
-After the last generation the distribution's mean (CMA-ES's estimate of the optimum, less
-noisy than the best sample of one generation) meets Eq. 9 on ``select_seeds``, seeds the search
-never saw; the paired difference and its 95 % interval go into the result file, which a
-strategy comparison then reports on other seeds again (``cmdp-evaluate --seeds 100-139``).
+After the last generation the distribution's means (CMA-ES's estimates of the optimum, less
+noisy than the best sample of one generation) after every ``select_every``-th generation and
+after the last meet Eq. 9 on ``select_seeds``, seeds the search never saw: each generation's
+fitness comes from its own draw of seeds, so the log alone cannot say which mean is best. The
+one with the lowest paired difference is kept; if none is below 0, the result is Eq. 9 itself
+(every weight 0: a rule replaces the heuristic only where the selection seeds say it is
+better). Its paired difference and 95 % interval go into the result file; picked among several
+on the same seeds, it is optimistic, so a strategy comparison reports the rule on other seeds
+again (``cmdp-evaluate --seeds 100-139``).
 
 A checkpoint after every generation holds the CMA-ES state (pickled whole, with its random
 generator), so ``--resume`` continues exactly as the uninterrupted run.
@@ -63,6 +68,7 @@ class RuleSearchConfig(BaseModel):
     train_seeds: Seeds = list(range(30))  # the pool each generation draws from
     seeds_per_generation: Count = 10
     select_seeds: Seeds = list(range(40, 60))  # the final check against Eq. 9, never searched on
+    select_every: Count = 1  # check the mean after every so many generations (and the last)
     navigator: str = "scripted"
     stall_s: Positive = 3600.0
     max_time_s: Positive | None = None  # None: the case's
@@ -135,6 +141,14 @@ class SearchState:
     selection: dict | None = None
     config: dict = field(default_factory=dict)
     evaluations: int = 0
+    checked: dict = field(default_factory=dict)  # generation -> its mean on the select seeds
+
+
+def generations_checked(config: RuleSearchConfig) -> list[int]:
+    """The generations whose means meet Eq. 9 on the selection seeds."""
+    last = config.generations
+    return sorted({g for g in range(1, last + 1) if g % config.select_every == 0} | {last}
+                  - {0})
 
 
 def total_episodes(config: RuleSearchConfig, popsize: int) -> int:
@@ -142,7 +156,7 @@ def total_episodes(config: RuleSearchConfig, popsize: int) -> int:
     and the selection check."""
     return (len(set(config.train_seeds) | set(config.select_seeds))
             + config.generations * popsize * config.seeds_per_generation
-            + len(config.select_seeds))
+            + len(generations_checked(config)) * len(config.select_seeds))
 
 
 def new_strategy(config: RuleSearchConfig):
@@ -157,9 +171,10 @@ def new_strategy(config: RuleSearchConfig):
 def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
                 resume: bool = False, progress: bool = True) -> SearchState:
     """Run (or resume) the search; writes ``out/checkpoint.pkl`` and ``out/history.csv``
-    after every generation and ``out/rule.json`` (the distribution's mean as a student file,
-    usable as ``--evaluator student:out/rule.json``) after every generation and, with the
-    selection result, at the end."""
+    after every generation and ``out/rule.json`` (a student file, usable as ``--evaluator
+    student:out/rule.json``): the distribution's mean after every generation, and the
+    selected mean (``choose``) with its selection result at the end. The checkpoint is also
+    written after each checked mean, so a stopped selection resumes too."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -171,8 +186,10 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
             raise ValueError(f"{checkpoint}: no checkpoint to resume from; fix: drop --resume "
                              "or give the folder of an earlier run")
         state: SearchState = pickle.loads(checkpoint.read_bytes())
-        changed = sorted(k for k in settings if k != "generations"
-                         and state.config.get(k) != settings[k])
+        state.checked = getattr(state, "checked", {})  # a checkpoint from before select_every
+        defaults = {k: f.default for k, f in RuleSearchConfig.model_fields.items()}
+        changed = sorted(k for k in settings if k != "generations"  # a setting added since:
+                         and state.config.get(k, defaults[k]) != settings[k])  # its default
         if changed:
             raise ValueError(f"{checkpoint}: made with other settings ({', '.join(changed)}); "
                              "fix: resume with the same config, or start a new --out")
@@ -185,7 +202,8 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
     crew_types = sorted(case.crew_types)
     total = total_episodes(config, popsize)
     done = (len(state.baseline) + state.generation * popsize * config.seeds_per_generation
-            + (len(config.select_seeds) if state.selection else 0))
+            + len(set(state.checked) & set(generations_checked(config)))
+            * len(config.select_seeds))
     bar = tqdm(total=total, initial=min(done, total), unit="floor", desc="rule search",
                disable=not progress, mininterval=1.0)
     runner_args = (case, config.stall_s, config.max_time_s)
@@ -221,14 +239,34 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
                               "mean_x": [float(v) for v in state.es.mean]})
             bar.set_postfix_str(f"gen {state.generation}, best {min(fits):+.0f} s", refresh=True)
             _record(state, out, config, crew_types, popsize)
-        if state.selection is None:
-            weights = rule_weights(config, state.es.mean, crew_types)
+        means = {row["generation"]: row["mean_x"] for row in state.log}
+        for g in generations_checked(config):
+            if g in state.checked:
+                continue
+            weights = rule_weights(config, means[g], crew_types)
             rows = play([(weights, config.candidates, s, config.navigator)
                          for s in config.select_seeds])
-            state.selection = selection_result(rows, state.baseline, limit)
+            state.checked[g] = selection_result(rows, state.baseline, limit)
+            write_atomic(checkpoint, pickle.dumps(state))
+        if state.selection is None:
+            state.selection = choose(state, config)
             _record(state, out, config, crew_types, popsize)
     bar.close()
     return state
+
+
+def choose(state: SearchState, config: RuleSearchConfig) -> dict:
+    """The checked mean with the lowest paired difference to Eq. 9, or Eq. 9 itself (weights
+    0, generation 0) when none is below 0; with every checked generation's difference."""
+    diffs = {g: r["diff_mean_s"] for g, r in state.checked.items()
+             if g in generations_checked(config) and r["diff_mean_s"] is not None}
+    best = min(diffs, key=lambda g: (diffs[g], g), default=None)
+    if best is None or diffs[best] >= 0:
+        return {"generation": 0, "weights": [0.0] * len(config.features), "diff_mean_s": 0.0,
+                "checked": diffs, "note": "no checked mean beat Eq. 9: the rule is Eq. 9"}
+    means = {row["generation"]: row["mean_x"] for row in state.log}
+    return {"generation": best, "weights": list(means[best]), **state.checked[best],
+            "checked": diffs}
 
 
 def selection_result(rows: list[dict], baseline: dict, limit_s: float) -> dict:
@@ -257,12 +295,13 @@ def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
               f"{r['sigma']:.4f}," + ",".join(f"{v:.4f}" for v in r["mean_x"])
               for r in state.log]
     write_atomic(out / "history.csv", "\n".join(lines) + "\n")
-    rule = StudentEvaluator(rule_weights(config, state.es.mean, crew_types), config.candidates)
+    x = state.selection["weights"] if state.selection else state.es.mean
+    rule = StudentEvaluator(rule_weights(config, x, crew_types), config.candidates)
     rule.save(out / "rule.json", {
         "made_by": "agents.rule_search (CMA-ES, paired makespan against Eq. 9)",
-        "searched": dict(zip(config.features, (round(float(v), 6) for v in state.es.mean),
-                             strict=True)),
-        "generation": state.generation, "popsize": popsize,
+        "searched": dict(zip(config.features, (round(float(v), 6) for v in x), strict=True)),
+        "generation": state.selection["generation"] if state.selection else state.generation,
+        "generations_run": state.generation, "popsize": popsize,
         "train_seeds": config.train_seeds, "seeds_per_generation": config.seeds_per_generation,
         "selection": state.selection})
     write_atomic(out / "checkpoint.pkl", pickle.dumps(state))

@@ -87,9 +87,32 @@ def test_a_resumed_search_continues_exactly_and_checks_on_unseen_seeds(tmp_path)
     assert strip(resumed.log) == strip(whole.log) and resumed.selection == whole.selection
     assert (tmp_path / "a" / "rule.json").read_text() == (tmp_path / "b" / "rule.json").read_text()
     rule = json.loads((tmp_path / "a" / "rule.json").read_text())
-    assert rule["kind"] == "cmdp-student" and rule["selection"]["seeds"] == [5, 6]
-    assert rule["selection"]["paired_seeds"] == 2
-    assert whole.evaluations == 4 + 2 * 3 * 1 + 2  # Eq. 9 on 4 seeds, 2 x 3 candidates, check
+    assert rule["kind"] == "cmdp-student" and set(rule["selection"]["checked"]) == {"1", "2"}
+    # Eq. 9 on 4 seeds, 2 generations x 3 candidates x 1 seed, 2 means x 2 selection seeds
+    assert whole.evaluations == 4 + 2 * 3 * 1 + 2 * 2
+    chosen = rule["selection"]["generation"]
+    if chosen:  # the kept mean beat Eq. 9 on the selection seeds, and its weights are written
+        assert rule["selection"]["diff_mean_s"] < 0
+        assert rule["searched"] == pytest.approx(dict(zip(
+            ["nearness", "tail"], whole.log[chosen - 1]["mean_x"], strict=True)), abs=1e-6)
+    else:  # none did: the rule is Eq. 9
+        assert all(v == 0 for v in rule["searched"].values())
+
+
+def test_the_kept_mean_is_the_best_checked_or_eq9():
+    from agents.rule_search import SearchState, choose, generations_checked
+
+    config = RuleSearchConfig(features=["tail"], generations=3, select_every=2,
+                              train_seeds=[0, 1], seeds_per_generation=1, select_seeds=[5])
+    log = [{"generation": g, "mean_x": [0.1 * g]} for g in (1, 2, 3)]
+    state = SearchState(3, None, log=log)
+    state.checked = {2: {"diff_mean_s": -50.0}, 3: {"diff_mean_s": -80.0}}
+    assert generations_checked(config) == [2, 3]  # every 2nd, and the last
+    assert choose(state, config)["generation"] == 3
+    assert choose(state, config)["weights"] == [pytest.approx(0.3)]
+    state.checked = {2: {"diff_mean_s": 10.0}, 3: {"diff_mean_s": 0.0}}
+    picked = choose(state, config)
+    assert picked["generation"] == 0 and picked["weights"] == [0.0]
 
 
 def test_cmdp_search_rule_names_a_bad_setting_and_writes_a_usable_rule(tmp_path, capsys):
@@ -104,7 +127,7 @@ def test_cmdp_search_rule_names_a_bad_setting_and_writes_a_usable_rule(tmp_path,
                      "--set", "train_seeds=[0, 1]", "--set", "seeds_per_generation=1",
                      "--set", "select_seeds=[2]", "--workers", "1", "--out", str(out),
                      "--no-progress"]) == 0
-    assert "on selection seeds 2..2" in capsys.readouterr().out
+    assert "means checked on selection seeds 2..2" in capsys.readouterr().out
     for name in ("rule.json", "history.csv", "checkpoint.pkl", "config.json"):
         assert (out / name).is_file(), name
     assert make_evaluator(f"student:{out / 'rule.json'}").candidates == 5

@@ -4,8 +4,8 @@
                      [--workers N] [--out DIR] [--resume]
 
 Writes into DIR: ``rule.json`` (the search's current estimate as a student file: use it with
-``cmdp-simulate --evaluator student:DIR/rule.json``; at the end it also holds the paired check
-against Eq. 9 on the selection seeds), ``history.csv`` (per generation: best and mean paired
+``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean that did best against
+Eq. 9 on the selection seeds, with that check), ``history.csv`` (per generation: best and mean paired
 difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after every generation;
 ``--resume`` continues from it exactly) and ``config.json`` (settings, case, versions,
 command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one exits with 2
@@ -87,10 +87,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"cmdp-search-rule: generation {row['generation']}: best {row['best']:+.0f} s, "
               f"mean {row['mean']:+.0f} s against Eq. 9 (sigma {row['sigma']:.3f})")
     sel = state.selection
-    if sel and sel["diff_mean_s"] is not None:
-        print(f"cmdp-search-rule: on selection seeds {sel['seeds'][0]}..{sel['seeds'][-1]} "
-              f"({sel['paired_seeds']} paired): {sel['ratio']:.3f} x Eq. 9, difference "
-              f"{sel['diff_mean_s']:+.0f} +- {sel['diff_ci95_s'] or 0:.0f} s")
+    if sel is not None:
+        seeds = f"{config.select_seeds[0]}..{config.select_seeds[-1]}"
+        checked = ", ".join(f"{g}: {d:+.0f}" for g, d in sorted(sel["checked"].items()))
+        print(f"cmdp-search-rule: means checked on selection seeds {seeds} (generation: "
+              f"paired difference to Eq. 9, s): {checked}")
+        if sel["generation"] == 0:
+            print(f"cmdp-search-rule: {sel['note']}")
+        else:
+            print(f"cmdp-search-rule: kept generation {sel['generation']}'s mean: "
+                  f"{sel['ratio']:.3f} x Eq. 9, difference {sel['diff_mean_s']:+.0f} +- "
+                  f"{sel['diff_ci95_s'] or 0:.0f} s ({sel['paired_seeds']} paired seeds; "
+                  "picked on them, so report it on others)")
     print(f"cmdp-search-rule: the rule -> {args.out / 'rule.json'}")
     return 0
 
