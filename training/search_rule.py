@@ -3,12 +3,12 @@
     cmdp-search-rule [--config training/configs/rule_search.toml] [--set key=value ...]
                      [--workers N] [--out DIR] [--resume]
 
-Writes into DIR: ``rule.json`` (the search's current estimate as a student file: use it with
-``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean that did best against
-Eq. 9 on the selection seeds, with that check), ``history.csv`` (per generation: best and mean paired
-difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after every generation;
-``--resume`` continues from it exactly) and ``config.json`` (settings, case, versions,
-command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one exits with 2
+Writes into DIR: ``rule.json`` (the search's current estimate as a student file: use it
+with ``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean that did best
+against Eq. 9 on the selection seeds, with that check), ``history.csv`` (per generation: best
+and mean paired difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after
+every generation; ``--resume`` continues from it exactly) and ``config.json`` (settings, case,
+versions, command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one exits with 2
 naming it and the fix.
 """
 
