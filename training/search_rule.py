@@ -8,8 +8,8 @@ with ``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean t
 against Eq. 9 on the selection seeds, with that check), ``history.csv`` (per generation: best
 and mean paired difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after
 every generation; ``--resume`` continues from it exactly) and ``config.json`` (settings, case,
-versions, command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one exits with 2
-naming it and the fix.
+versions, command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one
+exits with 2 naming it and the fix.
 """
 
 from __future__ import annotations
