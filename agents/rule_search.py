@@ -248,8 +248,9 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
                          for s in config.select_seeds])
             state.checked[g] = selection_result(rows, state.baseline, limit)
             write_atomic(checkpoint, pickle.dumps(state))
-        if state.selection is None:
-            state.selection = choose(state, config)
+        selection = choose(state, config)  # cheap, and the same for the same checks
+        if selection != state.selection:
+            state.selection = selection
             _record(state, out, config, crew_types, popsize)
     bar.close()
     return state
