@@ -586,7 +586,7 @@ def _disruption_problems(data: dict, case: Case | None, parts: _Parts) -> list[s
                     (a, b, where) for a, b in _scheduled_windows(entry, limit))
     for crew, windows in absences.items():
         windows.sort()
-        for (a0, b0, w0), (a1, b1, w1) in zip(windows, windows[1:]):
+        for (a0, b0, w0), (a1, _, w1) in zip(windows, windows[1:], strict=False):
             if a1 < b0:
                 problems.append(f'{w1}: crew "{crew}" is already absent from {a0:g} s to '
                                 f"{b0:g} s ({w0}), and this absence starts at {a1:g} s; fix: "

@@ -182,6 +182,29 @@ class Timeline:
                       for e in self.entries for a, b in e.windows)
 
 
+def feature_size(case: Case | Site) -> int:
+    """Floats ``features`` adds to the global state and to O^e: 0 for a case without
+    disruptions (so models trained on one read the same sizes as before), else
+    2 + n_storages + n_crews. ``case``: a case, or a site (its case)."""
+    if isinstance(case, Site):
+        case = case.case
+    return 2 + len(case.storages) + len(case.crews) if case.disruptions else 0
+
+
+def features(site: Site, out: np.ndarray) -> None:
+    """What is disrupted now, into ``out`` (length ``feature_size``; each 0 or 1): crane
+    broken down, weather stop, then per storage its delivery late, then per crew absent."""
+    now = site.disrupted or Now()
+    out[:] = 0.0
+    out[0] = 1.0 if now.crane_down else 0.0
+    out[1] = 1.0 if now.weather else 0.0
+    n_storages = len(site.storages)
+    for s in now.late:
+        out[2 + s] = 1.0
+    for c in now.absent:
+        out[2 + n_storages + c] = 1.0
+
+
 def waits_on_late_delivery(site: Site, request: CraneRequest, now: Now) -> bool:
     """A lift for a storage whose delivery is late cannot start."""
     return request.kind == "material" and request.storage in now.late

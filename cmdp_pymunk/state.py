@@ -43,8 +43,13 @@ class IdleCause(IntEnum):
     WEATHER = 7
 
 
-# The causes a reaching crew without a target has (``decide.acquire_target``).
+# The causes a reaching crew without a target has (``decide.acquire_target``), and those of
+# a crew a disruption keeps from working (``disruptions.blocking_cause``).
 REACHING_IDLE_CAUSES = (IdleCause.PREDECESSOR, IdleCause.AREA, IdleCause.NO_TARGET)
+DISRUPTION_CAUSES = (IdleCause.CRANE_BREAKDOWN, IdleCause.LATE_DELIVERY, IdleCause.ABSENCE,
+                     IdleCause.WEATHER)
+# their columns in episode rows and comparisons: crew-seconds kept from working, by kind
+DISRUPTION_IDLE_FIELDS = tuple(f"idle_{c.name.lower()}" for c in DISRUPTION_CAUSES)
 
 
 class ScopeKind(IntEnum):
