@@ -46,6 +46,8 @@ from .case_model import (  # noqa: F401  (re-exported: the models are part of th
 BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
 # the tiny case of the docs, the command-line tests and cmdp/TinyFloor-v1
 TINY_CASE = Path(__file__).with_name("cases") / "tiny_floor.toml"
+# the built-in case with the documented disruption profile (docs/disruptions.md)
+DISRUPTED_CASE = Path(__file__).with_name("cases") / "precast_floor_disrupted.toml"
 
 
 @dataclass
@@ -684,4 +686,4 @@ def as_case(case: Case | str | Path | dict | None) -> Case:
 
 
 __all__ = ["Case", "CaseError", "load_case", "case_from_dict", "as_case", "BUILTIN_CASE",
-           "TINY_CASE"]
+           "TINY_CASE", "DISRUPTED_CASE"]

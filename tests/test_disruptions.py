@@ -375,3 +375,55 @@ def test_every_problem_is_reported_together_with_the_rest_of_the_case():
         case_from_dict(data, "floor.toml")
     text = str(err.value)
     assert 'tasks[0] "X-A": work' in text and 'crew "nobody"' in text
+
+
+# -- the registered variant ----------------------------------------------------------------
+
+def test_the_disrupted_floor_is_the_built_in_floor_with_the_profile():
+    from cmdp_pymunk.case import BUILTIN_CASE, DISRUPTED_CASE
+    from cmdp_pymunk.case_model import Disruptions
+
+    plain, disrupted = load_case(BUILTIN_CASE), load_case(DISRUPTED_CASE)
+    assert disrupted.disruptions
+    assert disrupted.model_copy(update={"disruptions": Disruptions(),
+                                        "case": plain.case}) == plain
+
+
+def test_the_disrupted_variant_is_registered():
+    import pettingzoo
+
+    import cmdp_pymunk  # noqa: F401  (registers the variants)
+
+    env = pettingzoo.make("parallel", "cmdp/PrecastFloor-disrupted-v1")
+    assert env.case.case.name == "precast-floor-disrupted" and env.case.disruptions
+
+
+def no_stall_seeds() -> range:
+    """Seeds of the no-stall check: 200 (``CMDP_DISRUPTED_SEEDS`` = N runs the first N; a
+    full floor takes about 3.5 s here, so 200 take about 12 min on one core)."""
+    import os
+
+    return range(int(os.environ.get("CMDP_DISRUPTED_SEEDS", "200")))
+
+
+@pytest.mark.slow
+def test_no_stall_on_the_disrupted_floor_with_the_heuristic():
+    """Every seed of the disrupted built-in floor ends (every task) with the priority
+    heuristic and the scripted navigator, under the env's stall guard of 3600 s."""
+    from cmdp_pymunk.case import DISRUPTED_CASE
+
+    case = load_case(DISRUPTED_CASE)
+    engine = Engine(case, evaluator="priority", stall_s=3600.0)
+    navigator = Navigator(engine)
+    bad, struck = [], 0
+    for seed in no_stall_seeds():
+        engine.reset(seed=seed)
+        navigator.reset(seed)
+        while not (engine.site.done or engine.stalled
+                   or engine.site.time_s >= engine.max_time_s):
+            engine.advance(navigator.crew_actions(engine), until=engine.decision_due)
+        struck += bool(engine.timeline.windows())
+        if not engine.site.done:
+            bad.append((seed, engine.stalled, engine.site.time_s))
+    assert not bad, f"stalled or timed out (seed, stall, time): {bad}"
+    assert struck == len(no_stall_seeds())  # the profile struck every floor
