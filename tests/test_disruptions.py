@@ -427,3 +427,52 @@ def test_no_stall_on_the_disrupted_floor_with_the_heuristic():
             bad.append((seed, engine.stalled, engine.site.time_s))
     assert not bad, f"stalled or timed out (seed, stall, time): {bad}"
     assert struck == len(no_stall_seeds())  # the profile struck every floor
+
+
+# -- seen: the charts and the frames -------------------------------------------------------
+
+def test_disruption_intervals_from_a_hand_made_log():
+    from cmdp_pymunk.events import Event
+    from media.charts import Disruption as Band
+    from media.charts import disruption_intervals
+
+    log = [Event(10.0, "disruption_start", "", "crane", "crane_breakdown"),
+           Event(20.0, "disruption_start", "X-1", "X-1", "absence"),
+           Event(30.0, "disruption_end", "", "crane", "crane_breakdown"),
+           Event(40.0, "disruption_start", "", "plane", "weather"),
+           Event(50.0, "task_finish", "X-1", "A")]
+    assert disruption_intervals(log) == [Band(10.0, 30.0, "crane_breakdown", "crane"),
+                                         Band(20.0, 50.0, "absence", "X-1"),
+                                         Band(40.0, 50.0, "weather", "plane")]
+
+
+def test_the_gantt_charts_draw_the_bands(tmp_path):
+    from media import charts
+
+    # X-1 away [50, 110) puts K-A's crane request at 189 (129 + 60); the crane breaks down
+    # [200, 300) while it assists: K-1 idle for the breakdown exactly then
+    e = run({"crane_breakdowns": [{"at_s": 200.0, "duration_s": 100.0}],
+             "absences": [{"crew": "X-1", "at_s": 50.0, "duration_s": 60.0}]})
+    intervals = charts.activity_intervals(e.log.events)
+    assert charts.ActivityInterval(50.0, 110.0, "idle_absence") in intervals["X-1"]
+    assert charts.ActivityInterval(200.0, 300.0, "idle_crane_breakdown") in intervals["K-1"]
+    for draw in (charts.gantt_agents, charts.gantt_tasks):
+        path = draw(e.log.events, tmp_path / f"{draw.__name__}.png")
+        assert path.stat().st_size > 1000
+
+
+def test_a_frame_shows_what_is_disrupted():
+    from cmdp_pymunk.env import CMDPEnv
+    from media.render import disruption_text
+
+    data = {**tiny_dict(), "disruptions": {
+        "weather_stops": [{"at_s": 0.0, "duration_s": 50.0}],
+        "absences": [{"crew": "K-1", "at_s": 0.0, "duration_s": 50.0}]}}
+    env = CMDPEnv(case=case_from_dict(data, "tiny.toml"), render_mode="rgb_array")
+    env.reset(seed=0)
+    assert disruption_text(env.site) == "WEATHER STOP   away: K-1"
+    frame = env.render()
+    plain = CMDPEnv(case=case_from_dict(tiny_dict(), "tiny.toml"), render_mode="rgb_array")
+    plain.reset(seed=0)
+    assert frame.shape == plain.render().shape
+    assert not np.array_equal(frame, plain.render())
