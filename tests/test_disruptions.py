@@ -476,3 +476,38 @@ def test_a_frame_shows_what_is_disrupted():
     plain.reset(seed=0)
     assert frame.shape == plain.render().shape
     assert not np.array_equal(frame, plain.render())
+
+
+# -- counted: cmdp-evaluate on a disrupted case --------------------------------------------
+
+def test_evaluate_reports_p80_paired_differences_and_idle_by_disruption(tmp_path):
+    import csv
+    import json
+
+    from training import evaluate
+
+    case = tmp_path / "tiny_disrupted.toml"
+    case.write_text(TINY_CASE.read_text(encoding="utf-8") + """
+[[disruptions.crane_breakdowns]]
+at_s = 100.0
+duration_s = 300.0
+
+[[disruptions.absences]]
+crew = "RC-1"
+at_s = 100.0
+duration_s = 150.0
+""", encoding="utf-8")
+    out = tmp_path / "eval"
+    assert evaluate.main(["--case", str(case), "--seeds", "0-2", "--strategies",
+                          "priority,nearest", "--workers", "1", "--out", str(out),
+                          "--cpsat-s", "1", "--no-progress", "--no-figures"]) == 0
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert all(r["idle_absence"] == "150" for r in rows)  # RC-1 away 150 s on every seed
+    summary = json.loads((out / "summary.json").read_text())
+    makespans = sorted(float(r["makespan_s"]) for r in rows if r["strategy"] == "priority")
+    # P80 of three: order statistics at rank 0.8 * 2 = 1.6, between the 2nd and the 3rd
+    p80 = makespans[1] + 0.6 * (makespans[2] - makespans[1])
+    assert summary[0]["makespan_p80_s"] == pytest.approx(p80)
+    assert summary[1]["vs_priority_paired_seeds"] == 3
+    table = (out / "summary.md").read_text()
+    assert "P80 (s)" in table and "idle: crane breakdown / late delivery" in table
