@@ -34,7 +34,7 @@ import numpy as np
 
 from . import construct, events, streams
 from .case_model import Case, Disruption
-from .state import CraneRequest, CrewState, CrewStatus, IdleCause, Site
+from .state import CrewState, CrewStatus, IdleCause, Site
 
 # The case's lists, the idle cause each kind gives and its random source.
 KINDS = (("crane_breakdowns", IdleCause.CRANE_BREAKDOWN, streams.CRANE_BREAKDOWN),
@@ -203,11 +203,6 @@ def features(site: Site, out: np.ndarray) -> None:
         out[2 + s] = 1.0
     for c in now.absent:
         out[2 + n_storages + c] = 1.0
-
-
-def waits_on_late_delivery(site: Site, request: CraneRequest, now: Now) -> bool:
-    """A lift for a storage whose delivery is late cannot start."""
-    return request.kind == "material" and request.storage in now.late
 
 
 def blocking_cause(site: Site, crew: CrewState, now: Now | None) -> IdleCause:

@@ -534,3 +534,9 @@ def test_a_model_trained_without_disruptions_is_refused_naming_the_sizes():
     size = evaluation_size(disrupted)
     assert f"reads {size - 12} floats" in str(err.value)
     assert f"has {size} (of which 12 say what is disrupted" in str(err.value)
+
+
+def test_an_empty_disruptions_section_changes_nothing(base):
+    e = run({})
+    assert e.timeline is None
+    assert e.log.events == base.log.events
