@@ -540,3 +540,27 @@ def test_an_empty_disruptions_section_changes_nothing(base):
     e = run({})
     assert e.timeline is None
     assert e.log.events == base.log.events
+
+
+def test_blocking_cause_row_by_row(tiny_case):
+    from cmdp_pymunk.disruptions import Now, blocking_cause
+    from cmdp_pymunk.state import Site
+
+    site = Site(tiny_case, 2)
+    crew = site.crews[2]  # M-1
+    crew.status, crew.storage = CrewStatus.WAITING, 0  # waiting for a lift to S
+    every = Now(crane_down=True, weather=True, late=frozenset({0}), absent=frozenset({2}))
+    assert blocking_cause(site, crew, None) == IdleCause.NONE
+    assert blocking_cause(site, crew, Now()) == IdleCause.NONE
+    assert blocking_cause(site, crew, every) == IdleCause.ABSENCE  # absence first
+    assert blocking_cause(site, crew, Now(crane_down=True, weather=True,
+                                          late=frozenset({0}))) == IdleCause.WEATHER
+    assert blocking_cause(site, crew, Now(crane_down=True, late=frozenset({0}))) == \
+        IdleCause.CRANE_BREAKDOWN
+    assert blocking_cause(site, crew, Now(late=frozenset({0}))) == IdleCause.LATE_DELIVERY
+    crew.storage = -1  # waiting for hoisting: a late delivery does not hold it
+    assert blocking_cause(site, crew, Now(late=frozenset({0}))) == IdleCause.NONE
+    crew.status = CrewStatus.REACHING  # walking: weather lets it
+    assert blocking_cause(site, crew, Now(weather=True, crane_down=True)) == IdleCause.NONE
+    crew.status = CrewStatus.LEFT
+    assert blocking_cause(site, crew, every) == IdleCause.NONE
