@@ -205,7 +205,8 @@ class Floor:
         idle = dict.fromkeys(IDLE_CAUSES, 0)
         for crew in site.crews:
             for cause, steps in crew.stats.idle_steps.items():
-                idle[cause.name.lower()] += steps
+                if steps or cause.name.lower() in idle:  # a disruption's cause only if it hit
+                    idle[cause.name.lower()] = idle.get(cause.name.lower(), 0) + steps
         return {"makespan_s": self.engine.makespan_s, "stalled": self.engine.stalled is not None,
                 "tasks_ended": site.tasks_ended, "time_s": site.time_s,
                 "episode_terms": dict(self.terms), "idle_steps": idle}
