@@ -7,6 +7,7 @@ needs stable-baselines3 (imported only then).
 
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 
 from cmdp_pymunk import evaluate
@@ -98,9 +99,10 @@ def model_path(spec: str, option: str) -> Path:
     """``spec`` as an existing file, or a ValueError naming ``option`` and the fix."""
     path = Path(spec)
     if not path.is_file():
-        names = (", ".join([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH",
-                            "lookahead", "student:PATH"])
-                 if option == "--evaluator" else "scripted")
-        raise ValueError(f"{option} {spec!r}: no such model file; give a .zip saved by "
-                         f"stable-baselines3, or one of {names}")
+        choices = ([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH", "lookahead",
+                    "student:PATH"] if option == "--evaluator" else ["scripted"])
+        close = difflib.get_close_matches(spec, [c for c in choices if ":" not in c], n=1)
+        hint = f"did you mean {close[0]!r}? " if close and not spec.endswith(".zip") else ""
+        raise ValueError(f"{option} {spec!r}: no such model file; {hint}give a .zip saved by "
+                         f"stable-baselines3, or one of {', '.join(choices)}")
     return path
