@@ -52,7 +52,7 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
         seed: the episode's seed.
         stall_s: stop when no task moves on for this many simulated seconds: sets the env's
             own stall guard (``env.stall_s``, the one training uses); None keeps the env's.
-        progress: show a tqdm bar in simulated seconds.
+        progress: show a tqdm bar of the tasks ended (the simulated time beside it).
         frame_every_s: render a frame every this many simulated seconds (None: no frames).
     """
     from tqdm import tqdm
@@ -67,7 +67,9 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
     site = env.site
     frames = []
     next_frame = 0.0
-    bar = tqdm(total=int(env.max_time_s), unit="sim-s", disable=not progress, leave=False,
+    # counted in tasks ended, the one total known in advance (a floor's simulated seconds are
+    # not: against the time limit, a finished floor stopped the bar at about 40 %)
+    bar = tqdm(total=len(site.tasks), unit="task", disable=not progress, leave=False,
                mininterval=1.0, desc=f"seed {seed}")
     start = time.perf_counter()
     with sigint_guard(), bar:  # Ctrl-C stops the loop even when it lands inside pymunk
@@ -76,10 +78,10 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
                 while site.time_s >= next_frame:  # a jump repeats the still frame: time-lapse
                     frames.append(env.render())
                     next_frame += frame_every_s
-            before = site.time_s
+            before = site.tasks_ended
             observations, *_ = env.step(navigator.actions(env, observations))
-            bar.update(int(site.time_s - before))
-            bar.set_postfix_str(f"tasks {site.tasks_ended}/{len(site.tasks)}", refresh=False)
+            bar.update(site.tasks_ended - before)
+            bar.set_postfix_str(f"t = {site.time_s:,.0f} s", refresh=False)
     stalled = stall_report(env, env.stalled["after_s"]) if env.stalled else None
     if frame_every_s is not None:
         frames.append(env.render())
