@@ -128,3 +128,14 @@ def test_bad_input_exits_2(tmp_path, capsys):
     assert simulate.main(["--case", TINY, "--navigator", str(tmp_path / "nope.zip"),
                           "--out", str(tmp_path / "o")]) == 2
     assert "no such model file" in capsys.readouterr().err
+
+
+def test_no_charts_says_so(tmp_path, capsys):
+    from cmdp_pymunk import TINY_CASE
+    from training.simulate import main
+
+    assert main(["--case", str(TINY_CASE), "--out", str(tmp_path), "--no-charts",
+                 "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[-1].startswith("cmdp-simulate: summary, schedule.csv and events.csv in")
+    assert not (tmp_path / "gantt_tasks.png").exists()

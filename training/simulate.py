@@ -347,7 +347,8 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
-    print(f"cmdp-simulate: charts and summary in {args.out}")
+    what = "charts, summary" if args.charts else "summary"
+    print(f"cmdp-simulate: {what}, schedule.csv and events.csv in {args.out}")
     return 1 if failed else 0
 
 
