@@ -74,7 +74,7 @@ def _seconds(value) -> str:
 def main(argv: list[str] | None = None) -> int:
     from cmdp_pymunk import add_version_flag
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     add_version_flag(parser)
     parser.add_argument("navigator_run", type=Path)
     parser.add_argument("policy_run", type=Path)

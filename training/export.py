@@ -120,7 +120,7 @@ def export(model_path: str | Path, onnx_path: str | Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     import cmdp_pymunk
 
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     cmdp_pymunk.add_version_flag(parser)
     parser.add_argument("model", type=Path, help="a stable-baselines3 PPO .zip")
     parser.add_argument("onnx", type=Path, help="the .onnx file to write")
