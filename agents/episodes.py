@@ -255,6 +255,7 @@ class Workers(Backend):
                 os.kill(pid, signal.SIGTERM)
             except (ProcessLookupError, PermissionError):
                 pass
+        pool.shutdown(wait=True)  # the pool sees its workers gone and frees its queues
 
     def __exit__(self, *exc) -> None:
         if self._pool is not None:

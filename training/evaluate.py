@@ -242,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
             return _main(args)
     except KeyboardInterrupt:
         kept = len(read_log(args.out / LOG))
-        print(f"\ncmdp-evaluate: stopped; {kept} finished episode(s) kept in "
+        print(f"\ncmdp-evaluate: interrupted; {kept} finished episode(s) kept in "
               f"{args.out / LOG}; to finish, rerun with --resume", file=sys.stderr)
         return 130
     except (_Stop, BackendError) as err:
