@@ -226,23 +226,34 @@ class Workers(Backend):
                 yield i, self.job(self._runner, *args)
             return
         todo, tries = list(range(len(jobs))), 0
-        while todo:
+        while todo and tries <= self.retries:
             futures = {self._pool.submit(_call, jobs[i]): i for i in todo}
             finished = set()
             for future in futures_completed(futures):
                 try:
                     result = future.result()
-                except BrokenProcessPool:  # a worker died: its jobs and the queued ones
+                except BrokenProcessPool:  # a worker died: its job and every unfinished one
                     continue
                 finished.add(futures[future])
                 yield futures[future], result
             todo = [i for i in todo if i not in finished]
             if todo:
                 self._stop(self._pool)
-                if tries == self.retries:
-                    raise WorkerLost(todo, self.retries)
-                tries += 1
                 self._pool = self._new_pool()
+                tries += 1
+        # Still dying: one job at a time, so that only the job that kills its worker is lost.
+        lost = []
+        for i in todo:
+            try:
+                result = self._pool.submit(_call, jobs[i]).result()
+            except BrokenProcessPool:
+                lost.append(i)
+                self._stop(self._pool)
+                self._pool = self._new_pool()
+                continue
+            yield i, result
+        if lost:
+            raise WorkerLost(lost, self.retries)
 
     @staticmethod
     def _stop(pool) -> None:
