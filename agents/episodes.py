@@ -198,8 +198,9 @@ class Backend:
 class Workers(Backend):
     """``job(runner, *args)`` over worker processes of this machine, each with its own
     ``EpisodeRunner(*runner_args)`` (``runner_args`` None: the job gets None); one process (no
-    pool) for ``workers=1``. A worker that dies takes the pool down: the jobs it left
-    unfinished run again in a new pool, ``retries`` times, then ``WorkerLost`` names them.
+    pool) for ``workers=1``. A worker that dies takes the pool down: the unfinished jobs run
+    again in a new pool, ``retries`` times; then one at a time, and ``WorkerLost`` names those
+    whose worker still died (after every other result was handed out).
     ``job`` must be a module-level function (it is pickled by name)."""
 
     def __init__(self, job: Callable, runner_args: tuple | None, workers: int, retries: int = 1):
