@@ -198,33 +198,32 @@ class RayWorkers(Backend):
             submit(slot)
         while inflight:
             [ref], _ = ray.wait(list(inflight), num_returns=1)
-            i, slot = inflight.pop(ref)
-            load[slot] -= 1
+            i, slot = inflight[ref]
             try:
                 result = ray.get(ref)
-            except ray.exceptions.RayActorError:  # the worker process died: a new actor,
-                # and its jobs (this one and the one queued behind it) run again
+            except ray.exceptions.RayActorError:  # the worker process died: a new actor
+                # The actor ran its jobs in the order they were sent: the first was running
+                # (it counts a try), the one behind it had not started (it goes back as is).
+                held = [(r, j) for r, (j, s) in inflight.items() if s == slot]
+                for n, (r, j) in enumerate(held):
+                    del inflight[r]
+                    if n == 0:
+                        tries[j] += 1
+                    if tries[j] > self.retries:
+                        lost.append(j)
+                    else:
+                        queue.appendleft(j)
                 self._kill(self._actors[slot])
                 self._actors[slot] = self._new_actor()
                 load[slot] = 0
-                for r, (j, s) in list(inflight.items()):
-                    if s == slot:
-                        del inflight[r]
-                        self._retry(j, tries, queue, lost)
-                self._retry(i, tries, queue, lost)
                 submit(slot)
                 continue
+            del inflight[ref]
+            load[slot] -= 1
             submit(slot)
             yield i, result
         if lost:
             raise WorkerLost(lost, self.retries)
-
-    def _retry(self, i: int, tries: list[int], queue: deque, lost: list[int]) -> None:
-        tries[i] += 1
-        if tries[i] > self.retries:
-            lost.append(i)
-        else:
-            queue.appendleft(i)
 
     # -- stopping ---------------------------------------------------------------------------
 
