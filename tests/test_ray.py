@@ -153,3 +153,32 @@ def test_a_file_missing_on_a_worker_is_one_line(cluster, tmp_path, capsys, monke
     assert err.startswith("cmdp-evaluate: on worker host ") and str(missing) in err, err
     assert "same path on every node" in err
     assert not (tmp_path / "out" / "episodes.jsonl").exists()
+
+
+def test_the_ga_searches_the_same_on_ray(cluster, tmp_path):
+    from test_ga import far_start_case
+
+    from agents.ga import GAConfig, run_ga
+
+    case = far_start_case()
+    config = GAConfig(population=4, generations=1, train_seeds=[0, 1], seed=2)
+    local = run_ga(case, config, tmp_path / "local", workers=1, progress=False)
+    on_ray = run_ga(case, config, tmp_path / "ray", progress=False, workers=None,
+                    ray=cluster.address)
+    assert on_ray.population == local.population
+
+
+def test_the_teachers_labels_are_the_same_on_ray(cluster, tmp_path):
+    import numpy as np
+
+    from training import distill
+
+    tiny = str(cmdp_pymunk.TINY_CASE)
+    for name, extra in (("local", []), ("ray", ["--ray", cluster.address, "--workers", "0"])):
+        assert distill.main(["label", "--case", tiny, "--seeds", "0-1", "--candidates", "2",
+                             "--out", str(tmp_path / name), *extra]) == 0
+    for seed in (0, 1):
+        a, b = (np.load(tmp_path / name / f"seed-{seed}.npz") for name in ("local", "ray"))
+        for key in a.files:
+            if key != "wall_s":
+                assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f"), key
