@@ -1,0 +1,86 @@
+"""Episodes per second with local worker processes and with Ray actors on the same cores,
+measured in one run, and the scaling of the lookahead teacher's labelling with workers.
+
+    python benchmarks/bench_ray.py [--seeds 4] [--rounds 2] [--label-seeds 4] [--cpus 2]
+
+Needs Ray (``pip install -e '.[ray]'``). Part 1: ``cmdp-evaluate``'s episodes (built-in case,
+priority heuristic, scripted navigator) on 1 local process, ``--cpus`` local processes and a
+Ray started here with ``--cpus`` CPUs (``--cpus`` actors); each measurement includes starting
+its workers (actors are started anew; Ray itself once, its start timed apart). Part 2: the
+lookahead teacher's labelling (``training.distill``'s floors, tiny case, 2 candidates) with
+the same three backends. Rounds alternate the order so that a change in the machine's load
+hits every backend; the medians and their ratios to 1 local process are printed. The results
+are checked to be the same whatever the backend. On a machine shared with other jobs the
+ratios say what the cores gave then, not what they can give.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import cmdp_pymunk
+from agents.episodes import open_backend
+from training.distill import _label_job
+from training.evaluate import _episode_job
+
+
+def measure(job, runner_args, jobs, workers: int, ray: str | None, keep) -> tuple[float, list]:
+    """Jobs per wall second (starting the workers included) and what ``keep`` takes of each
+    result."""
+    start = time.perf_counter()
+    with open_backend(job, runner_args, workers, ray) as pool:
+        results = pool.map(jobs)
+    return len(jobs) / (time.perf_counter() - start), [keep(r) for r in results]
+
+
+def compare(title: str, unit: str, job, runner_args, jobs, cpus: int, rounds: int,
+            keep) -> None:
+    backends = [("local 1", 1, None), (f"local {cpus}", cpus, None), (f"Ray {cpus}", cpus, "local")]
+    speed: dict[str, list[float]] = {name: [] for name, _, _ in backends}
+    kept = {}
+    for r in range(rounds):
+        for name, workers, ray in backends if r % 2 == 0 else backends[::-1]:
+            rate, kept[name] = measure(job, runner_args, jobs, workers, ray, keep)
+            speed[name].append(rate)
+            print(f"{title}: round {r}: {name}: {rate:.3f} {unit}/s", flush=True)
+    first = next(iter(kept.values()))
+    assert all(k == first for k in kept.values()), f"{title}: the backends disagree"
+    base = statistics.median(speed["local 1"])
+    print(f"{title}: median " + ", ".join(
+        f"{name} {statistics.median(v):.3f} {unit}/s ({statistics.median(v) / base:.2f} x)"
+        for name, v in speed.items()))
+
+
+def main(argv: list[str] | None = None) -> None:
+    import ray
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(p)
+    p.add_argument("--seeds", type=int, default=4, help="episodes per measurement")
+    p.add_argument("--label-seeds", type=int, default=4, help="floors labelled per measurement")
+    p.add_argument("--rounds", type=int, default=2)
+    p.add_argument("--cpus", type=int, default=2, help="local processes and Ray CPUs")
+    a = p.parse_args(argv)
+    start = time.perf_counter()
+    ray.init(num_cpus=a.cpus, include_dashboard=False, object_store_memory=200 * 1024**2,
+             logging_level="WARNING")
+    print(f"Ray {ray.__version__} started here with {a.cpus} CPUs in "
+          f"{time.perf_counter() - start:.1f} s", flush=True)
+    try:
+        case = cmdp_pymunk.load_case(None)
+        compare("episodes (built-in case)", "episodes", _episode_job,
+                (case, 3600.0, None, False),
+                [("priority", "scripted", s) for s in range(a.seeds)], a.cpus, a.rounds,
+                lambda row: row["makespan_s"])
+        tiny = str(cmdp_pymunk.TINY_CASE)
+        compare("labelling (tiny case)", "floors", _label_job, None,
+                [(tiny, s, 2, 0) for s in range(a.label_seeds)], a.cpus, a.rounds,
+                lambda result: (result["seed"], result["makespan_s"], len(result["rows"])))
+    finally:
+        ray.shutdown()
+
+
+if __name__ == "__main__":
+    main()
