@@ -5,13 +5,14 @@ measured in one run, and the scaling of the lookahead teacher's labelling with w
 
 Needs Ray (``pip install -e '.[ray]'``). Part 1: ``cmdp-evaluate``'s episodes (built-in case,
 priority heuristic, scripted navigator) on 1 local process, ``--cpus`` local processes and a
-Ray started here with ``--cpus`` CPUs (``--cpus`` actors); each measurement includes starting
-its workers (actors are started anew; Ray itself once, its start timed apart). Part 2: the
-lookahead teacher's labelling (``training.distill``'s floors, tiny case, 2 candidates) with
-the same three backends. Rounds alternate the order so that a change in the machine's load
-hits every backend; the medians and their ratios to 1 local process are printed. The results
-are checked to be the same whatever the backend. On a machine shared with other jobs the
-ratios say what the cores gave then, not what they can give.
+Ray started here with ``--cpus`` CPUs (``--cpus`` actors); each measurement starts its
+workers (actors are started anew; Ray itself once), timed apart from the jobs: the rates are
+those of warm workers. Part 2: the lookahead teacher's labelling (``training.distill``'s
+floors, tiny case, 3 candidates x 4 sampled futures) with the same three backends. Rounds
+alternate the order so that a change in the machine's load hits every backend; the medians
+and their ratios to 1 local process are printed. The results are checked to be the same
+whatever the backend. On a machine shared with other jobs the ratios say what the cores gave
+then, not what they can give.
 """
 
 from __future__ import annotations
@@ -26,25 +27,37 @@ from training.distill import _label_job
 from training.evaluate import _episode_job
 
 
-def measure(job, runner_args, jobs, workers: int, ray: str | None, keep) -> tuple[float, list]:
-    """Jobs per wall second (starting the workers included) and what ``keep`` takes of each
-    result."""
+def _job(runner, which: str, *args):
+    """The measured job, or ``warm``: a short sleep, so that every worker gets one and all of
+    them start (local processes are spawned on demand)."""
+    if which == "warm":
+        return time.sleep(0.3)
+    return {"episode": _episode_job, "label": _label_job}[which](runner, *args)
+
+
+def measure(job: str, runner_args, jobs, workers: int, ray: str | None,
+            keep) -> tuple[float, float, list]:
+    """Seconds to start the workers (each has run a first, empty job), jobs per wall second
+    after that, and what ``keep`` takes of each result."""
     start = time.perf_counter()
-    with open_backend(job, runner_args, workers, ray) as pool:
-        results = pool.map(jobs)
-    return len(jobs) / (time.perf_counter() - start), [keep(r) for r in results]
+    with open_backend(_job, runner_args, workers, ray) as pool:
+        pool.map([("warm",)] * workers)
+        up = time.perf_counter()
+        results = pool.map([(job, *args) for args in jobs])
+    return up - start, len(jobs) / (time.perf_counter() - up), [keep(r) for r in results]
 
 
-def compare(title: str, unit: str, job, runner_args, jobs, cpus: int, rounds: int,
+def compare(title: str, unit: str, job: str, runner_args, jobs, cpus: int, rounds: int,
             keep) -> None:
     backends = [("local 1", 1, None), (f"local {cpus}", cpus, None), (f"Ray {cpus}", cpus, "local")]
     speed: dict[str, list[float]] = {name: [] for name, _, _ in backends}
     kept = {}
     for r in range(rounds):
         for name, workers, ray in backends if r % 2 == 0 else backends[::-1]:
-            rate, kept[name] = measure(job, runner_args, jobs, workers, ray, keep)
+            up, rate, kept[name] = measure(job, runner_args, jobs, workers, ray, keep)
             speed[name].append(rate)
-            print(f"{title}: round {r}: {name}: {rate:.3f} {unit}/s", flush=True)
+            print(f"{title}: round {r}: {name}: {rate:.3f} {unit}/s after {up:.1f} s to "
+                  "start the workers", flush=True)
     first = next(iter(kept.values()))
     assert all(k == first for k in kept.values()), f"{title}: the backends disagree"
     base = statistics.median(speed["local 1"])
@@ -70,13 +83,13 @@ def main(argv: list[str] | None = None) -> None:
           f"{time.perf_counter() - start:.1f} s", flush=True)
     try:
         case = cmdp_pymunk.load_case(None)
-        compare("episodes (built-in case)", "episodes", _episode_job,
+        compare("episodes (built-in case)", "episodes", "episode",
                 (case, 3600.0, None, False),
                 [("priority", "scripted", s) for s in range(a.seeds)], a.cpus, a.rounds,
                 lambda row: row["makespan_s"])
         tiny = str(cmdp_pymunk.TINY_CASE)
-        compare("labelling (tiny case)", "floors", _label_job, None,
-                [(tiny, s, 2, 0) for s in range(a.label_seeds)], a.cpus, a.rounds,
+        compare("labelling (tiny case)", "floors", "label", None,
+                [(tiny, s, 3, 4) for s in range(a.label_seeds)], a.cpus, a.rounds,
                 lambda result: (result["seed"], result["makespan_s"], len(result["rows"])))
     finally:
         ray.shutdown()

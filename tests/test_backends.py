@@ -71,6 +71,7 @@ def test_a_job_that_kills_every_worker_is_reported_not_lost():
     assert sorted(got) == [0, 1, 2, 4]  # every other job was handed out first
 
 
+@pytest.mark.ray  # also in the Ray venv (make test-ray), where importing it would be possible
 def test_the_default_path_never_imports_ray(tmp_path):
     argv = [*QUICK, "--seeds", "0-1", "--workers", "2", "--out", str(tmp_path)]
     code = ("import sys; from training import evaluate; "
