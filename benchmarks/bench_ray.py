@@ -67,8 +67,6 @@ def compare(title: str, unit: str, job: str, runner_args, jobs, cpus: int, round
 
 
 def main(argv: list[str] | None = None) -> None:
-    import ray
-
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=int, default=4, help="episodes per measurement")
@@ -76,6 +74,8 @@ def main(argv: list[str] | None = None) -> None:
     p.add_argument("--rounds", type=int, default=2)
     p.add_argument("--cpus", type=int, default=2, help="local processes and Ray CPUs")
     a = p.parse_args(argv)
+    import ray  # after the arguments: --version and --help need no Ray
+
     start = time.perf_counter()
     ray.init(num_cpus=a.cpus, include_dashboard=False, object_store_memory=200 * 1024**2,
              logging_level="WARNING")

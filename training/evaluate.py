@@ -164,7 +164,6 @@ def _check_worker(runner: EpisodeRunner, strategies: list[str], navigators: list
 
 
 LOG = "episodes.jsonl"
-SAME_FOR_RESUME = ("seeds", "strategies", "navigators", "stall_s", "max_time_s", "deterministic")
 
 
 def episode_jobs(args: EvaluateArgs) -> list[tuple[str, str, int]]:
@@ -194,8 +193,9 @@ def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
              done: list[dict] | None = None) -> list[dict]:
     """Every (navigator, strategy, seed) episode, in that order; ``run_specs`` maps a strategy
     to the spec the workers load (``cpsat`` -> its saved plan). ``pool``: an open backend
-    (default: ``args.workers`` local processes). ``done``: rows kept from an earlier run, not
-    run again. Each new row is appended to ``args.out/episodes.jsonl`` as it arrives; a lost
+    (default: ``args.workers`` local processes). ``done``: the rows of an earlier run in the
+    same folder (``--resume``): those this run asks for are not run again, and all of them
+    stay in the log. Each new row is appended to ``args.out/episodes.jsonl`` as it arrives; a lost
     worker's episodes raise ``WorkerLost`` after all the others were written."""
     from tqdm import tqdm
 
@@ -208,7 +208,7 @@ def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
     log_path = args.out / LOG
     with log_path.open("a" if done else "w") as log:
-        if done:  # the kept rows only (a cut last line is dropped)
+        if done:  # the earlier rows only (a cut last line is dropped)
             log.seek(0)
             log.truncate()
             log.writelines(json.dumps(r) + "\n" for r in done)
@@ -289,9 +289,11 @@ def _main(args: EvaluateArgs) -> int:
                         "(a shared file system), docs/ray.md")
         write_atomic(args.out / "resume.json", json.dumps(resume_settings(case, args)) + "\n")
         n = len(args.seeds) * len(args.strategies) * len(args.navigators)
+        wanted = set(episode_jobs(args))
+        kept = sum((r["strategy"], r["navigator"], r["seed"]) in wanted for r in done)
         print(f"cmdp-evaluate: {n} episodes ({len(args.strategies)} strategies x "
               f"{len(args.navigators)} low level(s) x {len(args.seeds)} seeds"
-              + (f", {len(done)} kept from the earlier run" if done else "")
+              + (f", {kept} kept from the earlier run" if kept else "")
               + f"), {pool.label}", flush=True)
         start = time.perf_counter()
         try:
@@ -301,14 +303,14 @@ def _main(args: EvaluateArgs) -> int:
                   "rerun with --resume to run the lost ones again", file=sys.stderr)
             return 1
         wall = time.perf_counter() - start
-    ran = len(rows) - len(done)
+    ran = len(rows) - kept
     summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s)
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS]
     table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict())
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
                 "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict(), "episodes": len(rows),
-                "episodes_resumed": len(done), "wall_s": round(wall, 1),
+                "episodes_resumed": kept, "wall_s": round(wall, 1),
                 "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
                 "command": sys.argv, "versions": versions()}
     # A Ctrl-C while the results are written is held until all of them are.
@@ -333,7 +335,7 @@ def _main(args: EvaluateArgs) -> int:
 
 
 def _resumable(case, args: EvaluateArgs) -> list[dict]:
-    """The rows of an earlier run in ``args.out`` that this one keeps (``--resume``)."""
+    """The rows of an earlier run in ``args.out`` (``--resume``), if its settings match."""
     saved = args.out / "resume.json"
     if not saved.is_file():
         raise _Stop(f"--resume: {saved} not found: no earlier run in {args.out}; fix: drop "
@@ -344,9 +346,7 @@ def _resumable(case, args: EvaluateArgs) -> list[dict]:
     if changed:
         raise _Stop(f"--resume: the run in {args.out} used other settings ({', '.join(changed)}); "
                     "fix: resume with the same ones, or start a new --out")
-    wanted = set(episode_jobs(args))
-    return [r for r in read_log(args.out / LOG)
-            if (r["strategy"], r["navigator"], r["seed"]) in wanted]
+    return read_log(args.out / LOG)
 
 
 def entry_point() -> None:
