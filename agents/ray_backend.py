@@ -131,7 +131,7 @@ class RayWorkers(Backend):
             check_address(self.address)
             try:
                 ray.init(address=self.address, logging_level=logging.WARNING)
-            except ConnectionError as err:
+            except (ConnectionError, RuntimeError) as err:  # RuntimeError: Ray versions differ
                 raise ClusterError(f"--ray {self.address}: cannot join the cluster ({err}); "
                                    "fix: check the address `ray start --head` printed, and "
                                    "that this machine runs the cluster's Ray version "
