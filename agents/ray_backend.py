@@ -24,11 +24,30 @@ from __future__ import annotations
 import logging
 import os
 import socket
+import sys
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 
 from .episodes import Backend, BackendError, WorkerLost, make_runner
 
+
+def use_token_if_there_is_one() -> None:
+    """Send this machine's Ray token when joining a cluster. Ray 2.60's ``ray start --head``
+    makes a cluster that wants its token (``~/.ray/auth_token``), but ``ray.init(address=)``
+    sends it only if ``RAY_AUTH_MODE=token`` was set before ``import ray`` (Ray reads it
+    then): without it, joining failed after 20 s of "Authentication token is missing or
+    incorrect". An explicit ``RAY_AUTH_MODE`` is kept; a Ray started here makes token clusters
+    by default anyway. Once Ray is imported it is too late (and the processes it starts
+    would get a mode that its own does not match): nothing is changed then."""
+    if "ray" in sys.modules:
+        return
+    token_file = os.environ.get("RAY_AUTH_TOKEN_PATH") or os.path.expanduser("~/.ray/auth_token")
+    if "RAY_AUTH_MODE" not in os.environ and (os.environ.get("RAY_AUTH_TOKEN")
+                                              or os.path.isfile(token_file)):
+        os.environ["RAY_AUTH_MODE"] = "token"
+
+
+use_token_if_there_is_one()
 try:
     import ray
 except ImportError:  # pragma: no cover - the message says what to install
@@ -133,9 +152,10 @@ class RayWorkers(Backend):
                 ray.init(address=self.address, logging_level=logging.WARNING)
             except (ConnectionError, RuntimeError) as err:  # RuntimeError: Ray versions differ
                 raise ClusterError(f"--ray {self.address}: cannot join the cluster ({err}); "
-                                   "fix: check the address `ray start --head` printed, and "
-                                   "that this machine runs the cluster's Ray version "
-                                   f"({ray.__version__} here)") from None
+                                   "fix: check the address `ray start --head` printed, that "
+                                   "this machine runs the cluster's Ray version "
+                                   f"({ray.__version__} here) and has the cluster's token "
+                                   "(~/.ray/auth_token or RAY_AUTH_TOKEN; docs/ray.md)") from None
         self._started = True
 
     def _start_actors(self) -> None:
