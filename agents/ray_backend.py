@@ -39,12 +39,17 @@ def use_token_if_there_is_one() -> None:
     incorrect". An explicit ``RAY_AUTH_MODE`` is kept; a Ray started here makes token clusters
     by default anyway. Once Ray is imported it is too late (and the processes it starts
     would get a mode that its own does not match): nothing is changed then."""
+    global _TOKEN_SET_HERE
     if "ray" in sys.modules:
         return
     token_file = os.environ.get("RAY_AUTH_TOKEN_PATH") or os.path.expanduser("~/.ray/auth_token")
     if "RAY_AUTH_MODE" not in os.environ and (os.environ.get("RAY_AUTH_TOKEN")
                                               or os.path.isfile(token_file)):
         os.environ["RAY_AUTH_MODE"] = "token"
+        _TOKEN_SET_HERE = True
+
+
+_TOKEN_SET_HERE = False
 
 
 use_token_if_there_is_one()
@@ -179,7 +184,10 @@ class RayWorkers(Backend):
             raise ClusterError(
                 f"--ray {self.address}: the Ray workers cannot run this package "
                 f"({str(err).strip().splitlines()[-1]}); fix: install cmdp-pymunk "
-                f"{cmdp_pymunk.__version__} on every node (pip install -e '.[ray]')") from None
+                f"{cmdp_pymunk.__version__} on every node (pip install -e '.[ray]')"
+                + ("; if the cluster runs without Ray tokens, set RAY_AUTH_MODE=disabled here"
+                   " too (this machine has a token and sent it)" if _TOKEN_SET_HERE else "")
+            ) from None
         other = sorted({(w["host"], w["version"]) for w in found
                         if w["version"] != cmdp_pymunk.__version__})
         if other:

@@ -6,6 +6,8 @@ file missing on a worker) as one line and exit 2 before any episode. Skipped whe
 installed (``pip install -e '.[ray]'``, ``make test-ray``)."""
 
 import json
+import os
+import secrets
 import sys
 
 import pytest
@@ -22,6 +24,14 @@ import cmdp_pymunk
 from agents.episodes import WorkerLost
 from training import evaluate
 
+# As a cluster of `ray start --head` (Ray 2.60's default), with a token: the commands run in a
+# child process here send theirs (agents/ray_backend.py), and a child in token mode cannot use
+# the workers of a cluster without one. Ray reads the mode when it is imported.
+os.environ.setdefault("RAY_AUTH_MODE", "token")
+TOKEN_FILE = os.path.expanduser("~/.ray/auth_token")
+if not (os.environ.get("RAY_AUTH_TOKEN") or os.path.isfile(TOKEN_FILE)):
+    # A fresh machine (CI) has no token, and the test cluster does not make one.
+    os.environ["RAY_AUTH_TOKEN"] = secrets.token_hex(32)
 ray = pytest.importorskip("ray")
 pytestmark = pytest.mark.ray
 
