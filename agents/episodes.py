@@ -20,6 +20,7 @@ from concurrent.futures.process import BrokenProcessPool
 
 import cmdp_pymunk
 from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
+from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
 
 from .models import PolicyStuck
 from .specs import make_evaluator, make_navigator
@@ -27,7 +28,9 @@ from .specs import make_evaluator, make_navigator
 ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished",
               "simulated_s", "reaching_steps", "idle_waiting_for_predecessor",
               "idle_blocked_by_task_area", "idle_no_target", "idle_steps", "crane_waits",
-              "crane_wait_s", "reach_rate", "wall_s", "stall_reason")
+              "crane_wait_s", "reach_rate", "wall_s", "stall_reason",
+              # crew-seconds a disruption kept crews from working (``disruptions``), by kind
+              *DISRUPTION_IDLE_FIELDS)
 
 
 def episode_row(env, episode: Episode | None, stall_reason: str = "") -> dict:
@@ -57,6 +60,8 @@ def episode_row(env, episode: Episode | None, stall_reason: str = "") -> dict:
         "reach_rate": round(episode_reach_rate(env), 4),
         "wall_s": round(episode.wall_s, 3) if episode is not None else None,
         "stall_reason": stall_reason,
+        **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)
+           for c in DISRUPTION_CAUSES},
     }
 
 

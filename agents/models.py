@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cmdp_pymunk.disruptions import feature_size as disruption_feature_size
 from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.evaluate import DesiredPositionEvaluator
 from cmdp_pymunk.move import STAND_STILL
@@ -318,9 +319,12 @@ class ModelEvaluator(DesiredPositionEvaluator):
     def bind(self, env) -> None:
         size = evaluation_size(env.case)
         if self.actor.observation_size != size:
+            extra = disruption_feature_size(env.case)
+            why = (f" (of which {extra} say what is disrupted: the case has [disruptions], "
+                   "which a model trained without them does not know)") if extra else ""
             raise ValueError(f"{self.path}: the model's actor reads {self.actor.observation_size} "
-                             f"floats, but this case's evaluation observation has {size}; fix: "
-                             "use a stage-2 model trained on this case")
+                             f"floats, but this case's evaluation observation has {size}{why}; "
+                             "fix: use a stage-2 model trained on this case")
         self.env = env
         self.bounds = evaluation_bounds(env.case)
 

@@ -7,6 +7,7 @@ needs stable-baselines3 (imported only then).
 
 from __future__ import annotations
 
+import difflib
 from pathlib import Path
 
 from cmdp_pymunk import evaluate
@@ -18,8 +19,9 @@ EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority 
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
                   "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
                   "(branch the floor at each decision; futures=0 sees the true durations), "
-                  "student:PATH (Eq. 9 plus a residual fitted to the lookahead), "
-                  "or a stage-2 model .zip")
+                  "student:PATH (Eq. 9 plus a residual: fitted to the lookahead, or a "
+                  "cmdp-search-rule rule.json), or a stage-2 model .zip (a desired position "
+                  "or a masked choice)")
 
 
 def make_evaluator(spec: str):
@@ -43,9 +45,14 @@ def make_evaluator(spec: str):
         return StudentEvaluator.load(spec.split(":", 1)[1])
     if spec == "lookahead" or spec.startswith("lookahead:"):
         return make_lookahead(spec.partition(":")[2])
+    path = model_path(spec, "--evaluator")
+    from .candidates import CandidateModelEvaluator, is_candidate_model
+
+    if is_candidate_model(path):  # a masked choice (MaskablePPO), not a desired position
+        return CandidateModelEvaluator(path)
     from .models import ModelEvaluator  # needs stable-baselines3
 
-    return ModelEvaluator(model_path(spec, "--evaluator"))
+    return ModelEvaluator(path)
 
 
 def make_lookahead(options: str):
@@ -92,9 +99,10 @@ def model_path(spec: str, option: str) -> Path:
     """``spec`` as an existing file, or a ValueError naming ``option`` and the fix."""
     path = Path(spec)
     if not path.is_file():
-        names = (", ".join([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH",
-                            "lookahead", "student:PATH"])
-                 if option == "--evaluator" else "scripted")
-        raise ValueError(f"{option} {spec!r}: no such model file; give a .zip saved by "
-                         f"stable-baselines3, or one of {names}")
+        choices = ([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH", "lookahead",
+                    "student:PATH"] if option == "--evaluator" else ["scripted"])
+        close = difflib.get_close_matches(spec, [c for c in choices if ":" not in c], n=1)
+        hint = f"did you mean {close[0]!r}? " if close and not spec.endswith(".zip") else ""
+        raise ValueError(f"{option} {spec!r}: no such model file; {hint}give a .zip saved by "
+                         f"stable-baselines3, or one of {', '.join(choices)}")
     return path

@@ -1,7 +1,7 @@
 """cmdp-pymunk: the Construction Markov Decision Process on pymunk, as a PettingZoo env."""
 
 from . import registry as _registry
-from .case import BUILTIN_CASE, TINY_CASE, Case, CaseError, load_case
+from .case import BUILTIN_CASE, DISRUPTED_CASE, TINY_CASE, Case, CaseError, load_case
 from .env import CMDPEnv
 
 __version__ = "0.2.0"
@@ -32,4 +32,4 @@ _registry.register_variants()
 
 
 __all__ = ["parallel_env", "env", "add_version_flag", "__version__", "CMDPEnv", "Case", "CaseError",
-           "load_case", "BUILTIN_CASE", "TINY_CASE"]
+           "load_case", "BUILTIN_CASE", "TINY_CASE", "DISRUPTED_CASE"]

@@ -27,6 +27,7 @@ from .case_model import (  # noqa: F401  (re-exported: the models are part of th
     Crane,
     Crew,
     CrewType,
+    Disruptions,
     EvaluationReward,
     Flag,
     Material,
@@ -41,10 +42,13 @@ from .case_model import (  # noqa: F401  (re-exported: the models are part of th
     TaskType,
     UnitIndex,
 )
+from .floorplan import Rect
 
 BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
 # the tiny case of the docs, the command-line tests and cmdp/TinyFloor-v1
 TINY_CASE = Path(__file__).with_name("cases") / "tiny_floor.toml"
+# the built-in case with the documented disruption profile (docs/disruptions.md)
+DISRUPTED_CASE = Path(__file__).with_name("cases") / "precast_floor_disrupted.toml"
 
 
 @dataclass
@@ -109,7 +113,7 @@ def _entry_label(data: object, loc: tuple) -> str:
             if isinstance(node, dict) and isinstance(node.get("id"), str):
                 parts[-1] += f' "{node["id"]}"'
             continue
-        if len(parts) == 1 and parts[0] in _MAPPINGS:
+        if len(parts) == 1 and (parts[0] in _MAPPINGS or parts[0] == "disruptions"):
             parts[0] += f".{key}"
         else:
             parts.append(str(key))
@@ -290,17 +294,12 @@ def _parts(data: dict, case: Case | None) -> _Parts:
                   **mappings, **lists)
 
 
-def _rect(item) -> tuple[float, float, float, float]:
-    return (
-        item.x_m - item.width_m / 2,
-        item.y_m - item.height_m / 2,
-        item.x_m + item.width_m / 2,
-        item.y_m + item.height_m / 2,
-    )
+def _rect(item) -> Rect:
+    return Rect.centred(item.x_m, item.y_m, item.width_m, item.height_m)
 
 
-def _overlap(a, b) -> bool:
-    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+def _overlap(a: Rect, b: Rect) -> bool:
+    return a.overlaps(b)
 
 
 def _semantic_problems(parts: _Parts) -> list[str]:
@@ -523,6 +522,77 @@ def _time_problems(case: Case) -> list[str]:
     return problems
 
 
+# -- disruptions: references, times, overlaps --------------------------------------------
+
+_DISRUPTION_KINDS = {"crane_breakdowns": None, "late_deliveries": ("storage", "storages"),
+                     "absences": ("crew", "crews"), "weather_stops": None}
+_MAX_CHECKED_WINDOWS = 10000  # repeats of one scheduled entry checked for overlaps
+
+
+def _scheduled_windows(entry, limit: float) -> list[tuple[float, float]]:
+    """The windows [start, end) of a scheduled entry that start before ``limit``."""
+    out, start = [], entry.at_s
+    while start < limit and len(out) < _MAX_CHECKED_WINDOWS:
+        out.append((start, start + entry.duration_s))
+        if entry.every_s is None:
+            break
+        start += entry.every_s
+    return out
+
+
+def _disruption_problems(data: dict, case: Case | None, parts: _Parts) -> list[str]:
+    """What field-by-field validation of ``[disruptions]`` cannot see: unknown storages and
+    crews, durations or starts beyond the time limit, overlapping absences of one crew."""
+    if case is not None:
+        disruptions, simulation = case.disruptions, case.simulation
+    else:
+        disruptions = _valid(Disruptions, data.get("disruptions", {}))
+        simulation = _valid(Simulation, data.get("simulation", {}))
+    if not disruptions:
+        return []
+    limit = simulation.max_time_s if simulation is not None else None
+    problems: list[str] = []
+    absences: dict[str, list[tuple[float, float, str]]] = {}
+    for kind, ref in _DISRUPTION_KINDS.items():
+        for i, entry in enumerate(getattr(disruptions, kind)):
+            where = f"disruptions.{kind}[{i}]"
+            if ref is not None:
+                field, section = ref
+                name, known = getattr(entry, field), parts.names[section]
+                if known is not None and name not in known:
+                    problems.append(f'{where}: {field} "{name}" is not in [[{section}]]'
+                                    f"{_did_you_mean(name, known)}")
+            if limit is None:
+                continue
+            duration = "duration_s" if entry.duration_s is not None else "duration_mean_s"
+            if entry.longest_s >= limit:
+                problems.append(f"{where}: {duration} = {entry.longest_s:g} s is not shorter "
+                                f"than simulation.max_time_s = {limit:g} s, so the floor "
+                                f"could not finish; fix: shorten {duration} (seconds, not "
+                                "minutes?) or raise simulation.max_time_s")
+            if entry.at_s is not None and entry.at_s >= limit:
+                problems.append(f"{where}: at_s = {entry.at_s:g} s is not before "
+                                f"simulation.max_time_s = {limit:g} s, so it never happens; "
+                                "fix: give a start within the time limit, or remove the entry")
+            if entry.mean_interval_s is not None and entry.mean_interval_s >= limit:
+                problems.append(f"{where}: mean_interval_s = {entry.mean_interval_s:g} s is not "
+                                f"shorter than simulation.max_time_s = {limit:g} s, so it "
+                                "would rarely happen at all; fix: give the mean seconds "
+                                "between occurrences within the time limit, or remove it")
+            if kind == "absences" and entry.scheduled and entry.longest_s < limit:
+                absences.setdefault(entry.crew, []).extend(
+                    (a, b, where) for a, b in _scheduled_windows(entry, limit))
+    for crew, windows in absences.items():
+        windows.sort()
+        for (a0, b0, w0), (a1, _, w1) in zip(windows, windows[1:], strict=False):
+            if a1 < b0:
+                problems.append(f'{w1}: crew "{crew}" is already absent from {a0:g} s to '
+                                f"{b0:g} s ({w0}), and this absence starts at {a1:g} s; fix: "
+                                "start it after the other ends, or merge the two entries")
+                break
+    return problems
+
+
 def _find_cycle(tasks) -> list[str] | None:
     """A precedence cycle in precedence order (predecessor first; the first id repeated last),
     or None. ``graphlib`` finds it; the cycle is turned to start at the task listed first in
@@ -554,7 +624,9 @@ def case_from_dict(data: dict, source: str = "<case>") -> Case:
         problems: list[str] = []
     except ValidationError as err:
         case, problems = None, _pydantic_problems(data, err)
-    problems += [p for p in _semantic_problems(_parts(data, case)) if p not in problems]
+    parts = _parts(data, case)
+    problems += [p for p in _semantic_problems(parts) if p not in problems]
+    problems += [p for p in _disruption_problems(data, case, parts) if p not in problems]
     if case is not None and not problems:
         problems = _time_problems(case)
     if problems:
@@ -610,4 +682,4 @@ def as_case(case: Case | str | Path | dict | None) -> Case:
 
 
 __all__ = ["Case", "CaseError", "load_case", "case_from_dict", "as_case", "BUILTIN_CASE",
-           "TINY_CASE"]
+           "TINY_CASE", "DISRUPTED_CASE"]

@@ -188,7 +188,11 @@ class Crew(_Model):
 
 
 class Component(_Model):
-    """A structural component: an axis-aligned rectangle, a static obstacle on the plane."""
+    """A structural component: an axis-aligned rectangle, a static obstacle on the plane.
+
+    ``ifc_guid``: the GlobalId of the IFC element it was imported from (``cmdp-import-ifc``);
+    the 4D export (``cmdp-simulate --ifc``) assigns the component's tasks to that element.
+    """
 
     id: str
     kind: str = ""
@@ -196,6 +200,7 @@ class Component(_Model):
     y_m: Number
     width_m: Positive
     height_m: Positive
+    ifc_guid: str | None = None
 
 
 class Storage(_Model):
@@ -222,6 +227,97 @@ class Task(_Model):
     predecessors: tuple[str, ...] = ()
 
 
+class Disruption(_Model):
+    """One disruption entry: when it strikes and how long it lasts (docs/disruptions.md).
+
+    When: a scheduled one gives ``at_s`` (the simulated second it starts; ``every_s`` repeats
+    it, e.g. 86400 for a daily window); a random one gives ``mean_interval_s``, the mean time
+    between the end of one occurrence and the start of the next (exponential gaps: a failure
+    rate, "mean time between failures"), from the episode's start. How long: ``duration_s``,
+    or ``duration_mean_s`` with ``duration_sd_s`` (a gamma distribution with that mean and
+    standard deviation; sd 0 or absent: always the mean). A random entry draws from its own
+    stream (``streams``), so it changes no task's pace.
+    """
+
+    at_s: NonNegative | None = None
+    every_s: Positive | None = None
+    mean_interval_s: Positive | None = None
+    duration_s: Positive | None = None
+    duration_mean_s: Positive | None = None
+    duration_sd_s: NonNegative | None = None
+
+    @model_validator(mode="after")
+    def _one_when_one_duration(self) -> Disruption:
+        if (self.at_s is None) == (self.mean_interval_s is None):
+            raise ValueError(
+                "a disruption needs exactly one of at_s (scheduled) and mean_interval_s "
+                "(random); fix: give at_s = <second it starts> or mean_interval_s = <mean "
+                "seconds between occurrences>, not both or neither")
+        if (self.duration_s is None) == (self.duration_mean_s is None):
+            raise ValueError(
+                "a disruption needs exactly one of duration_s and duration_mean_s; fix: give "
+                "duration_s = <seconds> or duration_mean_s (with duration_sd_s), not both or "
+                "neither")
+        if self.duration_sd_s is not None and self.duration_mean_s is None:
+            raise ValueError("duration_sd_s goes with duration_mean_s; fix: replace duration_s "
+                             "by duration_mean_s, or remove duration_sd_s")
+        if self.every_s is not None and self.at_s is None:
+            raise ValueError("every_s repeats a scheduled disruption; fix: give at_s too, or "
+                             "remove every_s (a random one recurs by itself)")
+        if self.every_s is not None and self.duration_s is not None \
+                and self.every_s <= self.duration_s:
+            raise ValueError(f"every_s = {self.every_s:g} s is not longer than duration_s = "
+                             f"{self.duration_s:g} s, so each occurrence would overlap the "
+                             "next; fix: make every_s longer than duration_s")
+        if self.every_s is not None and self.duration_mean_s is not None:
+            raise ValueError("a repeated (every_s) disruption needs a fixed duration_s; fix: "
+                             "replace duration_mean_s by duration_s")
+        return self
+
+    @property
+    def scheduled(self) -> bool:
+        return self.at_s is not None
+
+    @property
+    def longest_s(self) -> float:
+        """Its fixed duration or its mean duration (what the time-limit check reads)."""
+        return self.duration_s if self.duration_s is not None else self.duration_mean_s
+
+
+class CraneBreakdown(Disruption):
+    """The crane breaks down: it serves no request until it is repaired (the duration)."""
+
+
+class LateDelivery(Disruption):
+    """A storage's material delivery is late: no crane lift restocks it for the duration."""
+
+    storage: str
+
+
+class Absence(Disruption):
+    """A crew is absent: it leaves the plane and comes back after the duration."""
+
+    crew: str
+
+
+class WeatherStop(Disruption):
+    """A weather stop: all outdoor work halts (tasks, fetching, the crane) for the duration."""
+
+
+class Disruptions(_Model):
+    """What goes wrong beyond task paces (beyond the paper; docs/disruptions.md). Absent or
+    empty: the floor runs exactly as without this section."""
+
+    crane_breakdowns: tuple[CraneBreakdown, ...] = ()
+    late_deliveries: tuple[LateDelivery, ...] = ()
+    absences: tuple[Absence, ...] = ()
+    weather_stops: tuple[WeatherStop, ...] = ()
+
+    def __bool__(self) -> bool:
+        return bool(self.crane_breakdowns or self.late_deliveries or self.absences
+                    or self.weather_stops)
+
+
 class Case(_Model):
     """A whole case, validated. Build one with :func:`load_case` or :func:`case_from_dict`."""
 
@@ -238,3 +334,4 @@ class Case(_Model):
     components: tuple[Component, ...]
     storages: tuple[Storage, ...] = ()
     tasks: Annotated[tuple[Task, ...], Field(min_length=1)]
+    disruptions: Disruptions = Disruptions()

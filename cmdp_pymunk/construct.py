@@ -59,13 +59,18 @@ def crane_ready(task: TaskState) -> bool:
 
 
 def advance(site: Site, positions, log: events.EventLog, dt: float) -> None:
-    """One step of P_cons for every crew that tasks or fetches, then the crane."""
+    """One step of P_cons for every crew that tasks or fetches, then the crane. A weather
+    stop halts all of it; an absent crew does nothing (``site.disrupted``, ``disruptions``)."""
+    now = site.disrupted
     for crew in site.crews:
+        if now and (now.weather or crew.absent):
+            continue
         if crew.status == CrewStatus.TASKING:
             _work(site, positions, crew, dt)
         elif crew.status == CrewStatus.FETCHING:
             _fetch(site, positions, crew, dt)
-    _serve_crane(site, log, dt)
+    if not (now and now.crane_stopped()):  # broken down or weather: its queue waits
+        _serve_crane(site, log, dt)
 
 
 def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
@@ -102,12 +107,26 @@ def request_crane(site: Site, log: events.EventLog, request: CraneRequest) -> No
             site.tasks[request.task].id if request.task >= 0 else
             site.storages[request.storage].id, request.kind)
     if site.crane.current is None:  # an idle crane sets off now: a lift takes lift_time_s
-        _start_next(site)
+        start_next(site)
 
 
-def _start_next(site: Site) -> None:
+def start_next(site: Site) -> None:
+    """The crane takes up its next request, first come, first served; with disruptions
+    (``site.disrupted``), none while it is stopped, and not a lift whose delivery is late
+    (the requests behind it go first)."""
     crane = site.crane
-    crane.current = crane.queue.popleft()
+    now = site.disrupted
+    if not now:
+        crane.current = crane.queue.popleft()
+    elif now.crane_stopped():
+        return
+    else:
+        ready = [k for k, r in enumerate(crane.queue)
+                 if not (r.kind == "material" and r.storage in now.late)]
+        if not ready:
+            return
+        crane.current = crane.queue[ready[0]]
+        del crane.queue[ready[0]]
     cfg = site.case.crane
     crane.remaining_s = cfg.lift_time_s if crane.current.kind == "material" \
         else cfg.assist_time_s
@@ -121,7 +140,7 @@ def _serve_crane(site: Site, log: events.EventLog, dt: float) -> None:
             _complete(site, log, crane.current)
             crane.current = None
     if crane.current is None and crane.queue:
-        _start_next(site)
+        start_next(site)
 
 
 def _complete(site: Site, log: events.EventLog, request: CraneRequest) -> None:

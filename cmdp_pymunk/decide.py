@@ -15,6 +15,7 @@ Where Table 1 is silent, this reading is used (docs/case-study.md lists them):
 - c10 also re-acquires when the construction state changed since the crew's task scope was
   set (a target vanished or appeared); a crew idle for want of targets waits for such a change.
 - A deregistered crew that reaches the outlet leaves the plane (``leave_through_outlet``).
+- A crew away from the plane (an absence, ``disruptions``) tries no row until it is back.
 """
 
 from __future__ import annotations
@@ -362,6 +363,8 @@ def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
 def only_execution_fires(ctx: Context) -> bool:
     """True when, for every crew, no row but c2 (execute) would fire: a quiet second."""
     for crew in ctx.site.crews:
+        if crew.absent:
+            continue
         for rule in ROWS_BY_STATUS[crew.status]:
             if rule.code != "c2" and rule.trigger(crew, ctx):
                 return False
@@ -372,7 +375,7 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}
     for crew in ctx.site.crews:
-        if crew.status == CrewStatus.LEFT:
+        if crew.status == CrewStatus.LEFT or crew.absent:  # away (a disruption): no decisions
             continue
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):

@@ -38,7 +38,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from . import construct, decide, events, move, reward
+from . import construct, decide, disruptions, events, move, reward
 from .case_model import Case
 from .evaluate import (
     TargetEvaluator,
@@ -118,6 +118,7 @@ class Engine:
         self.position_log_every_s = position_log_every_s
         self.eta = reward.eta_by_kind(case.reaching_reward)
         self.streams = RandomStreams(seed)  # a task's pace by (seed, task): streams.py
+        self.timeline: disruptions.Timeline | None = None  # the case's, drawn in reset
         self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
         self.site: Site | None = None
         self.world: World | None = None
@@ -137,6 +138,9 @@ class Engine:
         self.world = World(self.case, self.site)
         self.log = events.EventLog()
         self.metrics = Counters(self.site)
+        # Disruptions (their own streams): none in the case, no timeline, nothing changes.
+        self.timeline = disruptions.Timeline(self.case, self.streams, self.max_time_s) \
+            if self.case.disruptions else None
         if self.stage == 1:  # unrestricted stockpiles (section 5.2): storages start full and
             for storage in self.site.storages:  # are never drawn down; crews still fetch
                 storage.stock = storage.capacity
@@ -151,9 +155,13 @@ class Engine:
         self.steps = 0
         self.stalled = None
         self._progress_mark = (0.0, self._task_progress())
+        if self.timeline is not None:  # one at time 0 strikes before the first decisions
+            disruptions.update(self.site, self.world, self.log, self.timeline)
         decide.apply_decision_table(self._context())
         self.pending = []
         self._evaluate()
+        if self.timeline is not None:
+            disruptions.refresh_causes(self.site)
         self._log_activities()
         self._log_positions()
         self.action_needed = any(self.needs_action(c) for c in self.site.crews)
@@ -172,15 +180,18 @@ class Engine:
         quiet = self.world.at_rest and not self.action_needed
         distance = self._move(actions, moving) if not quiet else [0.0] * len(crews)  # P_phy
         ctx = self._construct()                                         # P_cons, Eq. 2
+        disrupted = self._disrupt()           # disruptions starting or ending (not the paper's)
         # A quiet second where no row but c2 (tasks progress) would fire: the decisions, the
         # evaluation and R_r would change nothing, so they are skipped.
-        skip = quiet and decide.only_execution_fires(ctx)
+        skip = quiet and not disrupted and decide.only_execution_fires(ctx)
         if not skip:
             decide.apply_decision_table(ctx)                            # Pi_cons, Table 1
             self._evaluate()                                            # V_Tar, Eq. 4 or 9
         # What the activities and R_e read (statuses, scopes, idle causes, tasks ended) changed
         # only if the table ran or P_cons logged a change (the crane wakes a waiting crew).
         changed = not skip or self._construct_logged
+        if self.timeline is not None and disruptions.refresh_causes(self.site):
+            changed = True
         self._log_events(moving, changed)
         contacts, rewards = self._reaching_rewards(ctx, moving, had_target, skip)  # Eqs. 6-7
         if changed:                                                     # R_e's terms, Eq. 5
@@ -249,6 +260,8 @@ class Engine:
         self.world.__setstate__(self.world.__getstate__())
         copies[0].streams.with_scenario(scenario if scenario is not None
                                         else self.streams.scenario)
+        if scenario is not None and copies[0].timeline is not None:  # its own future's
+            copies[0].timeline.resample(copies[0].streams, self.site.time_s)  # disruptions
         return copies if companions else copies[0]
 
     def decision_due(self) -> bool:
@@ -331,6 +344,16 @@ class Engine:
         self._construct_logged = len(self.log.events) != logged
         return self._context()
 
+    def _disrupt(self) -> bool:
+        """Disruptions for the second that starts now (``disruptions.update``): whether one
+        started or ended. Then the decisions run and every crew is asked again who moves."""
+        if self.timeline is None:
+            return False
+        if not disruptions.update(self.site, self.world, self.log, self.timeline):
+            return False
+        self._construct_logged = True
+        return True
+
     def _log_events(self, moving, changed: bool) -> None:
         """Activity changes (if anything they read changed) and moving crews' positions."""
         if changed:
@@ -396,7 +419,9 @@ class Engine:
             return False
         now = self.site.time_s
         progress = self._task_progress()
-        if progress != self._progress_mark[1]:
+        # A disruption under way (a long repair, a weather stop) is no stall: its time is not
+        # counted, and the guard starts again once it is over.
+        if progress != self._progress_mark[1] or self.site.disrupted:
             self._progress_mark = (now, progress)
             return False
         if now - self._progress_mark[0] < self.stall_s - 1e-9:

@@ -20,7 +20,10 @@ Layout, in order (coordinates over the plane's half extents, as in Eq. 4):
 - ``crane`` (3): 1 while it serves a request; the remaining seconds of that request over the
   longer of the lift and assist times; requests waiting in its queue over n_crews;
 - ``crane_queue`` (2 per crew): 1 if the crane serves this crew now; its place in the queue
-  as 1 - k / n_crews for the k-th waiting request (k from 0; 1 is next), 0 if not queued.
+  as 1 - k / n_crews for the k-th waiting request (k from 0; 1 is next), 0 if not queued;
+- ``disruptions`` (only for a case with ``[disruptions]``: 2 + n_storages + n_crews): crane
+  broken down, weather stop, each storage's delivery late, each crew absent
+  (``disruptions.features``); a case without disruptions has no such block.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import math
 
 import numpy as np
 
+from . import disruptions
 from .case_model import Case
 from .state import Site
 
@@ -45,6 +49,8 @@ def state_layout(case: Case) -> list[tuple[str, int, int]]:
     blocks = [("time", 1), ("crews", CREW_FEATURES * n_crews), ("tasks", TASK_FEATURES * n_tasks),
               ("storages", STORAGE_FEATURES * n_storages), ("crane", CRANE_FEATURES),
               ("crane_queue", CRANE_QUEUE_FEATURES * n_crews)]
+    if case.disruptions:
+        blocks.append(("disruptions", disruptions.feature_size(case)))
     out, start = [], 0
     for name, length in blocks:
         out.append((name, start, length))
@@ -119,6 +125,9 @@ def global_state(site: Site, positions, headings, max_time_s: float) -> np.ndarr
     for k, request in enumerate(crane.queue):
         place = at + 3 + CRANE_QUEUE_FEATURES * request.crew + 1
         out[place] = max(out[place], 1.0 - k / n_crews)
+    if case.disruptions:
+        at += CRANE_FEATURES + CRANE_QUEUE_FEATURES * n_crews
+        disruptions.features(site, out[at:])
     return out
 
 

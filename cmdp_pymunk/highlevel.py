@@ -127,9 +127,19 @@ class Floor:
         if i is None:
             raise RuntimeError("decide() with no crew deciding: the episode has ended; call "
                                "reset(seed) first")
+        return self.value_scope(desired_position_values(desired, self.engine.site.crews[i],
+                                                        self.engine.site))
+
+    def value_scope(self, values: dict[int, float]) -> Outcome:
+        """The deciding crew's scope valued ``values`` (V_Tar per target), then the floor runs
+        on to the next decision or the episode's end (``decide`` with Eq. 4; other action
+        forms, such as the masked choice of ``agents.candidates``, give their values here)."""
+        i = self.deciding
+        if i is None:
+            raise RuntimeError("value_scope() with no crew deciding: the episode has ended; "
+                               "call reset(seed) first")
         self.deciding = None
-        self.engine.set_target_values(i, desired_position_values(desired, self.engine.site.crews[i],
-                                                            self.engine.site))
+        self.engine.set_target_values(i, values)
         return self._run()
 
     def _run(self) -> Outcome:
@@ -195,7 +205,8 @@ class Floor:
         idle = dict.fromkeys(IDLE_CAUSES, 0)
         for crew in site.crews:
             for cause, steps in crew.stats.idle_steps.items():
-                idle[cause.name.lower()] += steps
+                if steps or cause.name.lower() in idle:  # a disruption's cause only if it hit
+                    idle[cause.name.lower()] = idle.get(cause.name.lower(), 0) + steps
         return {"makespan_s": self.engine.makespan_s, "stalled": self.engine.stalled is not None,
                 "tasks_ended": site.tasks_ended, "time_s": site.time_s,
                 "episode_terms": dict(self.terms), "idle_steps": idle}

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from .case import BUILTIN_CASE, case_from_dict
+from .floorplan import PRECAST_RECIPE, StorageSpot, plan_case
 
 LAYOUT_DIR = Path(__file__).with_name("cases") / "layouts"
 TRAIN_SEEDS = tuple(range(6))
@@ -40,9 +41,6 @@ MARGIN_X_M = 7.0  # open floor beside the outer components: crews start and leav
 MARGIN_Y_M = 8.0  # room for the storages along the top and bottom edges
 PRECAST_M = 2.0
 JOINT_LONG_M, JOINT_SHORT_M = 2.0, 1.2
-REBAR_M3_PER_JOINT = 0.5
-FORMWORK_M2_PER_JOINT = 12.0
-STRUT_SETS_PER_PRECAST = 1.0
 STORAGES = (("ST-rebars", "rebars", 6.0, 3.0, 3.0, 0.5),  # id, material, w, h, capacity, I
             ("ST-templates", "templates", 6.0, 3.0, 80.0, 0.5),
             ("ST-struts", "struts", 5.0, 3.0, 12.0, 0.6))
@@ -87,11 +85,6 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
     crews = [("JCC-1", "JCC"), ("HIC-1", "HIC"), ("GC-1", "GC")]
     crews += [(f"RC-{k + 1}", "RC") for k in range(int(rng.integers(1, 3)))]
     crews += [(f"FC-{k + 1}", "FC") for k in range(int(rng.integers(1, 3)))]
-    start_x = -half_w + 2.5
-    spread = min(3.0, (2 * half_h - 6.0) / (len(crews) - 1))
-    crew_rows = [{"id": cid, "type": ctype, "start_x_m": start_x,
-                  "start_y_m": round((k - (len(crews) - 1) / 2) * spread, 3),
-                  "start_heading_deg": 0.0} for k, (cid, ctype) in enumerate(crews)]
 
     # storages: distinct slots along the top and bottom edges, clear of the crews' corner
     slots = [(edge, x) for edge in (1, -1)
@@ -100,12 +93,10 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
     storages = []
     for (sid, material, w, h, capacity, index), pick in zip(STORAGES, picks, strict=True):
         edge, x = slots[int(pick)]
-        storages.append({"id": sid, "material": material, "x_m": float(x),
-                         "y_m": edge * (half_h - 1.0 - h / 2), "width_m": w, "height_m": h,
-                         "capacity": capacity, "congestion_index_full": index})
+        storages.append(StorageSpot(sid, material, w, h, capacity, index, edge, float(x)))
 
     precast = {}
-    components, tasks = [], []
+    components = []
     for r, y in enumerate(ys):
         for c, x in enumerate(xs):
             pid = f"P-{r + 1}{c + 1}"
@@ -126,38 +117,17 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
     for jid, x, y, w, h, _ in joints:
         components.append({"id": jid, "kind": "cast-in-place", "x_m": x, "y_m": y,
                            "width_m": w, "height_m": h})
-    for pid in precast.values():
-        tasks.append({"id": f"JC-{pid}", "type": "JC", "component": pid})
-        tasks.append({"id": f"HI-{pid}", "type": "HI", "component": pid,
-                      "material_quantity": STRUT_SETS_PER_PRECAST,
-                      "predecessors": [f"JC-{pid}"]})
-        tasks.append({"id": f"G-{pid}", "type": "G", "component": pid,
-                      "predecessors": [f"HI-{pid}"]})
-    for jid, *_, ends in joints:
-        tasks.append({"id": f"R-{jid}", "type": "R", "component": jid,
-                      "work": REBAR_M3_PER_JOINT, "material_quantity": REBAR_M3_PER_JOINT,
-                      "predecessors": [f"HI-{p}" for p in ends]})
-        tasks.append({"id": f"F-{jid}", "type": "F", "component": jid,
-                      "work": FORMWORK_M2_PER_JOINT, "material_quantity": FORMWORK_M2_PER_JOINT,
-                      "predecessors": [f"R-{jid}"]})
-
-    simulation = dict(base["simulation"])
-    simulation["max_time_s"] = max(simulation["max_time_s"],
-                                   TIME_LIMIT_S_PER_TASK * len(tasks))
-    return {
-        "case": {"name": name or f"generated-{seed}",
-                 "description": f"generated layout, seed {seed}: {cols} x {rows} precast "
-                                f"components {sx:g} x {sy:g} m apart, {len(joints)} joints, "
-                                f"{len(crews)} crews, {len(tasks)} tasks"},
-        "plane": {"width_m": 2 * half_w, "height_m": 2 * half_h, "outlet_x_m": -half_w + 1.0,
-                  "outlet_y_m": 0.0, "outlet_radius_m": 1.5},
-        "simulation": simulation,
-        "reaching_reward": base["reaching_reward"],
-        "crane": {**base["crane"], "x_m": 0.0, "y_m": half_h - 1.5},
-        "task_types": base["task_types"], "materials": base["materials"],
-        "crew_types": base["crew_types"],
-        "crews": crew_rows, "storages": storages, "components": components, "tasks": tasks,
-    }
+    ends = {jid: joint_ends for jid, *_, joint_ends in joints}
+    data = plan_case(name=name or f"generated-{seed}", description="", half_width_m=half_w,
+                     half_height_m=half_h, base=base,
+                     crane_times={k: base["crane"][k] for k in ("lift_time_s", "assist_time_s")},
+                     crews=crews, storages=storages, components=components,
+                     recipe=PRECAST_RECIPE, ends=ends,
+                     time_limit_s_per_task=TIME_LIMIT_S_PER_TASK)
+    data["case"]["description"] = (f"generated layout, seed {seed}: {cols} x {rows} precast "
+                                   f"components {sx:g} x {sy:g} m apart, {len(joints)} joints, "
+                                   f"{len(crews)} crews, {len(data['tasks'])} tasks")
+    return data
 
 
 # -- TOML -------------------------------------------------------------------------------------

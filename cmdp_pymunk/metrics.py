@@ -57,6 +57,8 @@ class Counters:
         for crew in self.site.crews:
             i = crew.index
             stats, window = crew.stats, self.window[i]
+            if crew.disruption:  # kept from working by a disruption, whatever it does
+                stats.idle_steps[crew.disruption] += 1
             if second.moving[i]:
                 stats.distance_m += second.distance_m[i]
                 if second.had_target[i]:

@@ -38,6 +38,7 @@ import math
 
 import numpy as np
 
+from . import disruptions
 from .state import CrewState, Pool, Site
 from .world import N_KINDS, STORAGE, World
 
@@ -275,8 +276,9 @@ def n_targets(case) -> int:
 
 
 def evaluation_size(case) -> int:
-    """The length of O^e for the case: the crew's 5 floats and 12 per potential target."""
-    return CREW_FEATURES + TARGET_FEATURES * n_targets(case)
+    """The length of O^e for the case: the crew's 5 floats and 12 per potential target, and
+    for a case with disruptions what is disrupted (``disruptions.feature_size``)."""
+    return CREW_FEATURES + TARGET_FEATURES * n_targets(case) + disruptions.feature_size(case)
 
 
 def evaluation_bounds(case) -> tuple[np.ndarray, np.ndarray]:
@@ -294,8 +296,11 @@ def evaluation_bounds(case) -> tuple[np.ndarray, np.ndarray]:
     row_high = np.array([1, 1, 1, 1, 1, 1, max(1.0, area_high), max(1.0, time_high), 1, 1, 1, 1],
                         dtype=np.float32)
     targets = n_targets(case)
-    low = np.concatenate([np.array([-1, -1, -1, -1, 0], np.float32), np.tile(row_low, targets)])
-    high = np.concatenate([np.ones(CREW_FEATURES, np.float32), np.tile(row_high, targets)])
+    extra = disruptions.feature_size(case)
+    low = np.concatenate([np.array([-1, -1, -1, -1, 0], np.float32), np.tile(row_low, targets),
+                          np.zeros(extra, np.float32)])
+    high = np.concatenate([np.ones(CREW_FEATURES, np.float32), np.tile(row_high, targets),
+                           np.ones(extra, np.float32)])
     return low, high
 
 
@@ -317,6 +322,9 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
     - O^e3 (10): all successors of the crew's task there, over the number of tasks;
     - O^e4 (11): tasks in queue or wait whose areas conflict with it, over the number of tasks.
 
+    Beyond the paper, a case with disruptions appends what is disrupted now
+    (``disruptions.features``); a model trained without them is refused (its size differs).
+
     Args:
         site: the construction state; crew: the deciding crew; position: its (x, y) in m;
         heading: its heading in radians; bounds: (low, high) as above.
@@ -324,12 +332,16 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
     half_w, half_h = site.case.plane.half_extents
     diag = 2.0 * math.hypot(half_w, half_h)
     n_tasks = len(site.tasks)
-    out = np.zeros(CREW_FEATURES + TARGET_FEATURES * site.n_targets, dtype=np.float32)
+    out = np.zeros(CREW_FEATURES + TARGET_FEATURES * site.n_targets
+                   + disruptions.feature_size(site.case), dtype=np.float32)
     out[:CREW_FEATURES] = (position[0] / half_w, position[1] / half_h, math.cos(heading),
                            math.sin(heading), crew.load / crew.capacity if crew.capacity else 0.0)
     mine = {site.tasks[t].component: site.tasks[t] for t in site.tasks_of_crew_type[crew.type]}
     spec = crew.spec
-    rows = out[CREW_FEATURES:].reshape(site.n_targets, TARGET_FEATURES)
+    end = CREW_FEATURES + TARGET_FEATURES * site.n_targets
+    rows = out[CREW_FEATURES:end].reshape(site.n_targets, TARGET_FEATURES)
+    if end < len(out):
+        disruptions.features(site, out[end:])
     n_comp = len(site.components)
     for target in range(site.n_targets):
         row = rows[target]

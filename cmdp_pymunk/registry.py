@@ -6,7 +6,9 @@
     env = pettingzoo.make("aec", "cmdp/PrecastFloor-stage1-v1")   # AEC, via parallel_to_aec
 
 ``cmdp/PrecastFloor-v1`` (the paper's floor, full CMDP), ``cmdp/PrecastFloor-stage1-v1``
-(section 4.2's stage 1 on it), ``cmdp/TinyFloor-v1`` (the tiny case of the docs and tests),
+(section 4.2's stage 1 on it), ``cmdp/PrecastFloor-disrupted-v1`` (the paper's floor with the
+disruption profile of docs/disruptions.md), ``cmdp/TinyFloor-v1`` (the tiny case of the docs
+and tests),
 and the generated layouts' split ``cmdp/GeneratedFloor-train0-v1`` ... and
 ``cmdp/GeneratedFloor-test0-v1`` ... (``cmdp_pymunk.layouts``).
 
@@ -22,7 +24,7 @@ from __future__ import annotations
 from pettingzoo import register
 from pettingzoo.utils.conversions import parallel_to_aec
 
-from .case import TINY_CASE
+from .case import DISRUPTED_CASE, TINY_CASE
 from .env import CMDPEnv
 from .layouts import layout_files
 
@@ -34,6 +36,9 @@ VARIANTS: dict[str, dict] = {
     "cmdp/PrecastFloor-stage1-v1": {"stage": 1, "max_time_s": STAGE1_EPISODE_S},
     # the tiny case of the docs and the tests: 2 crews, 3 tasks, episodes of seconds
     "cmdp/TinyFloor-v1": {"stage": 2, "case": str(TINY_CASE)},
+    # the paper's floor with crane breakdowns, late deliveries, absences and weather stops
+    # (the profile of docs/disruptions.md, cases/precast_floor_disrupted.toml)
+    "cmdp/PrecastFloor-disrupted-v1": {"stage": 2, "case": str(DISRUPTED_CASE)},
 }
 # the published split of generated layouts (cmdp_pymunk.layouts): train on the first,
 # measure generalisation to an unseen floor on the second

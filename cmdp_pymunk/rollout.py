@@ -23,7 +23,7 @@ import numpy as np
 from .decide import target_id
 from .interrupt import sigint_guard
 from .policy import LowLevel
-from .state import CrewStatus, IdleCause, Pool, activity
+from .state import DISRUPTION_CAUSES, CrewStatus, IdleCause, Pool, activity
 
 PERCENTILES = (50, 80, 90)  # the makespan percentiles a run of many episodes reports
 
@@ -105,9 +105,11 @@ def stall_report(env, for_s: float) -> dict:
 
 
 def crew_summary(env) -> dict:
-    """Per crew: reaching steps, idle steps by cause, distance, trips, crane waits, contacts,
-    reaches and reach time-outs of the episode so far."""
+    """Per crew: reaching steps, idle steps by cause (with a case's disruptions, also the
+    seconds each kind of disruption kept it from working), distance, trips, crane waits,
+    contacts, reaches and reach time-outs of the episode so far."""
     out = {}
+    disrupted = bool(env.site.case.disruptions)
     for crew in env.site.crews:
         s = crew.stats
         out[crew.id] = {
@@ -125,6 +127,9 @@ def crew_summary(env) -> dict:
             "reaches": s.reaches,
             "reach_timeouts": s.reach_timeouts,
         }
+        if disrupted:
+            out[crew.id]["idle_steps"].update(
+                {c.name.lower(): s.idle_steps[c] for c in DISRUPTION_CAUSES})
     return out
 
 

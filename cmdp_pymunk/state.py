@@ -36,6 +36,20 @@ class IdleCause(IntEnum):
     PREDECESSOR = 1  # its remaining tasks wait for predecessors
     AREA = 2  # its queued tasks are blocked by other crews' task areas
     NO_TARGET = 3  # anything else (e.g. its queued tasks are being worked by its peers)
+    # A disruption keeps it from working (``disruptions``; beyond the paper): any status.
+    CRANE_BREAKDOWN = 4
+    LATE_DELIVERY = 5
+    ABSENCE = 6
+    WEATHER = 7
+
+
+# The causes a reaching crew without a target has (``decide.acquire_target``), and those of
+# a crew a disruption keeps from working (``disruptions.blocking_cause``).
+REACHING_IDLE_CAUSES = (IdleCause.PREDECESSOR, IdleCause.AREA, IdleCause.NO_TARGET)
+DISRUPTION_CAUSES = (IdleCause.CRANE_BREAKDOWN, IdleCause.LATE_DELIVERY, IdleCause.ABSENCE,
+                     IdleCause.WEATHER)
+# their columns in episode rows and comparisons: crew-seconds kept from working, by kind
+DISRUPTION_IDLE_FIELDS = tuple(f"idle_{c.name.lower()}" for c in DISRUPTION_CAUSES)
 
 
 class ScopeKind(IntEnum):
@@ -172,10 +186,12 @@ class CrewState:
     sightings: dict = field(default_factory=dict)
     idle_cause: IdleCause = IdleCause.NONE
     stats: CrewStats = field(default_factory=CrewStats)
+    absent: bool = False  # away from the plane (a disruption): it neither moves nor decides
+    disruption: IdleCause = IdleCause.NONE  # the disruption keeping it from working, if any
 
     @property
     def moving(self) -> bool:
-        return self.status in MOVING
+        return self.status in MOVING and not self.absent
 
     def clear_scope(self) -> None:
         """No target scope, and none current: c10 acquires one at its next chance."""
@@ -247,6 +263,7 @@ class Site:
         self.active_areas: list[int] = []  # tasks whose areas are on the plane (pool ON)
         self.tasks_ended = 0
         self.crew_xy: list = []  # every crew's (x, y): the engine's list, set in its reset
+        self.disrupted = None  # disruptions.Now during the coming second; None: no disruptions
         self.reset_pools()
 
     # -- queries the stages share ------------------------------------------------------------
@@ -286,7 +303,10 @@ def _descendants(start: int, succ: list[list[int]]) -> set[int]:
 
 
 def activity(crew: CrewState) -> str:
-    """What the crew is doing, in the categories of the agents' Gantt chart (Fig. 9)."""
+    """What the crew is doing, in the categories of the agents' Gantt chart (Fig. 9); a crew
+    a disruption keeps from working is ``idle_<kind>`` (``disruptions``)."""
+    if crew.disruption:
+        return "idle_" + crew.disruption.name.lower()
     if crew.status == CrewStatus.REACHING:
         if crew.scope:
             return "navigating"
@@ -296,3 +316,6 @@ def activity(crew: CrewState) -> str:
 
 ACTIVITIES = ("navigating", "idle_predecessor", "idle_area", "idle_no_target", "tasking",
               "fetching", "waiting", "deregistered", "left")
+# a disruption's idle activities (``disruptions``), after the paper's
+DISRUPTED_ACTIVITIES = ("idle_crane_breakdown", "idle_late_delivery", "idle_absence",
+                        "idle_weather")

@@ -9,6 +9,9 @@ does not reshuffle every later duration (one generator drawn in task-start order
 A *scenario* is a sampled future of a floor (``Engine.clone(scenario=k)``): the paces of tasks
 not yet started come from (seed, "pace", k, task) instead; tasks already started keep the
 pace they drew. Scenario None is the floor's own future.
+
+Disruptions (``disruptions``) draw from (seed, kind, entry): each kind of disruption its own
+source, so adding one leaves every task's pace, and every other kind's draws, unchanged.
 """
 
 from __future__ import annotations
@@ -17,6 +20,11 @@ import numpy as np
 
 # Source ids: a new source takes a new number, so adding one changes no other stream.
 PACE = 1
+# Disruptions (``disruptions``): each kind its own source, each entry of the case's list an item.
+CRANE_BREAKDOWN = 2
+LATE_DELIVERY = 3
+ABSENCE = 4
+WEATHER = 5
 
 
 class RandomStreams:

@@ -226,6 +226,16 @@ class World:
         self.space.remove(body, *list(body.shapes))
         self.motion_version += 1
 
+    def return_crew(self, i: int) -> None:
+        """A crew that was away (a disruption, ``remove_crew``) comes back where it left."""
+        body = self.bodies[i]
+        body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
+        self.space.add(body, *list(body.shapes))
+        for shape in body.shapes:
+            self.rays.register(shape)
+        self.at_rest = False
+        self.motion_version += 1
+
     # -- physics ------------------------------------------------------------------------------
 
     # -- branching: a world as plain data, and rebuilt from it --------------------------------
@@ -238,8 +248,11 @@ class World:
         bodies = [None if b.space is None else
                   (tuple(b.position), b.angle, tuple(b.velocity), b.angular_velocity)
                   for b in self.bodies]
+        # a crew away for a disruption keeps its pose off the plane, to come back there
+        away = {i: (tuple(b.position), b.angle) for i, b in enumerate(self.bodies)
+                if b.space is None and self.site.crews[i].absent}
         return {"case": self.case, "site": self.site, "public_rays": self.public_rays,
-                "bodies": bodies, "areas": list(self.area_shapes),
+                "bodies": bodies, "away": away, "areas": list(self.area_shapes),
                 "desired": [list(d) for d in self.desired],
                 "contacts": [list(c) for c in self.contacts],
                 "at_rest": self.at_rest, "motion_version": self.motion_version}
@@ -251,6 +264,8 @@ class World:
         self.__init__(state["case"], state["site"], state["public_rays"])
         for i, pose in enumerate(state["bodies"]):
             if pose is None:
+                if i in state.get("away", {}):
+                    self.bodies[i].position, self.bodies[i].angle = state["away"][i]
                 self.remove_crew(i)
                 continue
             body = self.bodies[i]

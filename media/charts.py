@@ -11,6 +11,10 @@
   (b) every crew's path.
 - :func:`draw_run` draws all three into a run folder; :func:`write_gif` writes frames as a GIF.
 
+With disruptions (docs/disruptions.md), both Gantt charts shade a band across the chart for
+every crane breakdown, late delivery and weather stop (``disruption_intervals``), and a crew
+kept from working shows the disruption's own idle colour in Fig. 9 (an absence hatched).
+
 Times in the log are simulated seconds; the charts' time axes are in hours. Coordinates are the
 case's: metres, the plane's origin at its centre, y up.
 
@@ -60,6 +64,19 @@ ACTIVITY_STYLE: dict[str, dict] = {
     "tasking": {"color": "#d62728", "label": "tasking"},
     "fetching": {"color": "#2ca02c", "label": "fetching materials"},
     "waiting": {"color": "#98df8a", "label": "waiting for the crane"},
+    # kept from working by a disruption (beyond the paper; docs/disruptions.md)
+    "idle_crane_breakdown": {"color": "#9467bd", "label": "idle: crane broken down"},
+    "idle_late_delivery": {"color": "#c5b0d5", "label": "idle: delivery late"},
+    "idle_absence": {"color": "#ffffff", "hatch": "xxxx", "edge": "#555555",
+                     "label": "absent (off the plane)"},
+    "idle_weather": {"color": "#17becf", "label": "idle: weather stop"},
+}
+# Disruption bands behind both Gantt charts: what was disrupted when (``disruption_*`` events).
+# An absence shows in its crew's row (``idle_absence``) and draws no band.
+BAND_STYLE: dict[str, dict] = {
+    "crane_breakdown": {"color": "#9467bd", "label": "crane broken down"},
+    "late_delivery": {"color": "#e7969c", "label": "delivery late"},
+    "weather": {"color": "#17becf", "label": "weather stop"},
 }
 OTHER_ACTIVITY = {"color": "#1f77b4", "label": "other"}  # a category this module does not know
 LEFT = "left"
@@ -104,6 +121,50 @@ def activity_intervals(events: Sequence[Event],
         if current is not None and end > current[0]:
             out[crew].append(ActivityInterval(current[0], end, current[1]))
     return out
+
+
+class Disruption(NamedTuple):
+    """A disruption from ``start_s`` to ``end_s``: its kind (``crane_breakdown``,
+    ``late_delivery``, ``absence``, ``weather``) and what it struck (``crane``, a storage, a
+    crew, ``plane``)."""
+
+    start_s: float
+    end_s: float
+    kind: str
+    subject: str
+
+
+def disruption_intervals(events: Sequence[Event], end_s: float | None = None) -> list[Disruption]:
+    """Every disruption of the log, from its ``disruption_start`` to its ``disruption_end``
+    (one still under way at the log's end closes at ``end_s``, default the log's last event),
+    in order of start."""
+    end = log_end_s(events) if end_s is None else end_s
+    open_: dict[tuple[str, str], float] = {}
+    out = []
+    for e in events:
+        key = (e.detail, e.subject)
+        if e.kind == "disruption_start":
+            open_.setdefault(key, e.time_s)
+        elif e.kind == "disruption_end" and key in open_:
+            out.append(Disruption(open_.pop(key), e.time_s, *key))
+    out += [Disruption(a, max(a, end), *key) for key, a in open_.items()]
+    return sorted(out)
+
+
+def _draw_bands(ax, events: Sequence[Event]) -> list:
+    """Shade every crane breakdown, late delivery and weather stop across the chart; returns
+    a legend handle per kind drawn."""
+    drawn: list[str] = []
+    for d in disruption_intervals(events):
+        style = BAND_STYLE.get(d.kind)
+        if style is None:
+            continue
+        ax.axvspan(d.start_s / HOUR_S, d.end_s / HOUR_S, color=style["color"], alpha=0.18,
+                   linewidth=0, zorder=0)
+        if d.kind not in drawn:
+            drawn.append(d.kind)
+    return [Patch(facecolor=BAND_STYLE[k]["color"], alpha=0.18,
+                  label=f"band: {BAND_STYLE[k]['label']}") for k in drawn]
 
 
 def crew_paths(events: Sequence[Event]) -> dict[str, np.ndarray]:
@@ -217,12 +278,14 @@ def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = 
     ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
     ax.set_axisbelow(True)
     order = [c for c in ACTIVITY_STYLE if c in seen] + [c for c in seen if c not in ACTIVITY_STYLE]
+    bands = _draw_bands(ax, events)
     handles: list = []
     for c in order:
         style = ACTIVITY_STYLE.get(c, {**OTHER_ACTIVITY, "label": c})
         handles.append(Patch(facecolor=style["color"], hatch=style.get("hatch"),
                              edgecolor=style.get("edge", style["color"]), linewidth=0,
                              label=style["label"]))
+    handles += bands
     line = _mark_makespan(ax, events)
     if line is not None:
         handles.append(line)
@@ -281,6 +344,7 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
     handles: list = [Patch(facecolor=colours[t], label=type_label(t)) for t in present]
     if any(b.pauses for b in bars):
         handles.append(Patch(facecolor="#777777", alpha=0.25, label="paused"))
+    handles += _draw_bands(ax, events)
     line = _mark_makespan(ax, events)
     if line is not None:
         handles.append(line)

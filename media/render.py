@@ -8,6 +8,11 @@ queue length; the crews (a disc of the crew's occupation area in its crew type's
 tick for its heading, its id above and its status below) with a thin line to the target it
 values most while it moves; and a clock line above the plane.
 
+With disruptions (docs/disruptions.md): the header names what is disrupted (weather stop,
+crane down, late deliveries, crews away) in magenta; a broken-down crane is crossed out; a
+storage whose delivery is late gets a thick magenta edge; an absent crew is not drawn (it is
+off the plane).
+
 Coordinates: the plane's origin is its centre and y points up (``cmdp_pymunk.case``); on screen
 y points down, so ``world_to_pixel`` flips it. ``Viewport`` is the one transform, and tests use
 it to find where a crew is drawn.
@@ -48,6 +53,7 @@ COMPONENT_PERFORMING: Colour = (215, 50, 45)
 COMPONENT_DONE: Colour = (70, 170, 85)
 TASK_AREA = (255, 150, 30, 70)  # RGBA: translucent
 STORAGE_EDGE: Colour = (120, 95, 60)
+DISRUPTED: Colour = (200, 30, 120)  # what a disruption strikes (docs/disruptions.md)
 STORAGE_FILL: Colour = (205, 170, 110)
 OUTLET: Colour = (20, 130, 60)
 CRANE: Colour = (235, 180, 0)
@@ -229,8 +235,11 @@ class _Renderer:
                               round(r.height * fill))
             if bar.height > 0:
                 surface.fill(STORAGE_FILL, bar)
-            pygame.draw.rect(surface, STORAGE_EDGE, r, width=2)
-            self.blit_centred(self.text(fonts.label, st.material), (r.centerx, r.centery - 7))
+            late = site.disrupted is not None and st.index in site.disrupted.late
+            pygame.draw.rect(surface, DISRUPTED if late else STORAGE_EDGE, r,
+                             width=4 if late else 2)
+            self.blit_centred(self.text(fonts.label, st.material + (" (late)" if late else "")),
+                              (r.centerx, r.centery - 7))
             self.blit_centred(self.text(fonts.small, f"{_short(st.stock)}/{_short(st.capacity)}"),
                               (r.centerx, r.centery + 7))
 
@@ -248,14 +257,23 @@ class _Renderer:
         pygame.draw.polygon(surface, WALL, [(cx, cy - 9), (cx - 8, cy + 6), (cx + 8, cy + 6)],
                             width=1)
         queue = len(site.crane.queue) + (1 if site.crane.current is not None else 0)
-        label = self.text(fonts.label, f"crane q={queue}")
+        down = site.disrupted is not None and site.disrupted.crane_down
+        if down:
+            pygame.draw.line(surface, DISRUPTED, (cx - 9, cy - 10), (cx + 9, cy + 8), 3)
+            pygame.draw.line(surface, DISRUPTED, (cx - 9, cy + 8), (cx + 9, cy - 10), 3)
+        label = self.text(fonts.label, f"crane q={queue}" + (" DOWN" if down else ""),
+                          DISRUPTED if down else TEXT)
         surface.blit(label, label.get_rect(midleft=(cx + 11, cy)))
 
         self._draw_crews(env)
 
         header = (f"t {format_clock(site.time_s)}   tasks {site.tasks_ended}/{len(site.tasks)}"
                   f"   stage {env.stage}   {env.case.case.name}")
-        surface.blit(fonts.header.render(header, True, TEXT), (MARGIN_PX, 6))
+        disrupted = disruption_text(site)
+        if disrupted:
+            header += "   " + disrupted
+        surface.blit(fonts.header.render(header, True, DISRUPTED if disrupted else TEXT),
+                     (MARGIN_PX, 6))
         return _to_array(surface)
 
     def _draw_rays(self, env) -> None:
@@ -273,7 +291,8 @@ class _Renderer:
     def _draw_crews(self, env) -> None:
         site, vp, fonts = env.site, self.viewport, self.fonts
         surface = self.surface
-        crews = [c for c in site.crews if c.status != CrewStatus.LEFT]
+        # an absent crew is off the plane (its body too): not drawn, named in the header
+        crews = [c for c in site.crews if c.status != CrewStatus.LEFT and not c.absent]
         positions = {}
         for crew in crews:
             positions[crew.index] = env.engine.pose(crew.index)
@@ -302,6 +321,18 @@ class _Renderer:
             surface.blit(label, label.get_rect(midbottom=(centre[0], centre[1] - radius - 1)))
             status = self.text(fonts.small, crew.status.name.lower(), TEXT, LABEL_BOX)
             surface.blit(status, status.get_rect(midtop=(centre[0], centre[1] + radius + 1)))
+
+
+def disruption_text(site) -> str:
+    """What is disrupted now, for the frame's header: "" when nothing is."""
+    now = site.disrupted
+    if not now:
+        return ""
+    parts = (["WEATHER STOP"] if now.weather else []) + \
+        (["CRANE DOWN"] if now.crane_down else []) + \
+        [f"late: {site.storages[s].id}" for s in sorted(now.late)] + \
+        [f"away: {site.crews[c].id}" for c in sorted(now.absent)]
+    return "   ".join(parts)
 
 
 def _to_array(surface: pygame.Surface) -> np.ndarray:

@@ -65,3 +65,15 @@ def test_the_engine_takes_a_name(tiny_case):
     assert Engine(tiny_case).evaluator is None  # values come from outside
     with pytest.raises(ValueError, match='did you mean "nearest"'):
         Engine(tiny_case, evaluator="nearst")
+
+
+def test_a_misspelt_strategy_gets_a_did_you_mean():
+    import pytest
+
+    from agents.specs import make_evaluator
+
+    with pytest.raises(ValueError, match="did you mean 'priority'"):
+        make_evaluator("priorty")
+    with pytest.raises(ValueError) as err:
+        make_evaluator("runs/missing.zip")  # a model path: no guess among the names
+    assert "did you mean" not in str(err.value)

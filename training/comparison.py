@@ -13,6 +13,8 @@ import math
 
 import numpy as np
 
+from cmdp_pymunk.state import DISRUPTION_IDLE_FIELDS
+
 REFERENCE = "priority"
 
 
@@ -28,6 +30,13 @@ def mean_ci(values) -> tuple[float | None, float | None, float | None]:
         return float(x[0]), None, None
     std = float(np.std(x, ddof=1))
     return float(x.mean()), std, float(stats.t.ppf(0.975, len(x) - 1) * std / math.sqrt(len(x)))
+
+
+def p80(values) -> float | None:
+    """The makespan 80 % of the finished episodes stay within (a planner's P80):
+    ``numpy.percentile`` at 80, linear between order statistics; None without any."""
+    x = [v for v in values if v is not None]
+    return float(np.percentile(x, 80)) if x else None
 
 
 def paired(rows: list[dict], reference: list[dict]) -> dict:
@@ -61,13 +70,14 @@ def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | Non
             "stalled_seeds": [r["seed"] for r in group if r["stalled"]],
             "timed_out_seeds": [r["seed"] for r in group if r["timed_out"]],
             "makespan_mean_s": mean, "makespan_std_s": std, "makespan_ci95_s": ci,
+            "makespan_p80_s": p80(finished),
             "over_lower_bound": mean / lower_bound_s if mean else None,
             "over_cpsat_bound": mean / cpsat_bound_s if mean and cpsat_bound_s else None,
         }
         for key in ("reaching_steps", "idle_waiting_for_predecessor",
                     "idle_blocked_by_task_area", "idle_no_target", "crane_waits",
-                    "crane_wait_s"):
-            m, _, c = mean_ci([r[key] for r in group])
+                    "crane_wait_s", *DISRUPTION_IDLE_FIELDS):
+            m, _, c = mean_ci([r.get(key, 0) for r in group])
             entry[f"{key}_mean"], entry[f"{key}_ci95"] = m, c
         reference = groups.get((REFERENCE, navigator))
         entry.update({f"vs_{REFERENCE}_{k}": v for k, v in
@@ -87,10 +97,14 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
                    cpsat: dict | None) -> str:
     """The comparison as Markdown: one row per strategy and low level, then the bounds and the
     stalled or timed-out episodes."""
-    head = ("| strategy | low level | finished | makespan (s), mean ± 95 % CI | x lower bound "
-            "| x CP-SAT bound | vs priority: diff (s) ± 95 % CI | ratio | reaching steps "
-            "| idle: predecessor / task area / no target | crane waits |")
-    lines = [head, "|" + "---|" * 11]
+    # crew-seconds kept from working by disruptions: a column only when a case has them
+    disrupted = any(e.get(f"{k}_mean") for e in summary for k in DISRUPTION_IDLE_FIELDS)
+    head = ("| strategy | low level | finished | makespan (s), mean ± 95 % CI | P80 (s) "
+            "| x lower bound | x CP-SAT bound | vs priority: diff (s) ± 95 % CI | ratio "
+            "| reaching steps | idle: predecessor / task area / no target | crane waits |")
+    if disrupted:
+        head += " idle: crane breakdown / late delivery / absence / weather |"
+    lines = [head, "|" + "---|" * (13 if disrupted else 12)]
     for e in summary:
         ref = e[f"vs_{REFERENCE}_diff_mean_s"]
         vs = "-" if e["strategy"] == REFERENCE or ref is None else \
@@ -101,9 +115,12 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
         lines.append(
             f"| {e['strategy']} | {e['navigator']} | {e['finished']}/{e['episodes']} | "
             f"{_num(e['makespan_mean_s'], 0, e['makespan_ci95_s'])} | "
+            f"{_num(e['makespan_p80_s'])} | "
             f"{_num(e['over_lower_bound'], 2)} | {_num(e['over_cpsat_bound'], 2)} | {vs} | "
             f"{ratio} | {_num(e['reaching_steps_mean'])} | {idle} | "
-            f"{_num(e['crane_waits_mean'], 1)} |")
+            f"{_num(e['crane_waits_mean'], 1)} |"
+            + (" " + " / ".join(_num(e[f"{k}_mean"]) for k in DISRUPTION_IDLE_FIELDS) + " |"
+               if disrupted else ""))
     lines.append("")
     lines.append(f"Lower bound (critical path or per-crew-type work): {lower_bound_s:,.0f} s.")
     if cpsat:

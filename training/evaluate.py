@@ -14,10 +14,12 @@ workers. ``cpsat`` is solved once here (``--cpsat-s`` seconds) and its plan, sav
 - ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish:
   a stopped run (Ctrl-C, a lost worker) keeps them, and ``--resume`` runs only the others
   (with the same settings and the saved CP-SAT plan);
-- ``episodes.csv``: one row per episode: makespan, reaching steps, idle steps by cause, crane
-  waits, reach rate, whether it stalled or timed out (and why), wall seconds;
+- ``episodes.csv``: one row per episode: makespan, reaching steps, idle steps by cause (with
+  the crew-seconds each kind of disruption kept crews from working), crane waits, reach
+  rate, whether it stalled or timed out (and why), wall seconds;
 - ``summary.md`` and ``summary.csv``: per strategy and low level, the mean makespan with its
-  95 % interval, over the lower bound and over CP-SAT's bound, the paired difference to the
+  95 % interval, its P80 (the makespan 80 % of the finished episodes stay within), over
+  the lower bound and over CP-SAT's bound, the paired difference to the
   priority heuristic on the same seeds (95 % interval) and the ratio of means, reaching steps,
   idle steps by cause, crane waits; stalled and timed-out episodes are counted and listed;
 - ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``;

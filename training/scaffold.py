@@ -135,27 +135,29 @@ def steps_done(checkpoint: Path | None) -> int:
     return load_from_zip_file(str(checkpoint), device="cpu")[0]["num_timesteps"]
 
 
-def new_ppo(config: PPOSettings, policy, venv, policy_kwargs: dict, **extra):
-    """SB3's PPO with the run's settings (``extra``: more of PPO's arguments)."""
+def new_ppo(config: PPOSettings, policy, venv, policy_kwargs: dict, algorithm=None, **extra):
+    """SB3's PPO (or ``algorithm``, a PPO of sb3-contrib's such as MaskablePPO) with the
+    run's settings (``extra``: more of PPO's arguments)."""
     from stable_baselines3 import PPO
 
-    return PPO(policy, venv, learning_rate=config.learning_rate, n_steps=config.n_steps,
-               batch_size=config.batch_size, n_epochs=config.n_epochs, gamma=config.gamma,
-               gae_lambda=config.gae_lambda, clip_range=config.clip_range,
-               ent_coef=config.ent_coef, vf_coef=config.vf_coef, policy_kwargs=policy_kwargs,
-               device="cpu", verbose=0, **extra)
+    return (algorithm or PPO)(
+        policy, venv, learning_rate=config.learning_rate, n_steps=config.n_steps,
+        batch_size=config.batch_size, n_epochs=config.n_epochs, gamma=config.gamma,
+        gae_lambda=config.gae_lambda, clip_range=config.clip_range, ent_coef=config.ent_coef,
+        vf_coef=config.vf_coef, policy_kwargs=policy_kwargs, device="cpu", verbose=0, **extra)
 
 
 def train_ppo(run: Run, make_venv: Callable[[], Any], new_model: Callable[[Any], Any],
               warm_start: Callable[[Any], None] | None, skip_warm_start: str,
               metrics, evaluation: Evaluation, draw_curve: Callable[[list, Path], Any],
-              env_space_on_resume: bool = False) -> Path:
+              env_space_on_resume: bool = False, algorithm=None) -> Path:
     """Train (or resume) ``run`` in the order of the module doc; returns the final model's
     path. ``new_model(venv)`` builds a fresh PPO (``new_ppo``); ``warm_start(model)`` runs
     before PPO on a fresh model, and ``skip_warm_start`` (``key=value``) names the setting
     that turns it off. ``metrics``: the stage's SB3 callback. ``env_space_on_resume``: load
     a checkpoint with the env's observation space (one saved with an unbounded space of the
-    same shape, before the bounds were known). Ctrl-C raises ``TrainingInterrupted``."""
+    same shape, before the bounds were known). ``algorithm``: the class resumed (default
+    SB3's PPO). Ctrl-C raises ``TrainingInterrupted``."""
     from stable_baselines3 import PPO
 
     run.prologue()
@@ -164,7 +166,8 @@ def train_ppo(run: Run, make_venv: Callable[[], Any], new_model: Callable[[Any],
         if run.resume is not None:
             objects = {"observation_space": venv.observation_space} if env_space_on_resume \
                 else None
-            model = PPO.load(str(run.resume), env=venv, device="cpu", custom_objects=objects)
+            model = (algorithm or PPO).load(str(run.resume), env=venv, device="cpu",
+                                            custom_objects=objects)
             run.log(f"resumed from {run.resume} at {model.num_timesteps:,} {run.unit}")
         else:
             model = new_model(venv)

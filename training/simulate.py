@@ -2,7 +2,7 @@
 
     cmdp-simulate [--case FILE] [--evaluator priority|nearest|ga:PATH|cpsat|MODEL.zip]
                   [--navigator scripted|MODEL.zip] [--seed N] [--episodes N] [--out DIR] [--gif]
-                  [--cpsat-s SECONDS]
+                  [--cpsat-s SECONDS] [--ifc MODEL.ifc [--ifc-start ISO-DATETIME]]
 
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
 by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
@@ -12,7 +12,10 @@ seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.p
 ``rollout.gif``, and ``case.json`` (the resolved case). With ``--episodes N`` each episode
 (seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and DIR gets ``makespans.csv``,
 ``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
-(tasks ended over time, with the spread over seeds).
+(tasks ended over time, with the spread over seeds). With ``--ifc MODEL.ifc`` (a case made by
+``cmdp-import-ifc`` from that model) each episode's folder also gets ``MODEL-4d.ifc``: the
+model with the simulated schedule as an IfcWorkSchedule (``cmdp_pymunk.ifc.export_4d``),
+simulated second 0 at ``--ifc-start``.
 
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported with the crews and tasks involved; the command then exits with 1.
@@ -53,6 +56,8 @@ class SimulateArgs:
     progress: bool = True
     deterministic: bool = False
     cpsat_s: float | None = None
+    ifc: Path | None = None
+    ifc_start: str = "2026-01-05T08:00:00"
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
@@ -83,12 +88,32 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    help="also solve the case as a schedule with CP-SAT for this long and report "
                         "its proven makespan bound in summary.json (and the plan that "
                         "--evaluator cpsat replays; default for it: 20 s)")
+    p.add_argument("--ifc", type=Path, default=None, metavar="MODEL.ifc",
+                   help="also write the schedule into a copy of this IFC model (the one the "
+                        "case was imported from) as 4D: MODEL-4d.ifc")
+    p.add_argument("--ifc-start", type=iso_datetime, default="2026-01-05T08:00:00",
+                   metavar="ISO-DATETIME",
+                   help="the date and time of simulated second 0 in the 4D schedule "
+                        "(default 2026-01-05T08:00:00)")
     p.add_argument("--stochastic", action="store_true",
                    help="accepted for old scripts; sampling is the default now")
     a = p.parse_args(argv)
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
-                        a.deterministic, a.cpsat_s)
+                        a.deterministic, a.cpsat_s, a.ifc, a.ifc_start)
+
+
+def iso_datetime(text: str) -> str:
+    """An ``argparse`` type: an ISO 8601 date and time, e.g. 2026-01-05T08:00:00."""
+    import argparse
+    import datetime
+
+    try:
+        datetime.datetime.fromisoformat(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an ISO date and time; fix: give e.g. "
+                                         "2026-01-05T08:00:00") from None
+    return text
 
 
 def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
@@ -137,6 +162,15 @@ def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: st
     env.log.write_csv(folder / "events.csv")
     write_atomic(folder / "schedule.csv", schedule_csv(env.log.events))
     write_json(folder / "summary.json", data)
+    if args.ifc is not None:
+        import datetime
+
+        from cmdp_pymunk.ifc import export_4d
+        from cmdp_pymunk.schedule import task_bars
+
+        export_4d(args.ifc, env.case, task_bars(env.log.events),
+                  folder / f"{args.ifc.stem}-4d.ifc",
+                  datetime.datetime.fromisoformat(args.ifc_start))
     if args.charts:
         from media.charts import draw_run
 
@@ -217,6 +251,13 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     try:
         case = cmdp_pymunk.load_case(args.case)
         evaluator = make_evaluator(args.evaluator)
+        if args.ifc is not None:  # before simulating: a model that cannot take it fails now
+            from cmdp_pymunk.ifc import IfcUnavailable, open_for_4d
+
+            try:
+                open_for_4d(args.ifc, case)
+            except IfcUnavailable as err:  # the message says how to install the extra
+                raise ValueError(str(err)) from None
     except cmdp_pymunk.CaseError as err:
         print(f"cmdp-simulate: {err}", file=sys.stderr)
         return 2

@@ -35,10 +35,10 @@ import time
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
-from typing import NamedTuple
+from typing import Annotated, Literal, NamedTuple
 
 import numpy as np
-from pydantic import model_validator
+from pydantic import Field, Strict, model_validator
 
 import cmdp_pymunk
 from cmdp_pymunk.events import write_atomic
@@ -77,6 +77,38 @@ class Stage2Config(scaffold.PPOSettings):
     # warm start: behaviour cloning of the priority heuristic on this many floors (its
     # evaluation: the policy's mean action)
     bc_episodes: CountOrZero = 24
+    # the action (issue 17, item 3): "desired_position" (Eq. 4, the paper's) or "candidate",
+    # a masked choice among the deciding crew's `candidates` best targets by Eq. 9 with
+    # sb3-contrib's MaskablePPO; its policy starts as Eq. 9 (agents/candidate_policy.py), so
+    # it has no behaviour cloning (bc_episodes is not used) and no centralized critic
+    action: Literal["desired_position", "candidate"] = "desired_position"
+    candidates: Annotated[int, Strict(), Field(ge=2)] = 5
+    heuristic_scale: Rate = 10.0  # the candidate policy's logits: this times Eq. 9's V' + r
+    # the candidate policy starts as this searched rule (a student file of cmdp-search-rule,
+    # one weight vector for every crew type) instead of Eq. 9; "" for Eq. 9
+    start_rule: str = ""
+    # reward: at a floor's end, R_e's makespan term against Eq. 9's makespan on the same seed
+    # (training.candidates.terminal_term; candidate action only), and the training seeds
+    # taken modulo seed_pool (0: any seed) so that Eq. 9 plays each seed once
+    against_heuristic: bool = False
+    seed_pool: CountOrZero = 0
+
+    @model_validator(mode="after")
+    def _candidate_settings(self) -> Stage2Config:
+        if (self.start_rule or self.against_heuristic or self.seed_pool) \
+                and self.action != "candidate":
+            raise ValueError("start_rule, against_heuristic and seed_pool are for action = "
+                             "\"candidate\"; fix: --set action=candidate, or drop them")
+        if self.start_rule and self.action != "candidate":
+            raise ValueError("start_rule is for action = \"candidate\"; fix: --set "
+                             "action=candidate, or drop start_rule")
+        if self.start_rule and not Path(self.start_rule).is_file():
+            raise ValueError(f"start_rule = {self.start_rule!r}: no such file; fix: give the "
+                             "rule.json of a cmdp-search-rule run")
+        if self.action == "candidate" and self.central_critic:
+            raise ValueError("action = \"candidate\" has no centralized critic (its critic reads "
+                             "the candidates' rows); fix: --set central_critic=false")
+        return self
 
     @model_validator(mode="after")
     def _low_level_exists(self) -> Stage2Config:
@@ -108,12 +140,20 @@ def low_level_factory(spec: str):
     return make
 
 
-def make_floor(config: Stage2Config, case) -> Floor:
+def make_floor(config: Stage2Config, case):
     """A training floor: the config's low level and stall guard, the global state after O^e
     with ``central_critic``. The scripted navigator reads the state, not the rays: idle crews
-    are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast."""
-    return Floor(case, low_level_factory(config.low_level), stall_s=config.stall_s,
-                 park_idle=config.low_level == "scripted", with_state=config.central_critic)
+    are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast. With
+    ``action = "candidate"`` it is wrapped in ``training.candidates.CandidateFloor``."""
+    floor = Floor(case, low_level_factory(config.low_level), stall_s=config.stall_s,
+                  park_idle=config.low_level == "scripted", with_state=config.central_critic)
+    if config.action == "candidate":
+        from .candidates import CandidateFloor
+
+        plain = config.model_copy(update={"action": "desired_position", "start_rule": ""})
+        reference = partial(make_floor, plain, case) if config.against_heuristic else None
+        return CandidateFloor(floor, config.candidates, reference, config.seed_pool)
+    return floor
 
 
 def make_vec_env(config: Stage2Config, case, seed: int):
@@ -255,13 +295,23 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
     SB3 model): makespans, how many finished, how many stalled."""
     from agents.models import LeanActor
 
-    if not isinstance(actor, LeanActor):
-        actor = LeanActor.from_sb3(actor)
+    # the evaluation's own seeds as given, and no reference floors: only makespans are read
+    config = config.model_copy(update={"against_heuristic": False, "seed_pool": 0})
     floor = make_floor(config, case)
+    if config.action == "candidate":
+        def choose(obs):
+            action, _ = actor.predict(obs[None], action_masks=floor.action_masks()[None],
+                                      deterministic=True)
+            return action[0]
+    else:
+        if not isinstance(actor, LeanActor):
+            actor = LeanActor.from_sb3(actor)
+
+        def choose(obs):
+            return actor.act(obs[None, :floor.actor_size], deterministic=True)[0]
     makespans, finished, stalled, decisions = [], 0, 0, 0
     for seed in seeds:
-        played = play_floor(floor, seed, lambda obs: actor.act(obs[None, :floor.actor_size],
-                                                               deterministic=True)[0])
+        played = play_floor(floor, seed, choose)
         decisions += len(played)
         info = played[-1].info
         finished += info["makespan_s"] is not None
@@ -328,6 +378,8 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
     case = training_case(config)
 
     def new_model(venv):
+        if config.action == "candidate":
+            return new_candidate_model(config, venv)
         policy_kwargs = {"net_arch": list(config.net_arch), "log_std_init": config.log_std_init}
         policy = "MlpPolicy"
         if config.central_critic:
@@ -346,6 +398,50 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
         scaffold.Run(config, case, run, "decisions", resume, argv, progress_bar, log),
         make_venv=lambda: make_vec_env(config, case, config.seed), new_model=new_model,
         warm_start=(lambda model: warm_start(model, config, case, run, log))
-        if config.bc_episodes > 0 else None,
+        if config.bc_episodes > 0 and config.action == "desired_position" else None,
         skip_warm_start="bc_episodes=0", metrics=metrics_callback(), evaluation=evaluation,
-        draw_curve=draw_stage2_curve)
+        draw_curve=draw_stage2_curve, algorithm=algorithm(config))
+
+
+def algorithm(config: Stage2Config):
+    """SB3's PPO, or sb3-contrib's MaskablePPO for the masked choice."""
+    if config.action == "candidate":
+        from sb3_contrib import MaskablePPO
+
+        return MaskablePPO
+    from stable_baselines3 import PPO
+
+    return PPO
+
+
+def new_candidate_model(config: Stage2Config, venv):
+    """MaskablePPO with ``agents.candidate_policy.CandidateScorerPolicy`` (Eq. 9 untrained;
+    ``net_arch`` is its critic's)."""
+    from agents.candidate_policy import CandidateScorerPolicy
+    from agents.candidates import CANDIDATE_COLUMNS
+
+    policy_kwargs = {"columns": len(CANDIDATE_COLUMNS),
+                     "heuristic_scale": config.heuristic_scale,
+                     "net_arch": {"pi": [], "vf": list(config.net_arch)}}
+    model = scaffold.new_ppo(config, CandidateScorerPolicy, venv, policy_kwargs,
+                             seed=config.seed, algorithm=algorithm(config))
+    if config.start_rule:
+        model.policy.action_net.start_from_rule(rule_vector(config.start_rule,
+                                                            config.candidates))
+    return model
+
+
+def rule_vector(path: str, candidates: int) -> list[float]:
+    """The one weight vector of a searched rule's file (``agents.rule_search``); ValueError
+    naming the file and the fix for a rule with several vectors or other candidates."""
+    from agents.student import StudentEvaluator
+
+    rule = StudentEvaluator.load(path)
+    vectors = {tuple(w) for w in rule.weights.values()}
+    if len(vectors) != 1:
+        raise ValueError(f"start_rule = {path!r}: {len(vectors)} weight vectors (one per crew "
+                         "type); fix: give a rule of cmdp-search-rule (one for every type)")
+    if rule.candidates != candidates:
+        raise ValueError(f"start_rule = {path!r} re-ranks {rule.candidates} candidates, the "
+                         f"policy {candidates}; fix: --set candidates={rule.candidates}")
+    return list(vectors.pop())

@@ -36,8 +36,10 @@ class FloorsVecEnv(VecEnv):
         self.floors = [make() for make in floor_fns]
         first = self.floors[0]
         self.actor_size = first.actor_size
+        # Eq. 4's desired position, unless the floor says otherwise (training.candidates)
+        action_space = getattr(first, "action_space", spaces.Box(-1.0, 1.0, (2,), np.float32))
         super().__init__(len(self.floors), spaces.Box(first.low, first.high, dtype=np.float32),
-                         spaces.Box(-1.0, 1.0, (2,), np.float32))
+                         action_space)
         self._rngs: list[np.random.Generator | None] = [None] * self.num_envs
         self._obs = np.zeros((self.num_envs, len(first.low)), np.float32)
         self._actions = None

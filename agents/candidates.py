@@ -1,0 +1,140 @@
+"""The masked choice over a crew's best targets (issue 17, item 3): what the policy reads and
+what its choice does, the same in training (``training.candidates``) and deployment
+(``CandidateModelEvaluator``).
+
+A decision of a crew with a task scope of two or more targets shows the policy its ``cap``
+best targets by Eq. 9 (best first; fewer are padded and masked), one row each: Eq. 9's V' and
+the candidate features of ``agents.features`` (``CANDIDATE_COLUMNS``). The action is the index
+of the chosen row. Choosing row 0 is Eq. 9's own choice, and leaves Eq. 9's values untouched;
+another row swaps that target with Eq. 9's best (``lookahead.promote``), so only the first
+choice changes. Scopes of other kinds (storages, the crane) and scopes with a single target
+are valued by Eq. 9 without asking the policy.
+
+The policy (``agents.candidate_policy``) scores each row as ``scale * V' + r(row)``, ``r`` a
+small network shared across rows whose last layer starts at zero: untrained, its argmax is
+Eq. 9's choice (row 0 wins ties: torch's argmax takes the first).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values
+from cmdp_pymunk.state import ScopeKind
+
+from .features import FEATURE_NAMES, FloorFacts, candidate_features
+from .lookahead import promote, ranked
+
+CANDIDATE_COLUMNS = ("eq9_value",) + FEATURE_NAMES
+EQ9_RANGE = (-1.0, 1.5)  # V' with the paper's betas (1, 0.5, -1): from -1 up to 1.5
+
+
+def observation_bounds(cap: int) -> tuple[np.ndarray, np.ndarray]:
+    """Low and high of the flat observation (``cap`` rows of ``CANDIDATE_COLUMNS``): V' in
+    ``EQ9_RANGE``, every feature in [0, 1]."""
+    low = np.zeros((cap, len(CANDIDATE_COLUMNS)), np.float32)
+    high = np.ones_like(low)
+    low[:, 0], high[:, 0] = EQ9_RANGE
+    return low.ravel(), high.ravel()
+
+
+def has_choice(crew) -> bool:
+    """Whether the policy is asked: a task scope of two or more targets."""
+    return crew.scope_kind == ScopeKind.TASKS and len(crew.scope) > 1
+
+
+class CandidateView:
+    """Builds a decision's rows and turns a chosen row into V_Tar (see the module doc); keeps
+    the case-only facts per case."""
+
+    def __init__(self, cap: int):
+        if cap < 2:
+            raise ValueError(f"candidates = {cap}: the policy needs at least 2 to choose from")
+        self.cap = cap
+        self.base = PriorityEvaluator()
+        self._facts: dict[int, FloorFacts] = {}
+
+    def facts(self, site) -> FloorFacts:
+        key = id(site.case)
+        if key not in self._facts:
+            self._facts[key] = FloorFacts.of(site)
+        return self._facts[key]
+
+    def rows(self, crew, site, position, positions, out: np.ndarray | None = None):
+        """(observation, mask, targets): the flat rows (padded with zeros), which rows are
+        real, and the target of each real row (best by Eq. 9 first)."""
+        priorities = self.base.priorities(crew, site, position)
+        order = ranked(as_target_values(priorities))[:self.cap]
+        width = len(CANDIDATE_COLUMNS)
+        obs = np.zeros(self.cap * width, np.float32) if out is None else out
+        obs[:] = 0.0
+        table = obs.reshape(self.cap, width)
+        table[:len(order), 0] = [priorities[t] for t in order]
+        table[:len(order), 1:] = candidate_features(self.facts(site), crew, site, position,
+                                                    order, priorities, positions)
+        low, high = observation_bounds(self.cap)
+        np.clip(obs, low, high, out=obs)
+        mask = np.zeros(self.cap, bool)
+        mask[:len(order)] = True
+        return obs, mask, order
+
+    def values(self, crew, site, position, targets: list[int], choice: int) -> dict[int, float]:
+        """V_Tar for the crew's scope when row ``choice`` of ``targets`` is chosen: Eq. 9's
+        values, with that target swapped to the top unless it already is."""
+        values = as_target_values(self.base.priorities(crew, site, position))
+        if choice == 0:
+            return values
+        return promote(values, targets[choice])
+
+
+class CandidateModelEvaluator:
+    """A trained masked-choice model (``cmdp-train stage2 --set action=candidate``) as a
+    target evaluator: the crew's rows, the policy's argmax over the real ones, its values."""
+
+    def __init__(self, path: str | Path, model=None):
+        self.path = Path(path)
+        self.model = model if model is not None else load_candidate_model(path)
+        cap = self.model.action_space.n
+        self.view = CandidateView(cap)
+        expected = cap * len(CANDIDATE_COLUMNS)
+        if self.model.observation_space.shape != (expected,):
+            raise ValueError(f"{self.path}: the model reads {self.model.observation_space.shape} "
+                             f"floats, expected ({expected},) for {cap} candidates of "
+                             f"{len(CANDIDATE_COLUMNS)} columns; fix: retrain it with these "
+                             "features")
+
+    def target_values(self, crew, site, position) -> dict[int, float]:
+        if not has_choice(crew):
+            return self.view.base.target_values(crew, site, position)
+        obs, mask, targets = self.view.rows(crew, site, position, site.crew_xy)
+        action, _ = self.model.predict(obs[None], action_masks=mask[None], deterministic=True)
+        return self.view.values(crew, site, position, targets, int(action[0]))
+
+
+def is_candidate_model(path: str | Path) -> bool:
+    """Whether a model zip holds a masked choice (a Discrete action) rather than a desired
+    position; False for anything unreadable (the caller's loader then names the problem)."""
+    import json
+    import zipfile
+
+    try:
+        with zipfile.ZipFile(path) as z:
+            data = json.loads(z.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return False
+    return "Discrete" in str(data.get("action_space", {}).get(":type:", ""))
+
+
+def load_candidate_model(path: str | Path):
+    """A MaskablePPO zip (sb3-contrib), on the CPU with one torch thread."""
+    import torch
+    from sb3_contrib import MaskablePPO
+
+    torch.set_num_threads(1)
+    try:
+        return MaskablePPO.load(str(path), device="cpu")
+    except Exception as err:  # SB3 raises many kinds for a file that is not its zip
+        raise ValueError(f"{path}: cannot load a MaskablePPO model ({err}); fix: give a .zip "
+                         "written by cmdp-train stage2 with action = candidate") from None

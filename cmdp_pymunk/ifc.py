@@ -1,0 +1,847 @@
+"""Floors from BIM: a storey of an IFC model as a case, and a simulated schedule as 4D.
+
+**Import** (``cmdp-import-ifc``, :func:`import_storey`). The storey's elements of the
+recipe's IFC classes (by default slabs, columns, walls and members are precast, beams are
+cast in place; ``floorplan.PRECAST_RECIPE``) become components: each element's plan footprint
+(its body geometry projected on the floor, in metres) is boxed in the axis-aligned rectangle
+the simulator needs. An element that its rectangle covers poorly (the footprint fills less
+than ``[import] min_fill`` of it: an L-shape, a beam at 45 degrees) is reported, not silently
+boxed. Tasks come from the recipe's chains: JC -> HI -> G on a precast component, R -> F on
+a cast-in-place one, R waiting for HI on the components beside it (``neighbour_gap_m``).
+
+Where the model carries a 4D schedule (IfcTask assigned to the storey's elements with
+IfcRelAssignsToProduct, IfcRelSequence between such tasks), its sequences replace the
+recipe's links between components: a sequence A -> B makes the first task of B's chain on each
+of B's elements wait for the last task of A's chain on each of A's elements (a task whose
+Identification or Name holds a recipe task type as a word, e.g. "HI S-1", stands for that
+task alone). Chains within a component stay. The simulator's precedences are finish-to-start:
+other sequence types and lags are reported and read as finish-to-start.
+
+Crews, crane, storages and the plane's margin come from a small overlay TOML
+(:data:`DEFAULT_OVERLAY`, docs/ifc.md); task types, crew types and materials from the built-in
+case unless the overlay gives its own. The plane is the components' bounding box grown by the
+margins, centred on the origin; storages and the crane stand in the margins above and below,
+crews start in the left margin.
+
+**Export** (``cmdp-simulate --ifc``, :func:`export_4d`). A copy of the model with an
+IfcWorkSchedule holding one IfcTask per task of the case: IfcTaskTime with the simulated
+start and finish (elapsed time from a given start date, no calendar), the crew that did it as
+an IfcCrewResource assigned to it (IfcRelAssignsToProcess), the element it builds
+(IfcRelAssignsToProduct) and the case's precedences as IfcRelSequence. IFC4 and later;
+IFC2X3 has no IfcTaskTime.
+
+IfcOpenShell is an optional dependency (``pip install 'cmdp-pymunk[ifc]'``), imported only
+when a function here is called.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import graphlib
+import math
+import re
+import tomllib
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from .case import BUILTIN_CASE, CaseError, _did_you_mean, case_from_dict
+from .floorplan import (
+    PRECAST_RECIPE,
+    Recipe,
+    Rect,
+    Step,
+    StorageSpot,
+    bounding_rect,
+    narrow_lanes,
+    neighbours,
+    overlapping_pairs,
+    plan_case,
+)
+
+INSTALL_HINT = "pip install 'cmdp-pymunk[ifc]'"
+
+# The overlay's defaults fit the built-in case: its crews (Table 3's seven), its storages
+# (rebars and templates on the top edge, struts on the bottom edge) and its margins (6 m of
+# open floor left and right of the components, 7 m above and below).
+DEFAULT_OVERLAY: dict = {
+    "plane": {"margin_x_m": 6.0, "margin_y_m": 7.0},
+    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0},
+    "crews": {"JCC": 1, "HIC": 1, "GC": 1, "RC": 2, "FC": 2},
+    "crane": {"lift_time_s": 240.0, "assist_time_s": 180.0},
+    # x_frac: where along the edge, -1 (left wall) to 1 (right wall)
+    "storages": [
+        {"id": "ST-rebars", "material": "rebars", "width_m": 6.0, "height_m": 3.0,
+         "capacity": 3.0, "congestion_index_full": 0.5, "edge": "top", "x_frac": -4 / 9},
+        {"id": "ST-templates", "material": "templates", "width_m": 6.0, "height_m": 3.0,
+         "capacity": 80.0, "congestion_index_full": 0.5, "edge": "top", "x_frac": 4 / 9},
+        {"id": "ST-struts", "material": "struts", "width_m": 5.0, "height_m": 3.0,
+         "capacity": 12.0, "congestion_index_full": 0.6, "edge": "bottom", "x_frac": 0.0},
+    ],
+}
+_OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
+                     "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
+_OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
+                 "import": ("min_fill", "neighbour_gap_m"),
+                 "crane": ("lift_time_s", "assist_time_s")}
+_STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
+                 "edge", "x_frac")
+TIME_LIMIT_S_PER_TASK = 1000.0  # as the generated layouts: at least this much per task
+
+
+class IfcUnavailable(ImportError):
+    """IfcOpenShell is not installed."""
+
+
+def require_ifcopenshell():
+    """The ``ifcopenshell`` module, or :class:`IfcUnavailable` saying how to install it."""
+    try:
+        import ifcopenshell
+        import ifcopenshell.geom  # noqa: F401
+        import ifcopenshell.util.element  # noqa: F401
+    except ImportError as err:
+        raise IfcUnavailable(f"reading and writing IFC needs IfcOpenShell ({err}); fix: "
+                             f"{INSTALL_HINT}") from None
+    return ifcopenshell
+
+
+def open_model(path: str | Path):
+    """An IFC model, or :class:`CaseError` naming the file and why it cannot be read."""
+    ifcopenshell = require_ifcopenshell()
+    path = Path(path)
+    if not path.is_file():
+        raise CaseError(str(path), ["cannot read the file (no such file); fix: check the path"])
+    with path.open("rb") as f:
+        head = f.read(64)
+    if not head.lstrip().startswith(b"ISO-10303-21"):
+        raise CaseError(path.name, ["is not an IFC file (an IFC-SPF file starts with "
+                                    "'ISO-10303-21;'); fix: export the model as .ifc"])
+    try:
+        return ifcopenshell.open(str(path))
+    except Exception as err:  # ifcopenshell raises its own error types, or RuntimeError
+        raise CaseError(path.name, [f"cannot be read as IFC ({err}); fix: check the file in a "
+                                    "BIM viewer and export it again"]) from None
+
+
+# -- the overlay ------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Overlay:
+    """What the IFC model does not say: crews, crane, storages, margins, the recipe, and
+    the case's tables (task types, crew types, materials, simulation), resolved."""
+
+    data: dict  # the merged overlay, defaults filled in
+    recipe: Recipe
+    base: dict  # the built-in case's tables, overridden by the overlay's
+    source: str
+
+
+def _recipe_from(data: dict | None, source: str, problems: list[str]) -> Recipe:
+    if data is None:
+        return PRECAST_RECIPE
+    if not isinstance(data, dict) or not isinstance(data.get("chains"), dict) \
+            or not isinstance(data.get("classes", {}), dict):
+        problems.append("recipe: needs [recipe.classes] (IFC class = kind) and "
+                        "[recipe.chains] (kind = [{type = ...}, ...]); fix: see docs/ifc.md")
+        return PRECAST_RECIPE
+    chains: dict[str, tuple[Step, ...]] = {}
+    for kind, steps in data["chains"].items():
+        if not isinstance(steps, list):
+            problems.append(f"recipe.chains.{kind}: write a list of steps, e.g. "
+                            '[{type = "JC"}, {type = "HI"}]')
+            continue
+        built = []
+        for k, step in enumerate(steps):
+            known = {"type", "work", "material_quantity", "after_neighbours"}
+            if not isinstance(step, dict) or not isinstance(step.get("type"), str) \
+                    or set(step) - known:
+                problems.append(f"recipe.chains.{kind}[{k}]: a step is a table with type and "
+                                "optionally work, material_quantity, after_neighbours; fix: "
+                                'e.g. {type = "R", work = 0.5, after_neighbours = "HI"}')
+                continue
+            built.append(Step(step["type"], step.get("work"),
+                              float(step.get("material_quantity", 0.0)),
+                              step.get("after_neighbours")))
+        chains[kind] = tuple(built)
+    for key in set(data) - {"classes", "chains"}:
+        problems.append(f"recipe.{key}: unknown field; fix: the recipe has classes and chains "
+                        "(the neighbours' distance is import.neighbour_gap_m)")
+    return Recipe(chains=chains, classes=dict(data.get("classes", PRECAST_RECIPE.classes)))
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def load_overlay(path: str | Path | None = None) -> Overlay:
+    """The overlay TOML merged over :data:`DEFAULT_OVERLAY` and the built-in case's tables,
+    checked: every problem reported together in one :class:`CaseError` naming the file."""
+    source = Path(path).name if path is not None else "the default overlay"
+    raw: dict = {}
+    if path is not None:
+        try:
+            raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+        except OSError as err:
+            raise CaseError(str(path), [f"cannot read the file ({err.strerror}); fix: check "
+                                        "the path"]) from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+            raise CaseError(source, [f"malformed TOML: {err}; fix: correct the syntax"]) \
+                from None
+    problems = [f"[{k}]: unknown section; fix: use one of "
+                + ", ".join(sorted(_OVERLAY_SECTIONS)) for k in raw if k not in _OVERLAY_SECTIONS]
+    data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in DEFAULT_OVERLAY.items()}
+    for key in ("plane", "import", "crane"):
+        if isinstance(raw.get(key), dict):
+            data[key] = {**data[key], **raw[key]}
+    for key in ("crews", "storages", "case"):
+        if key in raw:
+            data[key] = raw[key]
+    base_toml = tomllib.loads(BUILTIN_CASE.read_text(encoding="utf-8"))
+    base = {k: raw.get(k, base_toml[k]) for k in ("simulation", "reaching_reward", "task_types",
+                                                   "crew_types", "materials")}
+    recipe = _recipe_from(raw.get("recipe"), source, problems)
+    gap = data["import"]["neighbour_gap_m"]
+    if _is_number(gap):
+        recipe = Recipe(recipe.chains, recipe.classes, float(gap))
+
+    for section, value in data.items():
+        if section == "storages":
+            continue
+        allowed = _OVERLAY_KEYS.get(section)
+        if allowed is None:
+            continue
+        for key in value:
+            if key not in allowed:
+                problems.append(f"{section}.{key}: unknown field"
+                                + _did_you_mean(key, list(allowed)))
+            elif not _is_number(value[key]) or value[key] < 0:
+                problems.append(f"{section}.{key} = {value[key]!r}: write a number of 0 or "
+                                "more")
+    if not isinstance(data["storages"], list):
+        problems.append("storages: write [[storages]] entries; fix: see docs/ifc.md")
+        data["storages"] = []
+    for k, st in enumerate(data["storages"]):
+        where = f"storages[{k}]"
+        if not isinstance(st, dict):
+            problems.append(f"{where}: write a table; fix: see docs/ifc.md")
+            continue
+        for key in ("id", "material", "width_m", "height_m", "capacity"):
+            if key not in st:
+                problems.append(f"{where}: {key} missing; fix: add {key} = ...")
+        for key in st:
+            if key not in _STORAGE_KEYS:
+                problems.append(f"{where}: {key}: unknown field"
+                                + _did_you_mean(key, list(_STORAGE_KEYS)))
+        if st.get("edge", "top") not in ("top", "bottom"):
+            problems.append(f'{where}: edge = {st["edge"]!r}; fix: write "top" or "bottom"')
+        if not _is_number(st.get("x_frac", 0.0)) or not -1 <= st.get("x_frac", 0.0) <= 1:
+            problems.append(f"{where}: x_frac = {st['x_frac']!r}; fix: a number from -1 (left "
+                            "wall) to 1 (right wall)")
+    if _is_number(data["import"]["min_fill"]) and not 0 <= data["import"]["min_fill"] <= 1:
+        problems.append("import.min_fill: a share of the rectangle, from 0 to 1; fix: e.g. 0.9")
+    crew_types = base["crew_types"] if isinstance(base["crew_types"], dict) else {}
+    task_types = base["task_types"] if isinstance(base["task_types"], dict) else {}
+    if not isinstance(data["crews"], dict):
+        problems.append('crews: write a table of crew type = count, e.g. JCC = 1; fix: '
+                        "see docs/ifc.md")
+        data["crews"] = {}
+    for name, count in data["crews"].items():
+        if name not in crew_types:
+            problems.append(f'crews.{name}: names unknown crew type "{name}"'
+                            + _did_you_mean(name, list(crew_types)))
+        if not isinstance(count, int) or isinstance(count, bool) or count < 0:
+            problems.append(f"crews.{name} = {count!r}: write a whole number of crews")
+    for kind, steps in recipe.chains.items():
+        for k, step in enumerate(steps):
+            for label, name in (("type", step.type), ("after_neighbours", step.after_neighbours)):
+                if name is None:
+                    continue
+                if name not in task_types:
+                    problems.append(f'recipe.chains.{kind}[{k}]: {label} names unknown task '
+                                    f'type "{name}"' + _did_you_mean(name, list(task_types)))
+                    continue
+                crew_type = task_types[name].get("crew_type")
+                if crew_type not in crew_types:
+                    problems.append(f'recipe.chains.{kind}[{k}]: task type {name} needs crew '
+                                    f'type "{crew_type}", which is not in [crew_types]'
+                                    + _did_you_mean(str(crew_type), list(crew_types)))
+    for cls, kind in recipe.classes.items():
+        if not isinstance(kind, str) or not re.fullmatch(r"Ifc\w+(\.\w+)?", cls):
+            problems.append(f'recipe.classes: {cls} = {kind!r}; fix: write an IFC class (or '
+                            'Class.PREDEFINEDTYPE) = "kind", e.g. IfcBeam = "cast-in-place"')
+    if problems:
+        raise CaseError(source, problems)
+    return Overlay(data=data, recipe=recipe, base=base, source=source)
+
+
+# -- reading the storey ----------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Element:
+    """An element of the storey that the recipe takes, with its plan footprint (metres,
+    the model's world coordinates)."""
+
+    guid: str
+    ifc_class: str
+    name: str
+    kind: str
+    rect: Rect | None  # the footprint's bounding rectangle; None: no body geometry
+    fill: float  # footprint area / rectangle area
+
+    @property
+    def label(self) -> str:
+        return f'{self.ifc_class} "{self.name}" ({self.guid})'
+
+
+def storey_names(model) -> list[str]:
+    return [s.Name or s.GlobalId for s in model.by_type("IfcBuildingStorey")]
+
+
+def find_storey(model, name: str, source: str):
+    """The storey whose Name (or GlobalId) is ``name``; :class:`CaseError` listing them."""
+    storeys = model.by_type("IfcBuildingStorey")
+    found = [s for s in storeys if s.Name == name or s.GlobalId == name]
+    listed = ", ".join(f'"{n}"' for n in storey_names(model)) or "none"
+    if not found:
+        close = _did_you_mean(name, storey_names(model))
+        hint = close if close.startswith("; did") else ""
+        raise CaseError(source, [f'has no storey "{name}"{hint}; fix: use one of its storeys: '
+                                 f"{listed}"])
+    if len(found) > 1:
+        raise CaseError(source, [f'{len(found)} storeys are named "{name}"; fix: name it by '
+                                 "GlobalId: " + ", ".join(s.GlobalId for s in found)])
+    return found[0]
+
+
+def _class_chain(element) -> list[str]:
+    """The element's class and its superclasses, most specific first."""
+    from ifcopenshell import ifcopenshell_wrapper
+
+    schema = element.is_a(True).split(".")[0]
+    decl = ifcopenshell_wrapper.schema_by_name(schema).declaration_by_name(element.is_a())
+    chain = []
+    while decl is not None:
+        chain.append(decl.name())
+        decl = decl.supertype()
+    return chain
+
+
+def footprint(shape) -> tuple[Rect | None, float]:
+    """The plan footprint of a tessellated shape (world coordinates, metres): its bounding
+    rectangle and the share of that rectangle the footprint fills (the union of the
+    triangles' projections on the floor)."""
+    import numpy as np
+    import shapely
+
+    verts = np.asarray(shape.geometry.verts, dtype=float).reshape(-1, 3)
+    faces = np.asarray(shape.geometry.faces, dtype=int).reshape(-1, 3)
+    if len(verts) == 0:
+        return None, 0.0
+    tris = verts[faces][:, :, :2]  # (n, 3, 2) in plan
+    cross = ((tris[:, 1, 0] - tris[:, 0, 0]) * (tris[:, 2, 1] - tris[:, 0, 1])
+             - (tris[:, 1, 1] - tris[:, 0, 1]) * (tris[:, 2, 0] - tris[:, 0, 0]))
+    tris = tris[np.abs(cross) > 1e-9]  # faces seen edge-on from above add no area
+    lo, hi = verts.min(axis=0), verts.max(axis=0)
+    rect = Rect(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+    if len(tris) == 0 or rect.area <= 0:
+        return rect, 0.0
+    union = shapely.union_all(shapely.polygons(tris))
+    return rect, min(1.0, union.area / rect.area)
+
+
+def storey_elements(model, storey, recipe: Recipe) -> tuple[list[Element], dict[str, int]]:
+    """The storey's elements that the recipe takes (contained or aggregated, in file order)
+    with their footprints, and a count of the element classes it skipped."""
+    import ifcopenshell.geom
+    import ifcopenshell.util.element
+
+    settings = ifcopenshell.geom.settings()
+    settings.set("use-world-coords", True)
+    elements, skipped = [], {}
+    decomposed = ifcopenshell.util.element.get_decomposition(storey)
+    for element in sorted(decomposed, key=lambda e: e.id()):
+        if not element.is_a("IfcElement"):
+            continue
+        kind = recipe.kind_of(_class_chain(element),
+                              ifcopenshell.util.element.get_predefined_type(element))
+        if kind is None:
+            skipped[element.is_a()] = skipped.get(element.is_a(), 0) + 1
+            continue
+        rect, fill = None, 0.0
+        if element.Representation is not None:
+            try:
+                rect, fill = footprint(ifcopenshell.geom.create_shape(settings, element))
+            except RuntimeError:
+                rect = None
+        elements.append(Element(element.GlobalId, element.is_a(), (element.Name or "").strip(),
+                                kind, rect, fill))
+    return elements, skipped
+
+
+def _component_ids(elements: Sequence[Element]) -> list[str]:
+    """Each element's Name where it is unique among the elements, else ``Slab-3``."""
+    counts: dict[str, int] = {}
+    for e in elements:
+        counts[e.name] = counts.get(e.name, 0) + 1
+    taken = {e.name for e in elements if e.name and counts[e.name] == 1}
+    ids, numbered = [], {}
+    for e in elements:
+        if e.name and counts[e.name] == 1:
+            ids.append(e.name)
+            continue
+        stem = e.ifc_class.removeprefix("Ifc")
+        while True:
+            numbered[stem] = numbered.get(stem, 0) + 1
+            candidate = f"{stem}-{numbered[stem]}"
+            if candidate not in taken:
+                break
+        taken.add(candidate)
+        ids.append(candidate)
+    return ids
+
+
+# -- the model's 4D schedule -----------------------------------------------------------------
+
+@dataclass
+class ModelSchedule:
+    """The 4D schedule the model carries for the storey's elements: per IfcTask (by GlobalId)
+    its name and the components it builds, and the sequences between such tasks."""
+
+    tasks: dict[str, tuple[str, list[str], str | None]] = field(default_factory=dict)
+    sequences: list[tuple[str, str]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+def _task_code(task) -> str:
+    """A task's Identification (IFC4), or TaskId (IFC2X3), or ""."""
+    return getattr(task, "Identification", None) or getattr(task, "TaskId", None) or ""
+
+
+def _task_label(task) -> str:
+    return f'IfcTask "{task.Name or _task_code(task)}" ({task.GlobalId})'
+
+
+def model_schedule(model, component_of: dict[str, str], recipe: Recipe) -> ModelSchedule:
+    """The IfcTasks assigned to the components' elements and the IfcRelSequence among them.
+
+    A task whose Identification or Name holds one of the recipe's task types as a word
+    (e.g. "HI S-1") stands for that task type only; None: for the whole chain."""
+    types = recipe.task_types()
+    schedule = ModelSchedule()
+    for rel in model.by_type("IfcRelAssignsToProduct"):
+        comp = component_of.get(getattr(rel.RelatingProduct, "GlobalId", None))
+        if comp is None:
+            continue
+        for task in rel.RelatedObjects:
+            if not task.is_a("IfcTask"):
+                continue
+            words = re.split(r"[^A-Za-z0-9]+", f"{_task_code(task)} {task.Name or ''}")
+            step = next((w for w in words if w in types), None)
+            label, comps, _ = schedule.tasks.get(task.GlobalId, (_task_label(task), [], step))
+            schedule.tasks[task.GlobalId] = (label, [*comps, comp], step)
+    for rel in model.by_type("IfcRelSequence"):
+        a, b = rel.RelatingProcess.GlobalId, rel.RelatedProcess.GlobalId
+        if a not in schedule.tasks or b not in schedule.tasks:
+            continue
+        kind = getattr(rel, "SequenceType", None) or "FINISH_START"
+        if kind != "FINISH_START":
+            schedule.notes.append(f"IfcRelSequence {rel.GlobalId} {schedule.tasks[a][0]} -> "
+                                  f"{schedule.tasks[b][0]} is {kind}; read as FINISH_START")
+        lag = getattr(rel, "TimeLag", None)
+        if lag is not None and lag != 0:  # IFC2X3: a number (always given); IFC4: IfcLagTime
+            schedule.notes.append(f"IfcRelSequence {rel.GlobalId}: its time lag is ignored")
+        schedule.sequences.append((a, b))
+    return schedule
+
+
+def _schedule_cycle(schedule: ModelSchedule) -> list[str] | None:
+    preds: dict[str, list[str]] = {t: [] for t in schedule.tasks}
+    for a, b in schedule.sequences:
+        preds[b].append(a)
+    try:
+        graphlib.TopologicalSorter(preds).prepare()
+    except graphlib.CycleError as err:
+        return list(err.args[1])
+    return None
+
+
+def _sequence_predecessors(schedule: ModelSchedule, chains: dict[str, list[str]],
+                           task_types: dict[str, str]) -> dict[str, list[str]]:
+    """Case task -> the case tasks it waits for, from the model's sequences."""
+
+    def tasks_of(guid: str, end: bool) -> list[str]:
+        _, comps, step = schedule.tasks[guid]
+        out = []
+        for comp in comps:
+            chain = chains.get(comp, [])
+            if step is not None:
+                out += [t for t in chain if task_types[t] == step]
+            elif chain:
+                out.append(chain[-1] if end else chain[0])
+        return out
+
+    preds: dict[str, list[str]] = {}
+    for a, b in schedule.sequences:
+        for later in tasks_of(b, end=False):
+            for earlier in tasks_of(a, end=True):
+                if earlier != later and earlier not in preds.setdefault(later, []):
+                    preds[later].append(earlier)
+    return preds
+
+
+# -- the case --------------------------------------------------------------------------------
+
+@dataclass
+class ImportReport:
+    """What the import took, made and noticed, for the command's summary."""
+
+    components_by_class: dict[str, int]
+    skipped_by_class: dict[str, int]
+    tasks: int
+    precedences: str  # "recipe" or "model"
+    notes: list[str]
+
+
+def _r(v: float) -> float:
+    """Millimetres: enough for a floor, and no float noise in the case file."""
+    return round(v, 3) + 0.0
+
+
+def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSchedule | None,
+               name: str, description: str, ids: Sequence[str], source: str
+               ) -> tuple[dict, list[str], str]:
+    """The case data of a storey's elements (footprints checked), the notes, and where the
+    precedences came from ("recipe" or "model")."""
+    problems, notes = [], []
+    min_fill = float(overlay.data["import"]["min_fill"])
+    for e in elements:
+        if e.rect is None:
+            problems.append(f"{e.label}: has no body geometry to take a footprint from; fix: "
+                            "give it a body representation, or leave its class out of the "
+                            "recipe")
+        elif min(e.rect.size) <= 1e-6:
+            problems.append(f"{e.label}: its footprint has no extent in plan "
+                            f"({e.rect.size[0]:.3g} x {e.rect.size[1]:.3g} m; an element out "
+                            "of the floor's plane); fix: model it as a solid on the floor, or "
+                            "leave its class out of the recipe")
+        elif e.fill < min_fill:
+            w, h = e.rect.size
+            problems.append(f"{e.label}: its footprint fills {e.fill:.0%} of its {w:.2f} x "
+                            f"{h:.2f} m rectangle (components are axis-aligned rectangles), "
+                            f"less than import.min_fill = {min_fill:g}; fix: split it into "
+                            "rectangular elements in the model, or accept the rectangle with "
+                            f"[import] min_fill = {math.floor(e.fill * 100) / 100:g} in the "
+                            "overlay")
+        elif e.fill < 0.999:
+            notes.append(f"{e.label}: boxed, its footprint fills {e.fill:.0%} of its rectangle")
+    if problems:
+        raise CaseError(source, problems)
+    rects = [e.rect for e in elements]
+    for i, j in overlapping_pairs(rects):
+        a, b = rects[i], rects[j]
+        w = min(a.x1, b.x1) - max(a.x0, b.x0)
+        h = min(a.y1, b.y1) - max(a.y0, b.y0)
+        if w > 1e-3 and h > 1e-3:  # a millimetre of modelling noise is no overlap
+            problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
+                            f"by {w:.2f} x {h:.2f} m (components are obstacles side by side "
+                            "on the floor); fix: correct the model, or leave one of the "
+                            "classes out of the recipe ([recipe.classes] in the overlay)")
+    box = bounding_rect(rects)
+    cx, cy = box.centre
+    plane_cfg = overlay.data["plane"]
+    half_w = _r((box.x1 - box.x0) / 2 + plane_cfg["margin_x_m"])
+    half_h = _r((box.y1 - box.y0) / 2 + plane_cfg["margin_y_m"])
+    if "width_m" in plane_cfg or "height_m" in plane_cfg:  # a fixed plane
+        fixed_w = plane_cfg.get("width_m", 2 * half_w) / 2
+        fixed_h = plane_cfg.get("height_m", 2 * half_h) / 2
+        for e in elements:
+            x0, x1 = e.rect.x0 - cx, e.rect.x1 - cx
+            y0, y1 = e.rect.y0 - cy, e.rect.y1 - cy
+            if x0 < -fixed_w or x1 > fixed_w or y0 < -fixed_h or y1 > fixed_h:
+                problems.append(f"{e.label}: its footprint x {x0:.2f}..{x1:.2f}, y {y0:.2f}.."
+                                f"{y1:.2f} m lies outside the plane [-{fixed_w:g}, {fixed_w:g}]"
+                                f" x [-{fixed_h:g}, {fixed_h:g}] set in the overlay; fix: widen "
+                                "plane.width_m / height_m, or drop them to fit the storey")
+        half_w, half_h = _r(fixed_w), _r(fixed_h)
+    if problems:
+        raise CaseError(source, problems)
+
+    components = []
+    for e, cid in zip(elements, ids, strict=True):
+        x, y = e.rect.centre
+        w, h = e.rect.size
+        components.append({"id": cid, "kind": e.kind, "x_m": _r(x - cx), "y_m": _r(y - cy),
+                           "width_m": _r(w), "height_m": _r(h), "ifc_guid": e.guid})
+    crew_types = overlay.base["crew_types"]
+    widest = max(2 * math.sqrt(crew_types[ct]["occupation_area_m2"] / math.pi)
+                 for ct in overlay.data["crews"] if overlay.data["crews"][ct] > 0) \
+        if any(overlay.data["crews"].values()) else 0.0
+    for i, j, gap in narrow_lanes(rects, widest):
+        notes.append(f"the lane between {elements[i].label} and {elements[j].label} is "
+                     f"{gap:.2f} m wide, narrower than the widest crew ({widest:.2f} m): no "
+                     "crew passes there")
+    recipe = overlay.recipe
+    with_tasks = [k for k, e in enumerate(elements) if recipe.chains.get(e.kind)]
+    use_model = schedule is not None and bool(schedule.sequences)
+    ends = {} if use_model else {
+        ids[k]: [ids[j] for j in neighbours(rects, k, with_tasks, recipe.neighbour_gap_m)]
+        for k in with_tasks}
+    crews = [(f"{ct}-{k + 1}", ct) for ct, n in overlay.data["crews"].items() for k in range(n)]
+    storages = [StorageSpot(st["id"], st["material"], st["width_m"], st["height_m"],
+                            st["capacity"], st.get("congestion_index_full", 0.5),
+                            1 if st.get("edge", "top") == "top" else -1,
+                            _r(float(st.get("x_frac", 0.0)) * half_w))
+                for st in overlay.data["storages"]]
+    data = plan_case(name=name, description=description, half_width_m=half_w,
+                     half_height_m=half_h, base=overlay.base, crane_times=overlay.data["crane"],
+                     crews=crews, storages=storages, components=components, recipe=recipe,
+                     ends=ends, time_limit_s_per_task=TIME_LIMIT_S_PER_TASK)
+    data["case"].update(overlay.data.get("case", {}))
+    tasks = data["tasks"]
+    if not tasks:
+        raise CaseError(source, ["the recipe gives the storey's elements no tasks (their kinds "
+                                 "have no chain); fix: add [recipe.chains] for "
+                                 + ", ".join(sorted({e.kind for e in elements}))])
+    if use_model:
+        cycle = _schedule_cycle(schedule)
+        if cycle:
+            raise CaseError(source, ["the model's 4D schedule has a cycle of IfcRelSequence: "
+                                     + " -> ".join(schedule.tasks[g][0] for g in cycle)
+                                     + "; fix: remove one of these sequences in the model"])
+        chains: dict[str, list[str]] = {}
+        for t in tasks:
+            chains.setdefault(t["component"], []).append(t["id"])
+        types = {t["id"]: t["type"] for t in tasks}
+        extra = _sequence_predecessors(schedule, chains, types)
+        for t in tasks:
+            if t["id"] in extra:
+                t["predecessors"] = list(dict.fromkeys(t.get("predecessors", [])
+                                                       + extra[t["id"]]))
+        notes += schedule.notes
+    return data, notes, "model" if use_model else "recipe"
+
+
+def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None = None
+                  ) -> tuple[dict, ImportReport]:
+    """A storey of an IFC model as case data, checked by ``case_from_dict``.
+
+    Raises :class:`CaseError` (the model, the overlay or the case it makes cannot be used;
+    every problem named) or :class:`IfcUnavailable`.
+    """
+    overlay = overlay or load_overlay(None)
+    model = open_model(model_path)
+    source = Path(model_path).name
+    level = find_storey(model, storey, source)
+    elements, skipped = storey_elements(model, level, overlay.recipe)
+    if not elements:
+        found = ", ".join(f"{n} {c}" for c, n in sorted(skipped.items())) or "no elements"
+        raise CaseError(source, [f'storey "{storey}" has no elements of the recipe\'s classes '
+                                 f"({', '.join(overlay.recipe.classes)}); it holds {found}; "
+                                 "fix: pick another storey, or map its classes to kinds in "
+                                 "the overlay's [recipe.classes]"])
+    ids = _component_ids(elements)
+    schedule = model_schedule(model, {e.guid: cid for e, cid in zip(elements, ids,
+                                                                    strict=True)},
+                              overlay.recipe)
+    name = f"{Path(model_path).stem}-{level.Name or level.GlobalId}"
+    description = (f"imported from {source}, storey {level.Name or level.GlobalId}, by "
+                   "cmdp-import-ifc")
+    data, notes, precedences = build_case(elements, overlay, schedule, name, description, ids,
+                                          source)
+    case_from_dict(data, f"the case made from {source}")
+    by_class: dict[str, int] = {}
+    for e in elements:
+        by_class[e.ifc_class] = by_class.get(e.ifc_class, 0) + 1
+    return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes)
+
+
+# -- a case as a model -----------------------------------------------------------------------
+
+def model_from_case(case, storey: str = "Level 1", origin: tuple[float, float] = (0.0, 0.0),
+                    classes: dict[str, str] | None = None, seed: str = "cmdp"):
+    """An IFC4 model of a case's components: one storey, each component a box 0.3 m thick
+    (IfcSlab for "precast", IfcBeam for "cast-in-place", by default; other kinds
+    IfcBuildingElementProxy) named by its id, its centre at ``origin`` + the component's
+    centre. GlobalIds are derived from ``seed`` and the ids, and the header's time stamp is
+    fixed, so one case gives one file byte for byte. The model's length unit is the
+    millimetre, as BIM tools write; the importer reads metres back."""
+    require_ifcopenshell()
+    import uuid
+
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.context
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.project
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+    import ifcopenshell.api.unit
+    import ifcopenshell.guid
+    import numpy as np
+
+    api = ifcopenshell.api
+    classes = classes or {"precast": "IfcSlab", "cast-in-place": "IfcBeam"}
+    f = api.project.create_file(version="IFC4")
+    made = []
+
+    def entity(ifc_class: str, name: str):
+        e = api.root.create_entity(f, ifc_class=ifc_class, name=name)
+        e.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(uuid.NAMESPACE_URL,
+                                                           f"{seed}/{ifc_class}/{name}").hex)
+        made.append(e)
+        return e
+
+    project = entity("IfcProject", case.case.name)
+    api.unit.assign_unit(f)
+    model = api.context.add_context(f, context_type="Model")
+    body = api.context.add_context(f, context_type="Model", context_identifier="Body",
+                                   target_view="MODEL_VIEW", parent=model)
+    site, building = entity("IfcSite", "Site"), entity("IfcBuilding", "Building")
+    level = entity("IfcBuildingStorey", storey)
+    api.aggregate.assign_object(f, products=[site], relating_object=project)
+    api.aggregate.assign_object(f, products=[building], relating_object=site)
+    api.aggregate.assign_object(f, products=[level], relating_object=building)
+    elements = []
+    for comp in case.components:
+        element = entity(classes.get(comp.kind, "IfcBuildingElementProxy"), comp.id)
+        w, h = comp.width_m, comp.height_m
+        rep = api.geometry.add_slab_representation(f, context=body, depth=0.3,
+                                                   polyline=[(0, 0), (w, 0), (w, h), (0, h)])
+        api.geometry.assign_representation(f, product=element, representation=rep)
+        matrix = np.eye(4)
+        matrix[:2, 3] = (origin[0] + comp.x_m - w / 2, origin[1] + comp.y_m - h / 2)
+        api.geometry.edit_object_placement(f, product=element, matrix=matrix)
+        elements.append(element)
+    api.spatial.assign_container(f, products=elements, relating_structure=level)
+    for k, rel in enumerate(f.by_type("IfcRelationship")):  # made by the API: number them
+        rel.GlobalId = ifcopenshell.guid.compress(uuid.uuid5(uuid.NAMESPACE_URL,
+                                                             f"{seed}/rel/{k}").hex)
+    f.header.file_name.time_stamp = "2026-01-01T00:00:00"
+    return f
+
+
+# -- 4D export -------------------------------------------------------------------------------
+
+def _iso(t: dt.datetime) -> str:
+    return t.isoformat(timespec="seconds")
+
+
+def open_for_4d(model_path: str | Path, case):
+    """The model a 4D schedule of ``case`` can be written into, or :class:`CaseError`: an
+    IFC2X3 model (no IfcTaskTime), or a case whose components do not name its elements."""
+    model = open_model(model_path)
+    source = Path(model_path).name
+    if model.schema == "IFC2X3":
+        raise CaseError(source, ["is IFC2X3, which has no IfcTaskTime for a task's start and "
+                                 "finish; fix: save the model as IFC4 and export again"])
+    missing = [c.id for c in case.components if c.ifc_guid is None]
+    unknown = [c.id for c in case.components if c.ifc_guid is not None
+               and not _by_guid(model, c.ifc_guid)]
+    if len(missing) == len(case.components) or unknown:
+        what = (f"components {', '.join(unknown[:5])} name elements that {source} does not have"
+                if unknown else "the case's components carry no ifc_guid")
+        raise CaseError(source, [f"{what}; fix: export with the model the case was imported "
+                                 "from (cmdp-import-ifc)"])
+    return model
+
+
+def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: dt.datetime,
+              name: str = "CMDP simulated schedule") -> dict:
+    """Write a copy of the model with the simulated schedule as an IfcWorkSchedule.
+
+    Args:
+        model_path: the IFC model the case was imported from (its components' ``ifc_guid``).
+        case: the simulated case.
+        bars: the simulation's ``schedule.task_bars`` (start and end in simulated seconds).
+        out_path: the IFC file to write (atomically).
+        start: the date and time of simulated second 0.
+        name: the work schedule's name.
+
+    Returns:
+        counts: tasks written, tasks with times, sequences, crews.
+    """
+    import ifcopenshell.api.control  # noqa: F401
+    import ifcopenshell.api.resource
+    import ifcopenshell.api.sequence
+    import ifcopenshell.guid
+    import ifcopenshell.util.date
+
+    from .events import write_atomic
+
+    model = open_for_4d(model_path, case)
+    api = ifcopenshell.api
+    schedule = api.sequence.add_work_schedule(model, name=name, predefined_type="PLANNED",
+                                              start_time=start)
+    crews = {c.id: c for c in case.crews}
+    resources = {}
+    for crew in case.crews:
+        res = api.resource.add_resource(model, ifc_class="IfcCrewResource", name=crew.id)
+        res.Description = case.crew_types[crew.type].name
+        res.ObjectType = crew.type
+        resources[crew.id] = res
+    bar_of = {b.task: b for b in bars}
+    element_of = {c.id: _by_guid(model, c.ifc_guid) for c in case.components if c.ifc_guid}
+    tasks, timed = {}, 0
+    for task in case.tasks:
+        ifc_task = api.sequence.add_task(model, work_schedule=schedule, name=task.id,
+                                         identification=task.id,
+                                         description=case.task_types[task.type].name,
+                                         predefined_type="CONSTRUCTION")
+        tasks[task.id] = ifc_task
+        element = element_of.get(task.component)
+        if element is not None:
+            api.sequence.assign_product(model, relating_product=element, related_object=ifc_task)
+        bar = bar_of.get(task.id)
+        if bar is None:
+            continue
+        # Set directly: sequence.edit_task_time snaps starts to 09:00 and finishes to 17:00
+        # of a working day, and assign_sequence cascades dates by day; a simulated schedule
+        # is in seconds, elapsed time, no calendar.
+        timed += 1
+        duration = dt.timedelta(seconds=bar.end_s - bar.start_s)
+        task_time = model.create_entity(
+            "IfcTaskTime", DurationType="ELAPSEDTIME",
+            ScheduleStart=_iso(start + dt.timedelta(seconds=bar.start_s)),
+            ScheduleFinish=_iso(start + dt.timedelta(seconds=bar.end_s)),
+            ScheduleDuration=ifcopenshell.util.date.datetime2ifc(duration, "IfcDuration"))
+        ifc_task.TaskTime = task_time
+        ifc_task.Status = "FINISHED" if bar.finished else "NOT FINISHED"
+        if bar.crew in crews:
+            api.sequence.assign_process(model, relating_process=ifc_task,
+                                        related_object=resources[bar.crew])
+    sequences = 0
+    for task in case.tasks:
+        for pred in task.predecessors:
+            model.create_entity("IfcRelSequence", GlobalId=ifcopenshell.guid.new(),
+                                OwnerHistory=api.owner.create_owner_history(model),
+                                RelatingProcess=tasks[pred], RelatedProcess=tasks[task.id],
+                                SequenceType="FINISH_START")
+            sequences += 1
+    write_atomic(Path(out_path), model.to_string())
+    return {"tasks": len(tasks), "timed": timed, "sequences": sequences,
+            "crews": len(resources)}
+
+
+def _by_guid(model, guid: str):
+    try:
+        return model.by_guid(guid)
+    except RuntimeError:
+        return None
+
+
+def read_4d(path: str | Path) -> list[dict]:
+    """The tasks of an exported 4D model: identification, start, finish (ISO strings), the
+    GlobalIds of the elements it builds, its crews, and the identifications of its
+    predecessors. For tests and for checking a file."""
+    model = open_model(path)
+    out = []
+    for task in model.by_type("IfcTask"):
+        products = [a.RelatingProduct.GlobalId for a in task.HasAssignments or ()
+                    if a.is_a("IfcRelAssignsToProduct")]
+        crews = [r.Name for rel in task.OperatesOn or () for r in rel.RelatedObjects
+                 if r.is_a("IfcCrewResource")]
+        preds = [rel.RelatingProcess.Identification for rel in task.IsSuccessorFrom or ()]
+        time = task.TaskTime
+        out.append({"id": task.Identification, "start": time.ScheduleStart if time else None,
+                    "finish": time.ScheduleFinish if time else None, "products": products,
+                    "crews": crews, "predecessors": preds})
+    return out

@@ -1,0 +1,123 @@
+"""IFC models built with ``ifcopenshell.api`` for the importer's tests (needs the [ifc] extra).
+
+``two_by_two(schema)``: storey "Level 1" of four precast slabs S-11, S-12 (top row), S-21,
+S-22, 2 x 2 m, 10 m apart, with cast-in-place beams between neighbours: B-H1 (between S-11 and
+S-12), B-H2 (S-21, S-22), both 2 x 1.2 m, B-V1 (S-11, S-21), B-V2 (S-12, S-22), 1.2 x 2 m. The
+model's origin is far from the floor (x 99..111, y 49..61) so the importer must centre it;
+the floor's centre (105, 55) becomes the case's origin. A window (not in the recipe) stands
+beside the floor; storey "Level 2" holds nothing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SLABS = {"S-11": (100.0, 60.0), "S-12": (110.0, 60.0), "S-21": (100.0, 50.0),
+         "S-22": (110.0, 50.0)}
+BEAMS = {"B-H1": (105.0, 60.0, 2.0, 1.2), "B-H2": (105.0, 50.0, 2.0, 1.2),
+         "B-V1": (100.0, 55.0, 1.2, 2.0), "B-V2": (110.0, 55.0, 1.2, 2.0)}
+
+
+def new_model(schema: str = "IFC4"):
+    """A project, site, building and storeys "Level 1" (z 0) and "Level 2" (z 3.5)."""
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.context
+    import ifcopenshell.api.owner
+    import ifcopenshell.api.project
+    import ifcopenshell.api.root
+    import ifcopenshell.api.unit
+
+    api = ifcopenshell.api
+    f = api.project.create_file(version=schema)
+    if schema == "IFC2X3":  # owner history is mandatory there: the API takes the first user
+        api.owner.add_application(f)
+        person = api.owner.add_person(f, identification="T", family_name="Test", given_name="T")
+        org = api.owner.add_organisation(f, identification="T", name="Test")
+        api.owner.add_person_and_organisation(f, person=person, organisation=org)
+    project = api.root.create_entity(f, ifc_class="IfcProject", name="Test")
+    api.unit.assign_unit(f)  # millimetres: the footprints must come out in metres anyway
+    model = api.context.add_context(f, context_type="Model")
+    body = api.context.add_context(f, context_type="Model", context_identifier="Body",
+                                   target_view="MODEL_VIEW", parent=model)
+    site = api.root.create_entity(f, ifc_class="IfcSite", name="Site")
+    building = api.root.create_entity(f, ifc_class="IfcBuilding", name="Building")
+    api.aggregate.assign_object(f, products=[site], relating_object=project)
+    api.aggregate.assign_object(f, products=[building], relating_object=site)
+    storeys = {}
+    for name in ("Level 1", "Level 2"):
+        storeys[name] = api.root.create_entity(f, ifc_class="IfcBuildingStorey", name=name)
+        api.aggregate.assign_object(f, products=[storeys[name]], relating_object=building)
+    return f, body, storeys
+
+
+def add_element(f, body, storey, ifc_class: str, name: str, polygon, z: float = 0.0,
+                depth: float = 0.3):
+    """An element whose body is ``polygon`` (plan, metres, world) extruded ``depth`` up."""
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+
+    api = ifcopenshell.api
+    element = api.root.create_entity(f, ifc_class=ifc_class, name=name)
+    x0, y0 = polygon[0]
+    local = [(x - x0, y - y0) for x, y in polygon]
+    rep = api.geometry.add_slab_representation(f, context=body, depth=depth, polyline=local)
+    api.geometry.assign_representation(f, product=element, representation=rep)
+    matrix = np.eye(4)
+    matrix[:3, 3] = (x0, y0, z)
+    api.geometry.edit_object_placement(f, product=element, matrix=matrix)
+    api.spatial.assign_container(f, products=[element], relating_structure=storey)
+    return element
+
+
+def box(x: float, y: float, w: float, h: float) -> list[tuple[float, float]]:
+    return [(x - w / 2, y - h / 2), (x + w / 2, y - h / 2), (x + w / 2, y + h / 2),
+            (x - w / 2, y + h / 2)]
+
+
+def two_by_two(schema: str = "IFC4"):
+    """The 2 x 2 slab storey with beams (module doc); returns (file, {name: element})."""
+    f, body, storeys = new_model(schema)
+    level = storeys["Level 1"]
+    elements = {}
+    for name, (x, y) in SLABS.items():
+        elements[name] = add_element(f, body, level, "IfcSlab", name, box(x, y, 2.0, 2.0))
+    for name, (x, y, w, h) in BEAMS.items():
+        elements[name] = add_element(f, body, level, "IfcBeam", name, box(x, y, w, h),
+                                     depth=0.5)
+    add_element(f, body, level, "IfcWindow", "W-1", box(120.0, 55.0, 1.0, 0.2))
+    return f, elements
+
+
+def add_schedule(f, elements, tasks: dict[str, list[str]], sequences, kind="FINISH_START"):
+    """A work schedule with IfcTasks (name -> the elements each builds) and IfcRelSequence
+    (relating task name, related task name); returns the tasks by name. IFC2X3: the entities
+    are made by hand (the sequence API reads IfcTask.TaskTime, which IFC2X3 lacks)."""
+    import ifcopenshell.api.owner
+    import ifcopenshell.api.root
+    import ifcopenshell.api.sequence
+    import ifcopenshell.guid
+
+    api = ifcopenshell.api
+    old = f.schema == "IFC2X3"
+    schedule = None if old else api.sequence.add_work_schedule(f, name="Plan")
+    made = {}
+    for k, (name, builds) in enumerate(tasks.items()):
+        if old:
+            made[name] = api.root.create_entity(f, ifc_class="IfcTask", name=name)
+            made[name].TaskId, made[name].IsMilestone = f"T{k + 1}", False
+        else:
+            made[name] = api.sequence.add_task(f, work_schedule=schedule, name=name)
+        for element in builds:
+            api.sequence.assign_product(f, relating_product=elements[element],
+                                        related_object=made[name])
+    for a, b in sequences:
+        if old:
+            f.create_entity("IfcRelSequence", GlobalId=ifcopenshell.guid.new(),
+                            OwnerHistory=api.owner.create_owner_history(f),
+                            RelatingProcess=made[a], RelatedProcess=made[b], TimeLag=0.0,
+                            SequenceType=kind)
+        else:
+            api.sequence.assign_sequence(f, relating_process=made[a], related_process=made[b],
+                                         sequence_type=kind)
+    return made

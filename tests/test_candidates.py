@@ -1,0 +1,159 @@
+"""The masked choice over a crew's best targets (agents/candidates.py, training/candidates.py,
+agents/candidate_policy.py): it starts as Eq. 9, trains with MaskablePPO, and deploys."""
+
+import json
+
+import numpy as np
+import pytest
+import torch as th
+from test_ga import far_start_case
+
+from agents.candidates import CANDIDATE_COLUMNS, CandidateView, observation_bounds
+from agents.episodes import EpisodeRunner
+from training import stage2
+from training.stage2 import Stage2Config
+
+
+def candidate_config(**kw):
+    return Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1, **kw)
+
+
+def test_bounds_cover_eq9_and_the_features():
+    low, high = observation_bounds(3)
+    assert low.shape == (3 * len(CANDIDATE_COLUMNS),)
+    assert (low[::len(CANDIDATE_COLUMNS)] == -1.0).all()  # V': down to b3 = -1
+    assert (high[::len(CANDIDATE_COLUMNS)] == 1.5).all()  # up to b1 + b2 = 1.5
+    assert (low.reshape(3, -1)[:, 1:] == 0).all() and (high.reshape(3, -1)[:, 1:] == 1).all()
+
+
+def test_another_row_swaps_only_the_first_choice(tiny_env):
+    from agents.lookahead import ranked
+
+    view = CandidateView(3)
+    env = tiny_env
+    env.reset(seed=0)
+    site = env.site
+    crew = next(c for c in site.crews if len(c.scope) > 1)
+    position = env.positions[crew.index]
+    obs, mask, targets = view.rows(crew, site, position, env.positions)
+    base = view.values(crew, site, position, targets, 0)
+    assert ranked(base)[0] == targets[0] and mask.sum() == len(targets) >= 2
+    swapped = view.values(crew, site, position, targets, 1)
+    assert ranked(swapped)[0] == targets[1]
+    assert swapped[targets[0]] == base[targets[1]] and swapped[targets[1]] == base[targets[0]]
+    assert all(swapped[t] == base[t] for t in base if t not in targets[:2])
+
+
+def test_row_zero_plays_eq9s_schedule():
+    case = far_start_case()
+    config = candidate_config()
+    floor = stage2.make_floor(config, case)
+    played = stage2.play_floor(floor, 0, lambda obs: 0)
+    heuristic = EpisodeRunner(case).run("priority", "scripted", 0)["makespan_s"]
+    assert played[-1].info["makespan_s"] == heuristic
+
+
+def test_untrained_policy_chooses_eq9_on_recorded_states():
+    config = candidate_config()
+    case = stage2.training_case(config)
+    floor = stage2.make_floor(config, case)
+    model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))
+    states = []
+
+    def record(obs):
+        states.append((obs, floor.action_masks()))
+        return 0
+
+    stage2.play_floor(floor, 7, record)
+    obs = np.stack([s[0] for s in states])
+    masks = np.stack([s[1] for s in states])
+    actions, _ = model.predict(obs, action_masks=masks, deterministic=True)
+    assert len(states) > 20 and (actions == 0).all()
+
+
+def test_a_policy_started_from_a_rule_scores_as_the_rule(tmp_path):
+    from agents.candidate_policy import CandidateScorer
+
+    scorer = CandidateScorer(len(CANDIDATE_COLUMNS), scale=10.0)
+    weights = np.linspace(-0.5, 0.5, len(CANDIDATE_COLUMNS) - 1)
+    scorer.start_from_rule(weights)
+    rows = np.random.default_rng(0).uniform(0, 1, (4, 5, len(CANDIDATE_COLUMNS)))
+    with th.no_grad():
+        logits = scorer(th.as_tensor(rows.reshape(4, -1), dtype=th.float32)).numpy()
+    expected = 10.0 * (rows[..., 0] + rows[..., 1:] @ weights)  # scale (V' + w . phi)
+    assert np.allclose(logits, expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("override, message", [
+    ({"action": "candidate"}, "central_critic=false"),
+    ({"start_rule": "rule.json"}, 'action = "candidate"'),
+    ({"action": "candidate", "central_critic": False, "start_rule": "nope.json"},
+     "no such file"),
+    ({"action": "candidate", "central_critic": False, "candidates": 1}, "candidates"),
+])
+def test_bad_candidate_settings_are_refused_with_their_fix(override, message):
+    with pytest.raises(ValueError, match=message):
+        Stage2Config(**override)
+
+
+@pytest.mark.slow
+def test_a_short_candidate_run_resumes_and_deploys(tmp_path):
+    from sb3_contrib import MaskablePPO
+
+    from agents.specs import make_evaluator
+    from cmdp_pymunk import TINY_CASE
+    from training.train import main
+
+    def run(name, extra=()):
+        argv = ["stage2", "--out", str(tmp_path / name), "--no-progress",
+                "--set", f"case='{TINY_CASE}'", "--set", "action='candidate'",
+                "--set", "central_critic=false", "--set", "n_envs=1", "--set", "gamma=1.0",
+                "--set", "total_steps=32", "--set", "n_steps=16", "--set", "batch_size=16",
+                "--set", "n_epochs=1", "--set", "eval_seeds=[1]",
+                "--set", "eval_every_steps=32", "--set", "checkpoint_every_steps=32", *extra]
+        assert main(argv) == 0
+        return tmp_path / name
+
+    folder = run("a")
+    model = MaskablePPO.load(folder / "final_model.zip")
+    assert model.num_timesteps >= 32 and model.gamma == 1.0
+    checkpoint = sorted((folder / "checkpoints").glob("step_*.zip"))[-1]
+    run("a", ["--resume", str(checkpoint), "--set", "total_steps=64"])
+    assert MaskablePPO.load(folder / "final_model.zip").num_timesteps >= 64
+    assert json.loads((folder / "config-1.json").read_text())["resumed_from"] == str(checkpoint)
+    evaluator = make_evaluator(str(folder / "final_model.zip"))
+    assert type(evaluator).__name__ == "CandidateModelEvaluator"
+    from cmdp_pymunk import load_case
+
+    row = EpisodeRunner(load_case(TINY_CASE)).run(evaluator, "scripted", 0)
+    assert row["finished"]
+
+
+def test_terminal_term_against_the_heuristic_by_hand():
+    from training.candidates import terminal_term
+
+    # R_e's makespan term -0.001 per second; Eq. 9 took 30,000 s on this seed.
+    # Finished in 32,000 s: +30 at the end, so the floor's makespan part is
+    # -32 + 30 = -2 = -0.001 * (32,000 - 30,000)
+    assert terminal_term(-0.001, 30_000.0, 32_000.0, True, 80_000.0) == pytest.approx(30.0)
+    # stalled at 5,000 s of an 80,000 s limit: counted as 160,000 s, so -5 + (30 - 155) = -130
+    assert terminal_term(-0.001, 30_000.0, 5_000.0, False, 80_000.0) == pytest.approx(-125.0)
+
+
+def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
+    # Eq. 9 itself (row 0 everywhere) on a pooled seed (4 mod 3 = 1): the rewards sum to the
+    # floor's R_e terms plus 0.001 x its own makespan, so the makespan part cancels
+    case = far_start_case()
+    floor = stage2.make_floor(candidate_config(against_heuristic=True, seed_pool=3), case)
+    total = floor.reset(4)
+    while True:
+        out = floor.decide(0)
+        total += out.reward
+        if out.terminated or out.truncated:
+            break
+    makespan = floor.engine.makespan_s
+    assert out.terminated and floor.heuristic_makespan_s(1) == makespan
+    terms = sum(floor.floor.terms.values())  # includes -0.001 x makespan and the completion
+    assert total == pytest.approx(terms + 0.001 * makespan)
+    assert terms + 0.001 * makespan == pytest.approx(terms - case.evaluation_reward.episode
+                                                     * makespan)

@@ -1,0 +1,382 @@
+"""The IFC importer and the 4D export (``cmdp_pymunk.ifc``, ``cmdp-import-ifc``,
+``cmdp-simulate --ifc``) on models built in the test with ``ifcopenshell.api``
+(``tests/ifc_models.py``). Skipped without the [ifc] extra."""
+
+from __future__ import annotations
+
+import tomllib
+
+import pytest
+
+ifcopenshell = pytest.importorskip("ifcopenshell")
+
+from cmdp_pymunk.case import CaseError, load_case  # noqa: E402
+from cmdp_pymunk.ifc import import_storey, load_overlay, read_4d  # noqa: E402
+from tests import ifc_models  # noqa: E402
+from training import import_ifc, simulate  # noqa: E402
+
+
+@pytest.fixture(scope="module", params=["IFC4", "IFC2X3"])
+def two_by_two(request, tmp_path_factory):
+    f, elements = ifc_models.two_by_two(request.param)
+    path = tmp_path_factory.mktemp(request.param) / "floor.ifc"
+    f.write(str(path))
+    return path, {n: e.GlobalId for n, e in elements.items()}
+
+
+def test_two_by_two_components_by_hand(two_by_two):
+    path, guids = two_by_two
+    data, report = import_storey(path, "Level 1")
+    comps = {c["id"]: c for c in data["components"]}
+    # the floor spans x 99..111, y 49..61: its centre (105, 55) is the origin
+    assert {k: (c["kind"], c["x_m"], c["y_m"], c["width_m"], c["height_m"])
+            for k, c in comps.items()} == {
+        "S-11": ("precast", -5.0, 5.0, 2.0, 2.0), "S-12": ("precast", 5.0, 5.0, 2.0, 2.0),
+        "S-21": ("precast", -5.0, -5.0, 2.0, 2.0), "S-22": ("precast", 5.0, -5.0, 2.0, 2.0),
+        "B-H1": ("cast-in-place", 0.0, 5.0, 2.0, 1.2),
+        "B-H2": ("cast-in-place", 0.0, -5.0, 2.0, 1.2),
+        "B-V1": ("cast-in-place", -5.0, 0.0, 1.2, 2.0),
+        "B-V2": ("cast-in-place", 5.0, 0.0, 1.2, 2.0)}
+    assert {k: c["ifc_guid"] for k, c in comps.items()} == guids
+    # plane: 12 x 12 m of components plus the default margins 6 (x) and 7 (y) on each side
+    assert data["plane"]["width_m"] == 24.0 and data["plane"]["height_m"] == 26.0
+    assert data["plane"]["outlet_x_m"] == -11.0
+    assert report.components_by_class == {"IfcSlab": 4, "IfcBeam": 4}
+    assert report.skipped_by_class == {"IfcWindow": 1}
+    assert report.precedences == "recipe"
+
+
+def test_two_by_two_tasks_and_precedences_by_hand(two_by_two):
+    data, report = import_storey(two_by_two[0], "Level 1")
+    preds = {t["id"]: t.get("predecessors", []) for t in data["tasks"]}
+    # 4 slabs x (JC, HI, G) + 4 beams x (R, F) = 20; R waits for HI on the slabs it joins,
+    # listed top row first, then left to right
+    assert report.tasks == len(preds) == 20
+    assert preds["JC-S-11"] == [] and preds["HI-S-11"] == ["JC-S-11"]
+    assert preds["G-S-22"] == ["HI-S-22"]
+    assert preds["R-B-H1"] == ["HI-S-11", "HI-S-12"]
+    assert preds["R-B-H2"] == ["HI-S-21", "HI-S-22"]
+    assert preds["R-B-V1"] == ["HI-S-11", "HI-S-21"]
+    assert preds["R-B-V2"] == ["HI-S-12", "HI-S-22"]
+    assert preds["F-B-V2"] == ["R-B-V2"]
+    tasks = {t["id"]: t for t in data["tasks"]}
+    assert tasks["HI-S-11"]["material_quantity"] == 1.0  # a strut set per slab
+    assert (tasks["R-B-H1"]["work"], tasks["F-B-H1"]["work"]) == (0.5, 12.0)
+    # seven crews as the built-in case, in the left margin, 3 m apart, centred on y = 0
+    assert [c["id"] for c in data["crews"]] == ["JCC-1", "HIC-1", "GC-1", "RC-1", "RC-2",
+                                                "FC-1", "FC-2"]
+    assert [c["start_y_m"] for c in data["crews"]] == [-9.0, -6.0, -3.0, 0.0, 3.0, 6.0, 9.0]
+    assert {c["start_x_m"] for c in data["crews"]} == {-9.5}
+
+
+def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    case_file = tmp_path / "floor.toml"
+    assert import_ifc.main([str(model), "--storey", "Level 1", "--out", str(case_file)]) == 0
+    out = capsys.readouterr().out
+    assert "8 components (4 IfcBeam, 4 IfcSlab), 20 tasks, 7 crews" in out
+    assert "skipped (not in the recipe): 1 IfcWindow" in out
+    case = load_case(case_file)
+    assert len(case.tasks) == 20
+    run = tmp_path / "run"
+    assert simulate.main(["--case", str(case_file), "--out", str(run), "--no-charts",
+                          "--no-progress", "--ifc", str(model),
+                          "--ifc-start", "2026-03-02T07:00:00"]) == 0
+    rows = (run / "schedule.csv").read_text().splitlines()[1:]
+    assert len(rows) == 20
+    sim = {r.split(",")[0]: r.split(",") for r in rows}
+    tasks = {t["id"]: t for t in read_4d(run / "floor-4d.ifc")}
+    assert set(tasks) == set(sim)
+    import datetime
+
+    t0 = datetime.datetime(2026, 3, 2, 7, 0, 0)
+    for task_id, (_, crew, start_s, end_s, *_rest) in sim.items():
+        got = tasks[task_id]
+        assert got["start"] == (t0 + datetime.timedelta(seconds=float(start_s))).isoformat()
+        assert got["finish"] == (t0 + datetime.timedelta(seconds=float(end_s))).isoformat()
+        assert got["crews"] == [crew]
+        component = task_id.split("-", 1)[1]
+        assert got["products"] == [elements[component].GlobalId]
+    assert sorted(tasks["R-B-H1"]["predecessors"]) == ["HI-S-11", "HI-S-12"]
+    import ifcopenshell.validate
+
+    logger = ifcopenshell.validate.json_logger()  # the schema (EXPRESS rules: a slow test)
+    ifcopenshell.validate.validate(ifcopenshell.open(str(run / "floor-4d.ifc")), logger)
+    assert logger.statements == []
+    # the exported model imports again: its sequences now give the precedences
+    data, report = import_storey(run / "floor-4d.ifc", "Level 1")
+    assert report.precedences == "model"
+    again = {t["id"]: sorted(t.get("predecessors", [])) for t in data["tasks"]}
+    assert again == {t.id: sorted(t.predecessors) for t in case.tasks}
+
+
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_a_4d_sequence_replaces_the_recipes_links(tmp_path, schema):
+    f, elements = ifc_models.two_by_two(schema)
+    # "Install S-11" stands for S-11's whole chain; "HI S-12" for HI on S-12 only
+    ifc_models.add_schedule(f, elements, {"Install S-11": ["S-11"], "HI S-12": ["S-12"],
+                                          "Beam B-H1": ["B-H1"]},
+                            [("Install S-11", "HI S-12"), ("HI S-12", "Beam B-H1")])
+    path = tmp_path / "4d.ifc"
+    f.write(str(path))
+    data, report = import_storey(path, "Level 1")
+    preds = {t["id"]: t.get("predecessors", []) for t in data["tasks"]}
+    assert report.precedences == "model"
+    assert preds["HI-S-12"] == ["JC-S-12", "G-S-11"]  # its chain, then the end of S-11's
+    assert preds["R-B-H1"] == ["HI-S-12"]  # the model's link, not the recipe's two
+    assert preds["R-B-V1"] == []  # no sequence reaches it: the recipe's links are gone
+    assert preds["F-B-H1"] == ["R-B-H1"]
+
+
+def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    out = tmp_path / "case.toml"
+
+    def fails(args, *expected):
+        assert import_ifc.main(args + ["--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        for text in expected:
+            assert text in err, err
+        assert not out.exists()
+
+    text = tmp_path / "notes.ifc"
+    text.write_text("hello")
+    fails([str(text), "--storey", "Level 1"], "notes.ifc: is not an IFC file")
+    fails([str(model), "--storey", "Level 9"], 'has no storey "Level 9"',
+          'use one of its storeys: "Level 1", "Level 2"')
+    fails([str(model), "--storey", "Level 2"], 'storey "Level 2" has no elements of the '
+          "recipe's classes")
+    overlay = tmp_path / "overlay.toml"
+    overlay.write_text('[crews]\nJCC = 1\nHXC = 1\n[recipe.classes]\nIfcSlab = "precast"\n'
+                       '[recipe.chains]\nprecast = [{type = "JC"}, {type = "HX"}]\n')
+    fails([str(model), "--storey", "Level 1", "--overlay", str(overlay)],
+          'overlay.toml: crews.HXC: names unknown crew type "HXC"; did you mean "HIC"?',
+          'recipe.chains.precast[1]: type names unknown task type "HX"; fix: use one of "JC", '
+          '"HI", "G", "R", "F"')
+    overlay.write_text('[task_types.JC]\nname = "x"\ncrew_type = "JXC"\narea_distance_m = 1.0\n'
+                       "congestion_index = 0.5\n")
+    fails([str(model), "--storey", "Level 1", "--overlay", str(overlay)],
+          'task type JC needs crew type "JXC", which is not in [crew_types]')
+
+
+def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    level = f.by_type("IfcBuildingStorey")[0]
+    body = f.by_type("IfcGeometricRepresentationSubContext")[0]
+    # a slab over S-11's top-right corner, and an L-shaped slab away from the floor
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-X", ifc_models.box(101, 61, 2, 2))
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-L",
+                           [(90, 50), (94, 50), (94, 51), (91, 51), (91, 54), (90, 54)])
+    path = tmp_path / "bad.ifc"
+    f.write(str(path))
+    with pytest.raises(CaseError) as err:
+        import_storey(path, "Level 1")
+    # L: 4 + 3 = 7 m2 of its 4 x 4 = 16 m2 rectangle -> 44%
+    assert 'IfcSlab "S-L"' in str(err.value) and "fills 44% of its 4.00 x 4.00 m" in str(err.value)
+    assert "min_fill = 0.43" in str(err.value)
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[import]\nmin_fill = 0.4\n")
+    with pytest.raises(CaseError) as err:
+        import_storey(path, "Level 1", load_overlay(overlay))
+    assert 'IfcSlab "S-11"' in str(err.value) and 'IfcSlab "S-X"' in str(err.value)
+    assert "footprints overlap by 1.00 x 1.00 m" in str(err.value)
+
+
+def test_a_fixed_plane_too_small_is_reported(two_by_two, tmp_path):
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[plane]\nwidth_m = 10.0\n")
+    with pytest.raises(CaseError, match="outside the plane"):
+        import_storey(two_by_two[0], "Level 1", load_overlay(overlay))
+
+
+def test_a_cycle_in_the_4d_sequence_is_reported(tmp_path, capsys):
+    f, elements = ifc_models.two_by_two("IFC4")
+    ifc_models.add_schedule(f, elements, {"A": ["S-11"], "B": ["S-12"]}, [("A", "B"), ("B", "A")])
+    path = tmp_path / "cycle.ifc"
+    f.write(str(path))
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out",
+                            str(tmp_path / "c.toml")]) == 2
+    err = capsys.readouterr().err
+    assert "cycle of IfcRelSequence" in err and 'IfcTask "A"' in err and 'IfcTask "B"' in err
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_ifc2x3_cannot_take_a_4d_schedule(two_by_two, tmp_path, capsys):
+    path, _ = two_by_two
+    if ifcopenshell.open(str(path)).schema != "IFC2X3":
+        pytest.skip("IFC2X3 only")
+    case_file = tmp_path / "c.toml"
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(case_file)]) == 0
+    assert simulate.main(["--case", str(case_file), "--out", str(tmp_path / "r"), "--ifc",
+                          str(path), "--no-progress", "--no-charts"]) == 2
+    assert "IFC2X3, which has no IfcTaskTime" in capsys.readouterr().err
+
+
+def test_the_written_file_is_toml_with_the_guids(two_by_two, tmp_path):
+    case_file = tmp_path / "c.toml"
+    assert import_ifc.main([str(two_by_two[0]), "--storey", "Level 1", "--out",
+                            str(case_file)]) == 0
+    data = tomllib.loads(case_file.read_text())
+    assert {c["id"]: c["ifc_guid"] for c in data["components"]} == two_by_two[1]
+
+
+def test_the_sample_model_gives_the_built_in_case_back():
+    """cases/precast_floor.ifc is the built-in floor as BIM (tools/make_sample_ifc.py): the
+    importer's default overlay and recipe give back its components, tasks, crews, storages,
+    plane and crane; only the name and the time limit (1,000 s per task) differ."""
+    import cmdp_pymunk
+    from cmdp_pymunk.case import case_from_dict
+
+    sample = cmdp_pymunk.BUILTIN_CASE.with_name("precast_floor.ifc")
+    data, report = import_storey(sample, "Level 1")
+    imported = case_from_dict(data).model_dump()
+    builtin = load_case().model_dump()
+    assert all(c.pop("ifc_guid") for c in imported["components"])
+    assert not any(c.pop("ifc_guid") for c in builtin["components"])
+    for case in (imported, builtin):
+        case.pop("case")
+        case["simulation"].pop("max_time_s")
+    assert imported == builtin
+    assert report.components_by_class == {"IfcSlab": 15, "IfcBeam": 21}
+
+
+def test_the_sample_model_is_what_its_tool_writes():
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    sample = root / "cmdp_pymunk" / "cases" / "precast_floor.ifc"
+    code = ("import sys; sys.path.insert(0, 'tools'); import make_sample_ifc as m; "
+            "import cmdp_pymunk; "
+            "print(m.model_from_case(cmdp_pymunk.load_case(), storey='Level 1', "
+            "origin=m.ORIGIN_M, seed='precast-floor').to_string(), end='')")
+    # a fresh process: a second model built in one process numbers its entities differently
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
+                         text=True, check=True).stdout
+    assert out == sample.read_text(), "run python tools/make_sample_ifc.py"
+    assert len(out) < 300_000
+
+
+def test_the_docs_overlay_example_loads_and_imports_the_sample(tmp_path):
+    """docs/ifc.md's overlay (every section, at the defaults but for the storages' places
+    and the columns it maps to an obstacle kind, of which the sample has none) gives the
+    same components and tasks as no overlay."""
+    import re
+    from pathlib import Path
+
+    import cmdp_pymunk
+
+    page = (Path(__file__).resolve().parent.parent / "docs" / "ifc.md").read_text()
+    block = re.search(r"```toml\n(.*?)```", page, re.S).group(1)
+    overlay = tmp_path / "overlay.toml"
+    overlay.write_text(block)
+    sample = cmdp_pymunk.BUILTIN_CASE.with_name("precast_floor.ifc")
+    with_overlay, _ = import_storey(sample, "Level 1", load_overlay(overlay))
+    default, _ = import_storey(sample, "Level 1")
+    assert with_overlay["tasks"] == default["tasks"]
+    assert with_overlay["components"] == default["components"]
+    # x_frac -0.44 of the half width 27 m: -11.88 m instead of the default -12
+    assert [s["x_m"] for s in with_overlay["storages"]] == [-11.88, 11.88, 0.0]
+
+
+def test_overlay_typos_and_bad_storages_are_named(tmp_path):
+    overlay = tmp_path / "o.toml"
+    overlay.write_text('[plane]\nmargin_x = 5.0\n[import]\nmin_fill = "high"\n'
+                       '[[storages]]\nid = "S"\nmaterial = "rebars"\nwidth = 2.0\n'
+                       'edge = "left"\n[recipe]\nneighbour_gap_m = 3.0\n'
+                       '[recipe.chains]\nprecast = [{type = "JC"}]\n[wheels]\n')
+    with pytest.raises(CaseError) as err:
+        load_overlay(overlay)
+    text = str(err.value)
+    for expected in ('plane.margin_x: unknown field; did you mean "margin_x_m"?',
+                     "import.min_fill = 'high': write a number",
+                     "storages[0]: width_m missing", 'storages[0]: width: unknown field',
+                     'storages[0]: edge = \'left\'; fix: write "top" or "bottom"',
+                     "recipe.neighbour_gap_m: unknown field", "[wheels]: unknown section"):
+        assert expected in text, text
+    assert text.startswith("o.toml: ")
+
+
+def test_a_lane_narrower_than_a_crew_is_noted(tmp_path):
+    """A slab 1 m right of S-22 (x 112..114): the lane between them is 1 m, narrower than the
+    HIC (5 m2: 2 sqrt(5 / pi) = 2.52 m across)."""
+    f, elements = ifc_models.two_by_two("IFC4")
+    level = f.by_type("IfcBuildingStorey")[0]
+    body = f.by_type("IfcGeometricRepresentationSubContext")[0]
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-23", ifc_models.box(113, 50, 2, 2))
+    path = tmp_path / "lane.ifc"
+    f.write(str(path))
+    _, report = import_storey(path, "Level 1")
+    assert report.notes == ['the lane between IfcSlab "S-22" ({}) and IfcSlab "S-23" ({}) is '
+                            "1.00 m wide, narrower than the widest crew (2.52 m): no crew "
+                            "passes there".format(elements["S-22"].GlobalId,
+                                                  f.by_type("IfcSlab")[-1].GlobalId)]
+
+
+def test_a_start_start_sequence_is_noted_and_read_as_finish_start(tmp_path):
+    f, elements = ifc_models.two_by_two("IFC4")
+    ifc_models.add_schedule(f, elements, {"A": ["S-11"], "B": ["S-12"]}, [("A", "B")],
+                            kind="START_START")
+    path = tmp_path / "ss.ifc"
+    f.write(str(path))
+    data, report = import_storey(path, "Level 1")
+    assert len(report.notes) == 1 and 'IfcTask "A"' in report.notes[0]
+    assert report.notes[0].endswith("is START_START; read as FINISH_START")
+    assert {t["id"]: t.get("predecessors") for t in data["tasks"]}["JC-S-12"] == ["G-S-11"]
+
+
+@pytest.mark.slow
+def test_the_4d_export_passes_the_express_rules(tmp_path):
+    """The export of a hand-made schedule (no simulation) against IFC4's EXPRESS rules too
+    (about 5 s: the rules are loaded)."""
+    import datetime
+
+    import ifcopenshell.validate
+
+    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.ifc import export_4d
+    from cmdp_pymunk.schedule import TaskBar
+
+    f, _ = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    case = case_from_dict(import_storey(model, "Level 1")[0])
+    bars = [TaskBar("JC-S-11", "JCC-1", ((0.0, 700.0),), True),
+            TaskBar("HI-S-11", "HIC-1", ((700.0, 900.0), (1000.0, 1500.0)), False)]
+    counts = export_4d(model, case, bars, tmp_path / "4d.ifc", datetime.datetime(2026, 1, 5, 8))
+    assert counts == {"tasks": 20, "timed": 2, "sequences": 20, "crews": 7}
+    logger = ifcopenshell.validate.json_logger()
+    ifcopenshell.validate.validate(ifcopenshell.open(str(tmp_path / "4d.ifc")), logger,
+                                   express_rules=True)
+    assert logger.statements == []
+    tasks = {t["id"]: t for t in read_4d(tmp_path / "4d.ifc")}
+    assert (tasks["HI-S-11"]["start"], tasks["HI-S-11"]["finish"]) == ("2026-01-05T08:11:40",
+                                                                      "2026-01-05T08:25:00")
+    assert tasks["G-S-11"]["start"] is None  # not started: no times
+
+
+def test_duplicate_names_get_class_numbered_ids_and_missing_geometry_is_reported(tmp_path):
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+
+    f, body, storeys = ifc_models.new_model("IFC4")
+    level = storeys["Level 1"]
+    for x in (0.0, 10.0):
+        ifc_models.add_element(f, body, level, "IfcSlab", "Slab", ifc_models.box(x, 0, 2, 2))
+    ifc_models.add_element(f, body, level, "IfcBeam", "", ifc_models.box(5, 0, 2, 1.2))
+    path = tmp_path / "dup.ifc"
+    f.write(str(path))
+    data, _ = import_storey(path, "Level 1")
+    assert [c["id"] for c in data["components"]] == ["Slab-1", "Slab-2", "Beam-1"]
+    assert {t["id"]: t.get("predecessors") for t in data["tasks"]}["R-Beam-1"] == [
+        "HI-Slab-1", "HI-Slab-2"]
+    column = ifcopenshell.api.root.create_entity(f, ifc_class="IfcColumn", name="C-1")
+    ifcopenshell.api.spatial.assign_container(f, products=[column], relating_structure=level)
+    f.write(str(path))
+    with pytest.raises(CaseError, match='IfcColumn "C-1" .*: has no body geometry'):
+        import_storey(path, "Level 1")

@@ -1,0 +1,120 @@
+"""Stage 2 with the masked choice over a crew's best targets (``action = "candidate"``).
+
+``CandidateFloor`` wraps a ``cmdp_pymunk.highlevel.Floor`` with the action of
+``agents.candidates`` (the index of one of the crew's ``cap`` best targets by Eq. 9) in place
+of Eq. 4's desired position. It has the floor's interface (``reset``, ``decide``, ``observe``,
+``low``/``high``, ``end_info``), so ``vec_env.FloorsVecEnv`` steps it as it steps a floor, plus
+``action_masks()`` for sb3-contrib's MaskablePPO. A decision the policy has nothing to choose in
+(a scope of storages or the crane, or one task target) is valued by Eq. 9 inside the step; its
+reward goes to the policy's decision before it, as the floor's lone targets do.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from gymnasium import spaces
+
+from agents.candidates import CandidateView, has_choice, observation_bounds
+from cmdp_pymunk.highlevel import Floor, Outcome
+
+
+def terminal_term(per_second: float, heuristic_s: float, time_s: float, finished: bool,
+                  limit_s: float) -> float:
+    """The reward added at a floor's end against the heuristic on the same seed (issue 17,
+    item 5): with R_e's makespan term ``per_second`` (< 0) summed over the floor, the return's
+    makespan part becomes ``per_second * (M - H)``, M the makespan (an unfinished floor: twice
+    the time limit, ``agents.ga.unfinished_makespan_s``) and H the heuristic's."""
+    makespan = time_s if finished else 2.0 * limit_s
+    return -per_second * heuristic_s + per_second * (makespan - time_s)
+
+
+class CandidateFloor:
+    """A floor whose decisions are a choice among the deciding crew's best targets.
+
+    ``against_heuristic``: a factory of a second floor like this one, to play Eq. 9 on each
+    seed once (cached) for ``terminal_term``; ``seed_pool`` (> 0): episode seeds are taken
+    modulo it (so the heuristic's makespans are reused)."""
+
+    def __init__(self, floor: Floor, cap: int, against_heuristic=None, seed_pool: int = 0):
+        self.floor, self.view = floor, CandidateView(cap)
+        self.against_heuristic, self.seed_pool = against_heuristic, seed_pool
+        self._heuristic_s: dict[int, float] = {}
+        self._seed: int | None = None
+        self.low, self.high = observation_bounds(cap)
+        self.actor_size = len(self.low)
+        self.action_space = spaces.Discrete(cap)
+        self._targets: list[int] = []
+        self._mask = np.zeros(cap, bool)
+        self._obs = np.zeros(self.actor_size, np.float32)
+
+    @property
+    def engine(self):
+        return self.floor.engine
+
+    def reset(self, seed: int) -> float:
+        if self.seed_pool:
+            seed %= self.seed_pool
+        self._seed = seed
+        reward = self.floor.reset(seed)
+        out = self._to_choice(Outcome(reward, False, False))
+        if out.terminated or out.truncated:
+            raise RuntimeError("the episode ended before any crew had a choice to make")
+        return out.reward
+
+    def decide(self, action) -> Outcome:
+        """Row ``action`` chosen (an index into the last observation's rows)."""
+        k = int(np.asarray(action).reshape(-1)[0])
+        if not 0 <= k < len(self._targets):
+            raise ValueError(f"action {k}: only rows 0-{len(self._targets) - 1} are real "
+                             "(mask the others: action_masks())")
+        engine, i = self.floor.engine, self.floor.deciding
+        values = self.view.values(engine.site.crews[i], engine.site, engine.positions[i],
+                                  self._targets, k)
+        return self._to_choice(self.floor.value_scope(values))
+
+    def _to_choice(self, out: Outcome) -> Outcome:
+        """Value decisions without a choice by Eq. 9 until one has a choice or the episode
+        ends; the rewards add up."""
+        reward = out.reward
+        while not (out.terminated or out.truncated):
+            engine, i = self.floor.engine, self.floor.deciding
+            crew = engine.site.crews[i]
+            if has_choice(crew):
+                self._obs, self._mask, self._targets = self.view.rows(
+                    crew, engine.site, engine.positions[i], engine.positions)
+                return Outcome(reward, False, False)
+            out = self.floor.value_scope(self.view.base.target_values(crew, engine.site,
+                                                                      engine.positions[i]))
+            reward += out.reward
+        if self.against_heuristic is not None:
+            engine = self.floor.engine
+            reward += terminal_term(engine.case.evaluation_reward.episode,
+                                    self.heuristic_makespan_s(self._seed), engine.site.time_s,
+                                    out.terminated, engine.max_time_s)
+        return Outcome(reward, out.terminated, out.truncated)
+
+    def heuristic_makespan_s(self, seed: int) -> float:
+        """Eq. 9's makespan on ``seed`` (row 0 at every decision), played once per seed on a
+        floor of its own; an unfinished floor counts twice the time limit."""
+        if seed not in self._heuristic_s:
+            reference = CandidateFloor(self.against_heuristic(), self.view.cap)
+            out = Outcome(reference.reset(seed), False, False)
+            while not (out.terminated or out.truncated):
+                out = reference.decide(0)
+            engine = reference.engine
+            self._heuristic_s[seed] = (engine.site.time_s if out.terminated
+                                       else 2.0 * engine.max_time_s)
+        return self._heuristic_s[seed]
+
+    def observe(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The deciding crew's rows (made when the decision came up), into ``out`` if given."""
+        if out is None:
+            return self._obs.copy()
+        out[:] = self._obs
+        return out
+
+    def action_masks(self) -> np.ndarray:
+        return self._mask.copy()
+
+    def end_info(self) -> dict:
+        return self.floor.end_info()

@@ -1,0 +1,111 @@
+"""``cmdp-search-rule``: search the weights of an extended Eq. 9 with CMA-ES (issue 17, item 7).
+
+    cmdp-search-rule [--config training/configs/rule_search.toml] [--set key=value ...]
+                     [--workers N] [--out DIR] [--resume]
+
+Writes into DIR: ``rule.json`` (the search's current estimate as a student file: use it
+with ``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean that did best
+against Eq. 9 on the selection seeds, with that check), ``history.csv`` (per generation: best
+and mean paired difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after
+every generation; ``--resume`` continues from it exactly) and ``config.json`` (settings, case,
+versions, command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one
+exits with 2 naming it and the fix.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+import cmdp_pymunk
+from agents.episodes import default_workers
+from agents.rule_search import RuleSearchConfig, search_rule
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.rollout import versions
+from training.cli import OneLineParser, positive_int
+from training.config import RunConfig
+
+DEFAULT_CONFIG = Path(__file__).with_name("configs") / "rule_search.toml"
+
+
+@dataclass(frozen=True)
+class SearchArgs:
+    config: Path
+    overrides: tuple[str, ...]
+    workers: int
+    out: Path
+    resume: bool
+    progress: bool
+
+
+def parse_args(argv: list[str] | None = None) -> SearchArgs:
+    p = OneLineParser(prog="cmdp-search-rule", description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(p)
+    p.add_argument("--config", type=Path, default=DEFAULT_CONFIG,
+                   help="the search's settings (TOML; default: the shipped one)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a setting of the config, e.g. --set generations=4")
+    p.add_argument("--workers", type=positive_int, default=default_workers(),
+                   help="worker processes for the floors (default: every core)")
+    p.add_argument("--out", type=Path, default=Path("runs/rule_search"),
+                   help="folder for rule.json, history.csv and the checkpoint")
+    p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.pkl")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    a = p.parse_args(argv)
+    return SearchArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress)
+
+
+class RuleSearchRunConfig(RuleSearchConfig, RunConfig):
+    """``agents.rule_search.RuleSearchConfig`` read like every run config (file, then
+    ``--set``, every bad setting named with its fix)."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        config = RuleSearchRunConfig.load(args.config, list(args.overrides))
+        case = cmdp_pymunk.load_case(config.case)
+    except ValueError as err:  # CaseError is a ValueError
+        print(f"cmdp-search-rule: {err}", file=sys.stderr)
+        return 2
+    args.out.mkdir(parents=True, exist_ok=True)
+    write_atomic(args.out / "config.json", json.dumps(
+        {"config": config.model_dump(), "case": case.model_dump(mode="json"),
+         "workers": args.workers, "command": sys.argv, "versions": versions()},
+        indent=2) + "\n")
+    print(f"cmdp-search-rule: case {case.case.name!r}, weights of {', '.join(config.features)}; "
+          f"{config.generations} generations x {config.seeds_per_generation} of "
+          f"{len(config.train_seeds)} training seeds; {args.workers} worker(s)")
+    try:
+        state = search_rule(case, config, args.out, args.workers, args.resume, args.progress)
+    except ValueError as err:
+        print(f"cmdp-search-rule: {err}", file=sys.stderr)
+        return 2
+    for row in state.log:
+        print(f"cmdp-search-rule: generation {row['generation']}: best {row['best']:+.0f} s, "
+              f"mean {row['mean']:+.0f} s against Eq. 9 (sigma {row['sigma']:.3f})")
+    sel = state.selection
+    if sel is not None:
+        seeds = f"{config.select_seeds[0]}..{config.select_seeds[-1]}"
+        checked = ", ".join(f"{g}: {d:+.0f}" for g, d in sorted(sel["checked"].items()))
+        print(f"cmdp-search-rule: means checked on selection seeds {seeds} (generation: "
+              f"paired difference to Eq. 9, s): {checked}")
+        if sel["generation"] == 0:
+            print(f"cmdp-search-rule: {sel['note']}")
+        else:
+            print(f"cmdp-search-rule: kept generation {sel['generation']}'s mean: "
+                  f"{sel['ratio']:.3f} x Eq. 9, difference {sel['diff_mean_s']:+.0f} +- "
+                  f"{sel['diff_ci95_s'] or 0:.0f} s ({sel['paired_seeds']} paired seeds; "
+                  "picked on them, so report it on others)")
+    print(f"cmdp-search-rule: the rule -> {args.out / 'rule.json'}")
+    return 0
+
+
+def entry_point() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry_point()
