@@ -192,3 +192,17 @@ def test_the_teachers_labels_are_the_same_on_ray(cluster, tmp_path):
         for key in a.files:
             if key != "wall_s":
                 assert np.array_equal(a[key], b[key], equal_nan=a[key].dtype.kind == "f"), key
+
+
+def test_the_rule_search_is_the_same_on_ray(cluster, tmp_path):
+    """CMA-ES (cmdp-search-rule) samples from numpy's global generator: Ray must not move it."""
+    from test_ga import far_start_case
+
+    from agents.rule_search import RuleSearchConfig, search_rule
+
+    config = RuleSearchConfig(features=["nearness"], popsize=3, train_seeds=[0, 1],
+                              seeds_per_generation=1, select_seeds=[5], generations=1, seed=2)
+    local = search_rule(far_start_case(), config, tmp_path / "local", progress=False)
+    on_ray = search_rule(far_start_case(), config, tmp_path / "ray", workers=None,
+                         progress=False, ray=cluster.address)
+    assert on_ray.log == local.log and on_ray.selection == local.selection
