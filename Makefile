@@ -6,7 +6,7 @@ export SDL_VIDEODRIVER := dummy
 export SDL_AUDIODRIVER := dummy
 export PYGAME_HIDE_SUPPORT_PROMPT := 1
 
-.PHONY: demo test test-slow docs lint bench clean
+.PHONY: demo test test-slow test-ray docs lint bench clean
 
 # torch is pinned first and on its own: an unpinned torch (pulled by stable-baselines3)
 # would fetch a CUDA build of several GB. On a machine with only the public package index,
@@ -29,6 +29,20 @@ test: $(VENV)/.installed
 test-slow: $(VENV)/.installed
 	$(PY) -m pytest -q -m slow
 
+# The Ray backend's tests (tests/test_ray.py, marker `ray`, a two-node Ray cluster on this
+# machine) in a venv of their own: the default install has no Ray (ray 2.60.0 adds about
+# 240 MB installed, about a minute to install here). `make test` skips them.
+RAY_VENV := .venv-ray
+$(RAY_VENV)/.installed: setup.cfg pyproject.toml
+	$(PYTHON) -m venv $(RAY_VENV)
+	$(RAY_VENV)/bin/python -m pip install --quiet --upgrade pip
+	$(RAY_VENV)/bin/python -m pip install --quiet torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
+	$(RAY_VENV)/bin/python -m pip install --quiet -e '.[dev,onnx,ray]'
+	touch $@
+
+test-ray: $(RAY_VENV)/.installed
+	$(RAY_VENV)/bin/python -m pytest -q -m ray
+
 # The docs site into site/, strict: a broken link, a missing page or an unreadable docstring fails.
 $(VENV)/.docs-installed: $(VENV)/.installed setup.cfg
 	$(PY) -m pip install --quiet -e '.[docs]'
@@ -44,4 +58,4 @@ bench: $(VENV)/.installed
 	$(PY) benchmarks/bench_env.py
 
 clean:
-	rm -rf $(VENV) out runs site
+	rm -rf $(VENV) $(RAY_VENV) out runs site

@@ -192,6 +192,10 @@ def solve(case, time_limit_s: float = DEFAULT_TIME_LIMIT_S, workers: int = 1,
     solver.parameters.max_time_in_seconds = float(time_limit_s)
     solver.parameters.num_workers = int(workers)
     solver.parameters.random_seed = int(seed)
+    # CP-SAT's default installs its own C SIGINT handler and leaves SIGINT at SIG_DFL after
+    # the solve: a later Ctrl-C then killed cmdp-evaluate outright, with no message and its
+    # worker processes orphaned. Ctrl-C stays Python's.
+    solver.parameters.catch_sigint_signal = False
     t0 = time.perf_counter()
     status = solver.Solve(m)
     wall = time.perf_counter() - t0

@@ -12,7 +12,11 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import as_completed as futures_completed
+from concurrent.futures.process import BrokenProcessPool
 
 import cmdp_pymunk
 from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
@@ -109,25 +113,31 @@ class EpisodeRunner:
         return episode_row(env, episode)
 
 
-# -- worker processes ---------------------------------------------------------------------------
+# -- where the episodes run ---------------------------------------------------------------------
 
 _RUNNER: EpisodeRunner | None = None
 _JOB: Callable | None = None
 
 
-def _init_worker(runner_args: tuple, job: Callable) -> None:
+def _init_worker(runner_args: tuple | None, job: Callable) -> None:
     global _RUNNER, _JOB
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
     try:  # two torch threads per worker oversubscribe the cores (shared/PITFALLS.md)
         import torch
 
         torch.set_num_threads(1)
     except ImportError:
         pass
-    _RUNNER, _JOB = EpisodeRunner(*runner_args), job
+    _RUNNER, _JOB = make_runner(runner_args), job
 
 
 def _call(args):
     return _JOB(_RUNNER, *args)
+
+
+def make_runner(runner_args: tuple | None) -> EpisodeRunner | None:
+    """``EpisodeRunner(*runner_args)``; None for jobs that build their own floor (labelling)."""
+    return None if runner_args is None else EpisodeRunner(*runner_args)
 
 
 def default_workers() -> int:
@@ -138,37 +148,149 @@ def default_workers() -> int:
         return os.cpu_count() or 1
 
 
-class Workers:
-    """``job(runner, *args)`` over worker processes, each with its own
-    ``EpisodeRunner(*runner_args)``; one process (no pool) for ``workers=1``. ``map`` returns
-    the results in job order. Use as a context manager (the pool lives until exit); ``job``
-    must be a module-level function (it is pickled by name)."""
+class BackendError(ValueError):
+    """The backend cannot run the jobs (Ray missing, a cluster that does not answer, workers
+    without this package); raised before any job, its message names the cause and the fix."""
 
-    def __init__(self, job: Callable, runner_args: tuple, workers: int):
-        self.job, self.runner_args, self.workers = job, runner_args, max(1, int(workers))
-        self._pool = self._runner = None
 
-    def __enter__(self) -> Workers:
-        if self.workers == 1:
-            self._runner = EpisodeRunner(*self.runner_args)
-        else:
-            ctx = multiprocessing.get_context("spawn")  # no forked torch or pygame state
-            self._pool = ctx.Pool(self.workers, _init_worker, (self.runner_args, self.job))
+class WorkerLost(RuntimeError):
+    """Jobs whose worker died more often than ``retries`` allows; ``lost`` holds their indices
+    in the job list. Raised after every other job's result was handed out."""
+
+    def __init__(self, lost: list[int], retries: int):
+        self.lost = sorted(lost)
+        super().__init__(f"{len(self.lost)} job(s) lost: their worker died "
+                         f"{retries + 1} time(s) while running them")
+
+
+class Backend:
+    """What every backend offers: ``as_completed`` (results as they arrive, with their index),
+    ``imap``/``map`` (results in job order, so they do not depend on the backend or the
+    number of workers) and ``check_each`` (a function run once in every worker, to find a
+    worker that cannot run the jobs before any job runs). Use as a context manager."""
+
+    workers: int
+    label: str
+
+    def __enter__(self):
         return self
+
+    def __exit__(self, *exc) -> None:
+        pass
+
+    def as_completed(self, jobs: Iterable[tuple]) -> Iterator[tuple[int, object]]:
+        raise NotImplementedError
+
+    def check_each(self, fn: Callable, *args) -> list:
+        """``fn(runner, *args)`` in every worker; their answers (local processes: none, they
+        share this machine's files and packages)."""
+        return []
 
     def imap(self, jobs: Iterable[tuple]) -> Iterator:
         """Results one at a time, in job order (for a progress bar)."""
-        if self._pool is None:
-            return (self.job(self._runner, *args) for args in jobs)
-        return self._pool.imap(_call, list(jobs), chunksize=1)
+        waiting: dict[int, object] = {}
+        nxt = 0
+        for i, result in self.as_completed(jobs):
+            waiting[i] = result
+            while nxt in waiting:
+                yield waiting.pop(nxt)
+                nxt += 1
 
     def map(self, jobs: Iterable[tuple]) -> list:
         return list(self.imap(jobs))
 
+
+class Workers(Backend):
+    """``job(runner, *args)`` over worker processes of this machine, each with its own
+    ``EpisodeRunner(*runner_args)`` (``runner_args`` None: the job gets None); one process (no
+    pool) for ``workers=1``. A worker that dies takes the pool down: the unfinished jobs run
+    again in a new pool, ``retries`` times; then one at a time, and ``WorkerLost`` names those
+    whose worker still died (after every other result was handed out).
+    ``job`` must be a module-level function (it is pickled by name)."""
+
+    def __init__(self, job: Callable, runner_args: tuple | None, workers: int, retries: int = 1):
+        self.job, self.runner_args, self.workers = job, runner_args, max(1, int(workers))
+        self.retries = retries
+        self.label = f"{self.workers} worker process(es)"
+        self._pool = self._runner = None
+
+    def _new_pool(self):
+        ctx = multiprocessing.get_context("spawn")  # no forked torch or pygame state
+        return ProcessPoolExecutor(self.workers, ctx, _init_worker, (self.runner_args, self.job))
+
+    def __enter__(self) -> Workers:
+        if self.workers == 1:
+            self._runner = make_runner(self.runner_args)
+        else:
+            self._pool = self._new_pool()
+        return self
+
+    def as_completed(self, jobs: Iterable[tuple]) -> Iterator[tuple[int, object]]:
+        jobs = list(jobs)
+        if self._pool is None:
+            for i, args in enumerate(jobs):
+                yield i, self.job(self._runner, *args)
+            return
+        todo, tries = list(range(len(jobs))), 0
+        while todo and tries <= self.retries:
+            futures = {self._pool.submit(_call, jobs[i]): i for i in todo}
+            finished = set()
+            for future in futures_completed(futures):
+                try:
+                    result = future.result()
+                except BrokenProcessPool:  # a worker died: its job and every unfinished one
+                    continue
+                finished.add(futures[future])
+                yield futures[future], result
+            todo = [i for i in todo if i not in finished]
+            if todo:
+                self._stop(self._pool)
+                self._pool = self._new_pool()
+                tries += 1
+        # Still dying: one job at a time, so that only the job that kills its worker is lost.
+        lost = []
+        for i in todo:
+            try:
+                result = self._pool.submit(_call, jobs[i]).result()
+            except BrokenProcessPool:
+                lost.append(i)
+                self._stop(self._pool)
+                self._pool = self._new_pool()
+                continue
+            yield i, result
+        if lost:
+            raise WorkerLost(lost, self.retries)
+
+    @staticmethod
+    def _stop(pool) -> None:
+        """Cancel what is queued and end the worker processes now (not after their jobs)."""
+        processes = list(getattr(pool, "_processes", None) or {})  # pids; private, but
+        # shutdown(cancel_futures=True) still waits for running jobs (3.14 adds terminate_workers)
+        pool.shutdown(wait=False, cancel_futures=True)
+        for pid in processes:
+            try:
+                os.kill(pid, signal.SIGTERM)
+            except (ProcessLookupError, PermissionError):
+                pass
+        pool.shutdown(wait=True)  # the pool sees its workers gone and frees its queues
+
     def __exit__(self, *exc) -> None:
         if self._pool is not None:
             if exc[0] is None:
-                self._pool.close()
+                self._pool.shutdown(wait=True)
             else:
-                self._pool.terminate()
-            self._pool.join()
+                self._stop(self._pool)
+            self._pool = None
+
+
+def open_backend(job: Callable, runner_args: tuple | None, workers: int | None = None,
+                 ray: str | None = None, retries: int = 1) -> Backend:
+    """Where ``job(runner, *args)`` runs: worker processes of this machine (``ray`` None, the
+    default; ``workers`` None: every core), or Ray actors (``ray="local"``: a Ray started
+    here with ``workers`` CPUs; an address: that cluster, ``workers`` None: one actor per CPU
+    of it). Ray is imported only in the second case (agents/ray_backend.py)."""
+    if ray is None:
+        return Workers(job, runner_args, workers or default_workers(), retries)
+    from .ray_backend import RayWorkers
+
+    return RayWorkers(job, runner_args, workers, ray, retries)

@@ -31,7 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict
 
 from cmdp_pymunk.events import write_atomic
 
-from .episodes import EpisodeRunner, Workers
+from .episodes import Backend, EpisodeRunner, open_backend
 from .task_priority import TaskPriorityEvaluator
 
 Count = Annotated[int, Strict(), Field(gt=0)]
@@ -153,11 +153,13 @@ def offspring(population: list, config: GAConfig) -> list:
                              config.crossover_prob, config.mutation_prob)
 
 
-def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = False,
-           progress: bool = True) -> GAState:
+def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: bool = False,
+           progress: bool = True, ray: str | None = None) -> GAState:
     """Search, writing ``out/checkpoint.pkl`` after every generation, ``out/history.csv`` and
     ``out/best.json`` (the best priority file so far). ``resume`` continues from the
-    checkpoint (which must come from the same config, up to ``generations``)."""
+    checkpoint (which must come from the same config, up to ``generations``). The episodes
+    run on ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
+    address; ``agents.episodes.open_backend``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -186,7 +188,7 @@ def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = F
                desc="GA", initial=min(total, state.generation * config.population
                                       * len(config.train_seeds)))
 
-    def evaluate(genes_list: list[tuple], pool: Workers) -> list[float]:
+    def evaluate(genes_list: list[tuple], pool: Backend) -> list[float]:
         todo = [g for g in dict.fromkeys(genes_list) if g not in state.cache]
         jobs = [(g, s, config.distance_weight, config.navigator, config.base)
                 for g in todo for s in config.train_seeds]
@@ -203,7 +205,9 @@ def run_ga(case, config: GAConfig, out: Path, workers: int = 1, resume: bool = F
         bar.update(n * (len(genes_list) - len(todo)))  # cached: counted as done
         return [state.cache[g] for g in genes_list]
 
-    with Workers(_evaluate_job, runner_args, workers) as pool:
+    rng_state = random.getstate()  # DEAP draws from the global `random`, and ray.init
+    with open_backend(_evaluate_job, runner_args, workers, ray) as pool:  # draws from it too
+        random.setstate(rng_state)
         if not state.population:
             first = successor_genes(case) if config.base == "none" else [0.5] * len(task_ids)
             genes = [tuple(first)] if config.seed_successors else []

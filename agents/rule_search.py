@@ -40,7 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, mode
 
 from cmdp_pymunk.events import write_atomic
 
-from .episodes import EpisodeRunner, Workers
+from .episodes import EpisodeRunner, open_backend
 from .features import FEATURE_NAMES
 from .ga import unfinished_makespan_s
 from .student import StudentEvaluator
@@ -168,13 +168,16 @@ def new_strategy(config: RuleSearchConfig):
     return cma.CMAEvolutionStrategy(np.zeros(len(config.features)), config.sigma0, options)
 
 
-def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
-                resume: bool = False, progress: bool = True) -> SearchState:
+def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None = 1,
+                resume: bool = False, progress: bool = True,
+                ray: str | None = None) -> SearchState:
     """Run (or resume) the search; writes ``out/checkpoint.pkl`` and ``out/history.csv``
     after every generation and ``out/rule.json`` (a student file, usable as ``--evaluator
     student:out/rule.json``): the distribution's mean after every generation, and the
     selected mean (``choose``) with its selection result at the end. The checkpoint is also
-    written after each checked mean, so a stopped selection resumes too."""
+    written after each checked mean, so a stopped selection resumes too. The floors run on
+    ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
+    address; ``agents.episodes.open_backend``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -216,7 +219,13 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int = 1,
         state.evaluations += len(jobs)
         return rows
 
-    with Workers(_rule_job, runner_args, workers) as pool:
+    import numpy as np
+
+    # CMA-ES samples from numpy's global generator. Starting Ray moved the stdlib's `random`
+    # (the GA's) but not numpy's here; kept across it anyway, as the GA keeps its own.
+    rng_state = np.random.get_state()
+    with open_backend(_rule_job, runner_args, workers, ray) as pool:
+        np.random.set_state(rng_state)
         need = [s for s in sorted(set(config.train_seeds) | set(config.select_seeds))
                 if s not in state.baseline]
         for row in play([(None, config.candidates, s, config.navigator) for s in need]):

@@ -48,3 +48,12 @@ def positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
     return value
+
+
+def add_ray_option(parser: argparse.ArgumentParser) -> None:
+    """``--ray`` (a Ray started on this machine) or ``--ray ADDRESS`` (join that cluster); the
+    value is None without the option, "local" with it alone (docs/ray.md)."""
+    parser.add_argument("--ray", nargs="?", const="local", default=None, metavar="ADDRESS",
+                        help="run the episodes on Ray actors: alone, a Ray started on this "
+                             "machine; with HOST:PORT (or auto), that cluster's (needs "
+                             "pip install -e '.[ray]')")

@@ -1,21 +1,23 @@
 """Distil the lookahead into a cheap evaluator: label decisions, then fit a residual over Eq. 9.
 
     python -m training.distill label --seeds 0-19 --out runs/labels [--futures 0] [--workers 2]
+                                     [--ray [ADDRESS]]
     python -m training.distill fit runs/labels --out models/student_priority.json
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
 decision with two or more candidates, the candidates' features (``agents.features``), their
 Eq. 9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per
-floor, written whole, so a stopped run resumes where it stopped (seeds with a file are
-skipped). ``fit`` fits the student (``agents.student``): per crew type a weight vector w so
-that softmax(beta * (V' + w . phi)) over a decision's candidates matches the teacher's soft
-choice (softmax of minus the makespans over ``tau_s``), with an L2 penalty; every weight 0 is
-Eq. 9 itself. The JSON it writes names the command, the label folder and the seeds.
+floor, written whole as soon as its floor is done, so a stopped run resumes where it stopped
+(seeds with a file are skipped). The floors run in worker processes, or on Ray actors with
+``--ray`` (docs/ray.md). ``fit`` fits the student (``agents.student``): per crew type a
+weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
+the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
+penalty; every weight 0 is Eq. 9 itself. The JSON it writes names the command, the label
+folder and the seeds.
 """
 
 from __future__ import annotations
 
-import multiprocessing
 import sys
 import time
 from pathlib import Path
@@ -86,14 +88,14 @@ def save_labels(path: Path, result: dict, candidates: int) -> None:
     tmp.replace(path)
 
 
-def _label_job(args):
-    case_path, seed, candidates, futures = args
+def _label_job(runner, case_path, seed, candidates, futures):
     return label_floor(case_path, seed, candidates, futures)
 
 
 def label(args) -> int:
     from tqdm import tqdm
 
+    from agents.episodes import open_backend
     from training.evaluate import seed_list
 
     out = Path(args.out)
@@ -103,16 +105,12 @@ def label(args) -> int:
           f"{len(seeds)} to go (candidates {args.candidates}, futures {args.futures}, "
           f"{args.workers} worker(s))", flush=True)
     jobs = [(args.case, s, args.candidates, args.futures) for s in seeds]
-    ctx = multiprocessing.get_context("spawn")
-    with tqdm(total=len(jobs), unit="floor", desc="label", file=sys.stderr) as bar:
-        if args.workers > 1:
-            with ctx.Pool(args.workers) as pool:
-                results = pool.imap_unordered(_label_job, jobs)
-                for result in results:
-                    _report(out, result, args.candidates, bar)
-        else:
-            for job in jobs:
-                _report(out, _label_job(job), args.candidates, bar)
+    # Floors in worker processes, or on Ray actors (--ray): each file is written here as its
+    # floor arrives, so a stopped run keeps every finished floor.
+    with tqdm(total=len(jobs), unit="floor", desc="label", file=sys.stderr) as bar, \
+            open_backend(_label_job, None, args.workers or None, args.ray) as pool:
+        for _, result in pool.as_completed(jobs):
+            _report(out, result, args.candidates, bar)
     return 0
 
 
@@ -208,7 +206,8 @@ def fit(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from training.cli import OneLineParser
+    from agents.episodes import BackendError
+    from training.cli import OneLineParser, add_ray_option
 
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = OneLineParser(prog="python -m training.distill", description=__doc__.split("\n")[0])
@@ -219,7 +218,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--candidates", type=int, default=3, help="top-k of Eq. 9 tried")
     p.add_argument("--futures", type=int, default=0,
                    help="sampled futures per candidate (0: the floor's own durations)")
-    p.add_argument("--workers", type=int, default=1, help="worker processes")
+    p.add_argument("--workers", type=int, default=1,
+                   help="worker processes, or Ray actors with --ray (0 with --ray ADDRESS: one "
+                        "per CPU of the cluster)")
+    add_ray_option(p)
     p.add_argument("--out", default="runs/labels", help="label folder (resumes)")
     f = sub.add_parser("fit", help="fit the student to a label folder")
     f.add_argument("labels", help="label folder made by `label`")
@@ -231,7 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     args.argv = argv
     try:
         return label(args) if args.command == "label" else fit(args)
-    except ValueError as err:
+    except (ValueError, BackendError) as err:
         print(f"distill: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

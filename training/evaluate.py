@@ -1,14 +1,19 @@
 """``cmdp-evaluate``: compare target strategies over many seeds (section 5.3, Figs. 12-14).
 
     cmdp-evaluate [--case FILE] [--seeds 0-19] [--strategies priority,nearest,ga:PATH,cpsat,M.zip]
-                  [--navigators scripted,MODEL.zip] [--workers N] [--out DIR] [--cpsat-s 20]
+                  [--navigators scripted,MODEL.zip] [--workers N] [--ray [ADDRESS]]
+                  [--out DIR] [--resume] [--cpsat-s 20]
 
 Runs every seed x strategy x low level (the evaluators of ``cmdp-simulate --evaluator``,
-including a stage-2 model ``.zip``; the low levels of ``--navigator``) in worker processes;
-the same seeds give the same episodes whatever the number of workers. ``cpsat`` is solved
-once here (``--cpsat-s`` seconds) and its plan, saved as ``cpsat_plan.json``, is replayed.
-Writes into DIR:
+including a stage-2 model ``.zip``; the low levels of ``--navigator``) in worker processes,
+or on Ray actors with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster;
+docs/ray.md); the same seeds give the same episodes whatever the backend and the number of
+workers. ``cpsat`` is solved once here (``--cpsat-s`` seconds) and its plan, saved as
+``cpsat_plan.json``, is replayed. Writes into DIR:
 
+- ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish:
+  a stopped run (Ctrl-C, a lost worker) keeps them, and ``--resume`` runs only the others
+  (with the same settings and the saved CP-SAT plan);
 - ``episodes.csv``: one row per episode: makespan, reaching steps, idle steps by cause (with
   the crew-seconds each kind of disruption kept crews from working), crane waits, reach
   rate, whether it stalled or timed out (and why), wall seconds;
@@ -20,7 +25,10 @@ Writes into DIR:
 - ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``;
 - ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer, versions and the command.
 
-Exit status 1 if any episode stalled or timed out, 2 for bad arguments or a bad case.
+The files above ``episodes.jsonl`` are written at the end, each atomically: a stopped run
+leaves none of them half-written. Exit status 1 if any episode stalled, timed out or was lost
+with its worker, 2 for bad arguments, a bad case or a Ray that cannot run the episodes (before
+any episode), 130 on Ctrl-C.
 """
 
 from __future__ import annotations
@@ -28,16 +36,25 @@ from __future__ import annotations
 import json
 import sys
 import time
+from contextlib import nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import ROW_FIELDS, EpisodeRunner, Workers, default_workers, make_env
+from agents.episodes import (
+    ROW_FIELDS,
+    BackendError,
+    EpisodeRunner,
+    WorkerLost,
+    make_env,
+    open_backend,
+)
 from agents.specs import make_evaluator, make_navigator
 from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, positive_int, positive_seconds
+from training.cli import OneLineParser, add_ray_option, positive_int, positive_seconds
 from training.comparison import csv_text, markdown_table, summarize
 
 
@@ -71,7 +88,7 @@ class EvaluateArgs:
     seeds: list[int]
     strategies: list[str]
     navigators: list[str]
-    workers: int
+    workers: int | None  # None: every core (local), every CPU of the cluster (Ray)
     out: Path
     stall_s: float
     max_time_s: float | None
@@ -79,6 +96,8 @@ class EvaluateArgs:
     deterministic: bool
     figures: bool
     progress: bool
+    ray: str | None = None  # None: worker processes here; "local": a Ray started here
+    resume: bool = False
 
 
 def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
@@ -92,9 +111,13 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "cpsat:PATH, a stage-2 model .zip (default: priority,nearest,cpsat)")
     p.add_argument("--navigators", type=spec_list, default=["scripted"],
                    help="comma-separated low levels: scripted, a stage-1 model .zip")
-    p.add_argument("--workers", type=positive_int, default=default_workers(),
-                   help="worker processes (default: every core)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="worker processes, or Ray actors with --ray (default: every core; "
+                        "with --ray ADDRESS, every CPU of the cluster)")
+    add_ray_option(p)
     p.add_argument("--out", type=Path, default=Path("out/evaluate"))
+    p.add_argument("--resume", action="store_true",
+                   help="keep the episodes in DIR/episodes.jsonl and run only the others")
     p.add_argument("--stall-s", type=positive_seconds, default=3600.0)
     p.add_argument("--max-time-s", type=positive_seconds, default=None)
     p.add_argument("--cpsat-s", type=positive_seconds, default=20.0,
@@ -111,7 +134,7 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
             p.error(f"{name} names one twice")
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
-                        not a.no_figures, not a.no_progress)
+                        not a.no_figures, not a.no_progress, a.ray, a.resume)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
@@ -129,81 +152,203 @@ def check_specs(case, strategies: list[str], navigators: list[str],
         make_navigator(spec, env, deterministic)
 
 
-def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str]) -> list[dict]:
-    """Every (navigator, strategy, seed) episode, in that order; ``run_specs`` maps a strategy
-    to the spec the workers load (``cpsat`` -> its saved plan)."""
-    from tqdm import tqdm
+def _check_worker(runner: EpisodeRunner, strategies: list[str], navigators: list[str],
+                  deterministic: bool) -> str:
+    """``check_specs`` in a (Ray) worker: its files are the ones that count. An error as one
+    line naming the worker's host ("" if all is well)."""
+    import socket
 
-    jobs = [(run_specs[s], n, seed) for n in args.navigators for s in args.strategies
-            for seed in args.seeds]
-    labels = [(s, n, seed) for n in args.navigators for s in args.strategies
-              for seed in args.seeds]
+    try:
+        check_specs(runner.case, strategies, navigators, deterministic)
+    except (ValueError, OSError) as err:
+        return f"on worker host {socket.gethostname()}: {err}"
+    return ""
+
+
+LOG = "episodes.jsonl"
+
+
+def episode_jobs(args: EvaluateArgs) -> list[tuple[str, str, int]]:
+    """Every (strategy, navigator, seed), navigator first, then strategy, then seed."""
+    return [(s, n, seed) for n in args.navigators for s in args.strategies for seed in args.seeds]
+
+
+def read_log(path: Path) -> list[dict]:
+    """The rows of ``episodes.jsonl``; a last line cut short by a killed run is dropped."""
     rows = []
-    bar = tqdm(total=len(jobs), unit="episode", disable=not args.progress, mininterval=1.0,
-               desc="cmdp-evaluate")
-    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
-    with Workers(_episode_job, runner_args, args.workers) as pool:
-        for (strategy, navigator, seed), row in zip(labels, pool.imap(jobs), strict=True):
-            rows.append({"strategy": strategy, "navigator": navigator, "seed": seed, **row})
-            bar.update(1)
-            bar.set_postfix_str(f"{strategy} seed {seed}", refresh=False)
-    bar.close()
+    if path.is_file():
+        for line in path.read_text().splitlines():
+            try:
+                rows.append(json.loads(line))
+            except json.JSONDecodeError:
+                break
     return rows
 
 
+def resume_settings(case, args: EvaluateArgs) -> dict:
+    """What must not change between a run and its ``--resume``."""
+    return {"case": case.model_dump(mode="json"),
+            **{k: getattr(args, k) for k in ("stall_s", "max_time_s", "deterministic")}}
+
+
+def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
+             done: list[dict] | None = None) -> list[dict]:
+    """Every (navigator, strategy, seed) episode, in that order; ``run_specs`` maps a strategy
+    to the spec the workers load (``cpsat`` -> its saved plan). ``pool``: an open backend
+    (default: ``args.workers`` local processes). ``done``: the rows of an earlier run in the
+    same folder (``--resume``): those this run asks for are not run again, and all of them
+    stay in the log. Each new row is appended to ``args.out/episodes.jsonl`` as it arrives; a lost
+    worker's episodes raise ``WorkerLost`` after all the others were written."""
+    from tqdm import tqdm
+
+    labels = episode_jobs(args)
+    rows = {(r["strategy"], r["navigator"], r["seed"]): r for r in done or []}
+    todo = [k for k in labels if k not in rows]
+    jobs = [(run_specs[s], n, seed) for s, n, seed in todo]
+    bar = tqdm(total=len(labels), initial=len(labels) - len(todo), unit="episode",
+               disable=not args.progress, mininterval=1.0, desc="cmdp-evaluate")
+    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
+    log_path = args.out / LOG
+    with log_path.open("a" if done else "w") as log:
+        if done:  # the earlier rows only (a cut last line is dropped)
+            log.seek(0)
+            log.truncate()
+            log.writelines(json.dumps(r) + "\n" for r in done)
+            log.flush()
+        try:
+            with nullcontext(pool) if pool is not None else \
+                    open_backend(_episode_job, runner_args, args.workers) as backend:
+                for i, row in backend.as_completed(jobs):
+                    strategy, navigator, seed = todo[i]
+                    row = {"strategy": strategy, "navigator": navigator, "seed": seed, **row}
+                    log.write(json.dumps(row) + "\n")
+                    log.flush()
+                    rows[todo[i]] = row
+                    bar.update(1)
+                    bar.set_postfix_str(f"{strategy} seed {seed}", refresh=False)
+        finally:
+            bar.close()
+    return [rows[k] for k in labels]
+
+
+class _Stop(Exception):
+    """A bad setting found after the arguments were parsed: exit 2 with this line."""
+
+
 def main(argv: list[str] | None = None) -> int:
+    """The command; Ctrl-C stops it with one line and exit status 130, keeping the finished
+    episodes in DIR/episodes.jsonl."""
     args = parse_args(argv)
     try:
+        with sigint_guard():
+            return _main(args)
+    except KeyboardInterrupt:
+        kept = len(read_log(args.out / LOG))
+        print(f"\ncmdp-evaluate: interrupted; {kept} finished episode(s) kept in "
+              f"{args.out / LOG}; to finish, rerun with --resume", file=sys.stderr)
+        return 130
+    except (_Stop, BackendError) as err:
+        print(f"cmdp-evaluate: {err}", file=sys.stderr)
+        return 2
+
+
+def _main(args: EvaluateArgs) -> int:
+    from cmdp_pymunk import interrupt
+
+    try:
         case = cmdp_pymunk.load_case(args.case)
-        run_specs = {s: s for s in args.strategies}
         check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
                     args.deterministic)
     except ValueError as err:  # CaseError is a ValueError
-        print(f"cmdp-evaluate: {err}", file=sys.stderr)
-        return 2
+        raise _Stop(str(err)) from None
+    run_specs = {s: s for s in args.strategies}
+    done = _resumable(case, args) if args.resume else []
     args.out.mkdir(parents=True, exist_ok=True)
-    lb = lower_bound(case)
-    from agents.cpsat import save_plan, solve
+    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
+    # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
+    with open_backend(_episode_job, runner_args, args.workers, args.ray) as pool:
+        lb = lower_bound(case)
+        from agents.cpsat import save_plan, solve
 
-    cpsat = solve(case, args.cpsat_s)
-    print(f"cmdp-evaluate: case {case.case.name!r}: lower bound {lb.lower_bound_s:,.0f} s; "
-          f"CP-SAT bound {cpsat.bound_s:,.0f} s "
-          f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
-          f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
-    if "cpsat" in args.strategies:
+        cpsat = solve(case, args.cpsat_s)
+        print(f"cmdp-evaluate: case {case.case.name!r}: lower bound {lb.lower_bound_s:,.0f} s; "
+              f"CP-SAT bound {cpsat.bound_s:,.0f} s "
+              f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
+              f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
+        if "cpsat" in args.strategies:
+            plan = args.out / "cpsat_plan.json"
+            if args.resume and plan.is_file():  # the kept episodes replayed this plan
+                run_specs["cpsat"] = f"cpsat:{plan}"
+            else:
+                try:
+                    run_specs["cpsat"] = f"cpsat:{save_plan(plan, case, cpsat)}"
+                except ValueError as err:
+                    raise _Stop(str(err)) from None
+        problems = [p for p in pool.check_each(_check_worker, list(run_specs.values()),
+                                               args.navigators, args.deterministic) if p]
+        if problems:
+            raise _Stop(f"{problems[0]}; fix: put the file at the same path on every node "
+                        "(a shared file system), docs/ray.md")
+        write_atomic(args.out / "resume.json", json.dumps(resume_settings(case, args)) + "\n")
+        n = len(args.seeds) * len(args.strategies) * len(args.navigators)
+        wanted = set(episode_jobs(args))
+        kept = sum((r["strategy"], r["navigator"], r["seed"]) in wanted for r in done)
+        print(f"cmdp-evaluate: {n} episodes ({len(args.strategies)} strategies x "
+              f"{len(args.navigators)} low level(s) x {len(args.seeds)} seeds"
+              + (f", {kept} kept from the earlier run" if kept else "")
+              + f"), {pool.label}", flush=True)
+        start = time.perf_counter()
         try:
-            run_specs["cpsat"] = f"cpsat:{save_plan(args.out / 'cpsat_plan.json', case, cpsat)}"
-        except ValueError as err:
-            print(f"cmdp-evaluate: {err}", file=sys.stderr)
-            return 2
-    n = len(args.seeds) * len(args.strategies) * len(args.navigators)
-    print(f"cmdp-evaluate: {n} episodes ({len(args.strategies)} strategies x "
-          f"{len(args.navigators)} low level(s) x {len(args.seeds)} seeds), "
-          f"{args.workers} worker(s)")
-    start = time.perf_counter()
-    rows = evaluate(case, args, run_specs)
-    wall = time.perf_counter() - start
+            rows = evaluate(case, args, run_specs, pool, done)
+        except WorkerLost as err:
+            print(f"cmdp-evaluate: {err}; the finished episodes are in {args.out / LOG}; "
+                  "rerun with --resume to run the lost ones again", file=sys.stderr)
+            return 1
+        wall = time.perf_counter() - start
+    ran = len(rows) - kept
     summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s)
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS]
-    write_atomic(args.out / "episodes.csv", csv_text(rows, fields))
-    write_atomic(args.out / "summary.csv", csv_text(summary, list(summary[0])))
     table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict())
-    write_atomic(args.out / "summary.md", table)
-    write_atomic(args.out / "summary.json", json.dumps(summary, indent=1) + "\n")
-    settings = {**asdict(args), "case": case.case.name,
-                "case_file": str(args.case) if args.case else "built-in",
+    settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
+                "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
                 "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict(), "episodes": len(rows),
-                "wall_s": round(wall, 1), "episodes_per_s": round(len(rows) / wall, 3),
+                "episodes_resumed": kept, "wall_s": round(wall, 1),
+                "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
                 "command": sys.argv, "versions": versions()}
-    write_atomic(args.out / "settings.json", json.dumps(settings, indent=2, default=str) + "\n")
-    if args.figures:
-        from media.comparison import draw_comparison
+    # A Ctrl-C while the results are written is held until all of them are.
+    interrupt.enter()
+    try:
+        write_atomic(args.out / "episodes.csv", csv_text(rows, fields))
+        write_atomic(args.out / "summary.csv", csv_text(summary, list(summary[0])))
+        write_atomic(args.out / "summary.md", table)
+        write_atomic(args.out / "summary.json", json.dumps(summary, indent=1) + "\n")
+        write_atomic(args.out / "settings.json",
+                     json.dumps(settings, indent=2, default=str) + "\n")
+        if args.figures:
+            from media.comparison import draw_comparison
 
-        draw_comparison(rows, args.out)
+            draw_comparison(rows, args.out)
+    finally:
+        interrupt.leave()
     print(table, end="")
-    print(f"cmdp-evaluate: {len(rows)} episodes in {wall:.0f} s "
-          f"({len(rows) / wall:.2f} episodes/s) -> {args.out}")
+    print(f"cmdp-evaluate: {ran} episodes in {wall:.0f} s "
+          f"({ran / max(wall, 1e-9):.2f} episodes/s) -> {args.out}")
     return 1 if any(not r["finished"] for r in rows) else 0
+
+
+def _resumable(case, args: EvaluateArgs) -> list[dict]:
+    """The rows of an earlier run in ``args.out`` (``--resume``), if its settings match."""
+    saved = args.out / "resume.json"
+    if not saved.is_file():
+        raise _Stop(f"--resume: {saved} not found: no earlier run in {args.out}; fix: drop "
+                    "--resume, or give the --out of the run to finish")
+    before = json.loads(saved.read_text())
+    now = json.loads(json.dumps(resume_settings(case, args)))
+    changed = sorted(k for k in now if before.get(k) != now[k])
+    if changed:
+        raise _Stop(f"--resume: the run in {args.out} used other settings ({', '.join(changed)}); "
+                    "fix: resume with the same ones, or start a new --out")
+    return read_log(args.out / LOG)
 
 
 def entry_point() -> None:

@@ -1,7 +1,10 @@
 """``cmdp-ga``: search task priorities with a genetic algorithm (section 5.3's GA baseline).
 
     cmdp-ga [--config training/configs/ga.toml] [--set key=value ...] [--workers N]
-            [--out DIR] [--resume]
+            [--ray [ADDRESS]] [--out DIR] [--resume]
+
+The episodes run in worker processes, or on Ray actors with ``--ray`` (a Ray started here)
+or ``--ray ADDRESS`` (a cluster; docs/ray.md): the same search either way.
 
 Writes into DIR: ``best.json`` (the best priority file so far: use it with
 ``cmdp-simulate --evaluator ga:DIR/best.json``), ``history.csv`` (best, mean and worst
@@ -18,11 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import default_workers
+from agents.episodes import BackendError, default_workers
 from agents.ga import GAConfig, run_ga
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, positive_int
+from training.cli import OneLineParser, add_ray_option, positive_int
 from training.config import RunConfig
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
@@ -32,10 +35,11 @@ DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
 class GAArgs:
     config: Path
     overrides: tuple[str, ...]
-    workers: int
+    workers: int | None
     out: Path
     resume: bool
     progress: bool
+    ray: str | None = None
 
 
 def parse_args(argv: list[str] | None = None) -> GAArgs:
@@ -44,14 +48,17 @@ def parse_args(argv: list[str] | None = None) -> GAArgs:
     p.add_argument("--config", type=Path, default=DEFAULT_CONFIG)
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a setting of the config")
-    p.add_argument("--workers", type=positive_int, default=default_workers(),
-                   help="worker processes for the episodes (default: every core)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="worker processes for the episodes, or Ray actors with --ray "
+                        "(default: every core; with --ray ADDRESS, every CPU of the cluster)")
+    add_ray_option(p)
     p.add_argument("--out", type=Path, default=Path("runs/ga"))
     p.add_argument("--resume", action="store_true",
                    help="continue from DIR/checkpoint.pkl")
     p.add_argument("--no-progress", action="store_true")
     a = p.parse_args(argv)
-    return GAArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress)
+    return GAArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress,
+                  a.ray)
 
 
 class GARunConfig(GAConfig, RunConfig):
@@ -75,14 +82,16 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     write_atomic(args.out / "config.json", json.dumps(
         {"config": config.model_dump(), "case": case.model_dump(mode="json"),
-         "workers": args.workers, "command": sys.argv, "versions": versions()},
+         "workers": args.workers, "ray": args.ray, "command": sys.argv, "versions": versions()},
         indent=2) + "\n")
     print(f"cmdp-ga: case {case.case.name!r}, {len(case.tasks)} genes, population "
           f"{config.population}, {config.generations} generations, training seeds "
-          f"{config.train_seeds}, {args.workers} worker(s)")
+          f"{config.train_seeds}, " + (f"Ray ({args.ray})" if args.ray else
+                                        f"{args.workers or default_workers()} worker(s)"))
     try:
-        state = run_ga(case, config, args.out, args.workers, args.resume, args.progress)
-    except ValueError as err:
+        state = run_ga(case, config, args.out, args.workers, args.resume, args.progress,
+                       args.ray)
+    except (ValueError, BackendError) as err:
         print(f"cmdp-ga: {err}", file=sys.stderr)
         return 2
     for row in state.log:

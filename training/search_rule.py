@@ -1,7 +1,7 @@
 """``cmdp-search-rule``: search the weights of an extended Eq. 9 with CMA-ES (issue 17, item 7).
 
     cmdp-search-rule [--config training/configs/rule_search.toml] [--set key=value ...]
-                     [--workers N] [--out DIR] [--resume]
+                     [--workers N] [--ray [ADDRESS]] [--out DIR] [--resume]
 
 Writes into DIR: ``rule.json`` (the search's current estimate as a student file: use it
 with ``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean that did best
@@ -9,7 +9,8 @@ against Eq. 9 on the selection seeds, with that check), ``history.csv`` (per gen
 and mean paired difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after
 every generation; ``--resume`` continues from it exactly) and ``config.json`` (settings, case,
 versions, command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one
-exits with 2 naming it and the fix.
+exits with 2 naming it and the fix. The floors run in worker processes, or on Ray actors with
+``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster; docs/ray.md).
 """
 
 from __future__ import annotations
@@ -20,11 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import default_workers
+from agents.episodes import BackendError, default_workers
 from agents.rule_search import RuleSearchConfig, search_rule
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, positive_int
+from training.cli import OneLineParser, add_ray_option, positive_int
 from training.config import RunConfig
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "rule_search.toml"
@@ -34,10 +35,11 @@ DEFAULT_CONFIG = Path(__file__).with_name("configs") / "rule_search.toml"
 class SearchArgs:
     config: Path
     overrides: tuple[str, ...]
-    workers: int
+    workers: int | None
     out: Path
     resume: bool
     progress: bool
+    ray: str | None = None
 
 
 def parse_args(argv: list[str] | None = None) -> SearchArgs:
@@ -47,14 +49,17 @@ def parse_args(argv: list[str] | None = None) -> SearchArgs:
                    help="the search's settings (TOML; default: the shipped one)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override a setting of the config, e.g. --set generations=4")
-    p.add_argument("--workers", type=positive_int, default=default_workers(),
-                   help="worker processes for the floors (default: every core)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="worker processes for the floors, or Ray actors with --ray (default: "
+                        "every core; with --ray ADDRESS, every CPU of the cluster)")
+    add_ray_option(p)
     p.add_argument("--out", type=Path, default=Path("runs/rule_search"),
                    help="folder for rule.json, history.csv and the checkpoint")
     p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.pkl")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     a = p.parse_args(argv)
-    return SearchArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress)
+    return SearchArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress,
+                      a.ray)
 
 
 class RuleSearchRunConfig(RuleSearchConfig, RunConfig):
@@ -73,14 +78,17 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     write_atomic(args.out / "config.json", json.dumps(
         {"config": config.model_dump(), "case": case.model_dump(mode="json"),
-         "workers": args.workers, "command": sys.argv, "versions": versions()},
+         "workers": args.workers, "ray": args.ray, "command": sys.argv, "versions": versions()},
         indent=2) + "\n")
     print(f"cmdp-search-rule: case {case.case.name!r}, weights of {', '.join(config.features)}; "
           f"{config.generations} generations x {config.seeds_per_generation} of "
-          f"{len(config.train_seeds)} training seeds; {args.workers} worker(s)")
+          f"{len(config.train_seeds)} training seeds; " + (
+              f"Ray ({args.ray})" if args.ray else
+              f"{args.workers or default_workers()} worker(s)"))
     try:
-        state = search_rule(case, config, args.out, args.workers, args.resume, args.progress)
-    except ValueError as err:
+        state = search_rule(case, config, args.out, args.workers, args.resume, args.progress,
+                            args.ray)
+    except (ValueError, BackendError) as err:
         print(f"cmdp-search-rule: {err}", file=sys.stderr)
         return 2
     for row in state.log:
