@@ -31,6 +31,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict
 
 from cmdp_pymunk.events import write_atomic
 
+from .checkpoint import resume_state
 from .episodes import Backend, EpisodeRunner, open_backend
 from .task_priority import TaskPriorityEvaluator
 
@@ -167,17 +168,8 @@ def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: b
     settings = config.model_dump()
     limit = config.max_time_s or case.simulation.max_time_s
     if resume:
-        if not checkpoint.is_file():
-            raise ValueError(f"{checkpoint}: no checkpoint to resume from; fix: drop --resume "
-                             "or give the folder of an earlier run")
-        state: GAState = pickle.loads(checkpoint.read_bytes())
-        changed = sorted(k for k in settings if k != "generations"  # more generations: fine
-                         and state.config.get(k) != settings[k])
-        if changed:
-            raise ValueError(f"{checkpoint}: made with other settings ({', '.join(changed)}); "
-                             "fix: resume with the same config, or start a new --out")
+        state: GAState = resume_state(checkpoint, config)
         random.setstate(state.random_state)
-        state.config = settings
     else:
         random.seed(config.seed)
         state = GAState(0, [], [], config=settings)

@@ -40,6 +40,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, mode
 
 from cmdp_pymunk.events import write_atomic
 
+from .checkpoint import resume_state
 from .episodes import EpisodeRunner, open_backend
 from .features import FEATURE_NAMES
 from .ga import unfinished_makespan_s
@@ -185,18 +186,8 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
     settings = config.model_dump()
     limit = config.max_time_s or case.simulation.max_time_s
     if resume:
-        if not checkpoint.is_file():
-            raise ValueError(f"{checkpoint}: no checkpoint to resume from; fix: drop --resume "
-                             "or give the folder of an earlier run")
-        state: SearchState = pickle.loads(checkpoint.read_bytes())
+        state: SearchState = resume_state(checkpoint, config)
         state.checked = getattr(state, "checked", {})  # a checkpoint from before select_every
-        defaults = {k: f.default for k, f in RuleSearchConfig.model_fields.items()}
-        changed = sorted(k for k in settings if k != "generations"  # a setting added since:
-                         and state.config.get(k, defaults[k]) != settings[k])  # its default
-        if changed:
-            raise ValueError(f"{checkpoint}: made with other settings ({', '.join(changed)}); "
-                             "fix: resume with the same config, or start a new --out")
-        state.config = settings
         if state.generation < config.generations:
             state.selection = None  # more generations: the old selection no longer holds
     else:

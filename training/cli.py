@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from dataclasses import dataclass
+from pathlib import Path
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -57,3 +59,62 @@ def add_ray_option(parser: argparse.ArgumentParser) -> None:
                         help="run the episodes on Ray actors: alone, a Ray started on this "
                              "machine; with HOST:PORT (or auto), that cluster's (needs "
                              "pip install -e '.[ray]')")
+
+
+def write_search_settings(out, config, case, workers, ray) -> None:
+    """A search's ``config.json`` in ``out`` (made here): settings, case, workers or Ray
+    address, the command and the versions, written whole."""
+    import json
+
+    from cmdp_pymunk.events import write_atomic
+    from cmdp_pymunk.rollout import versions
+
+    out.mkdir(parents=True, exist_ok=True)
+    write_atomic(out / "config.json", json.dumps(
+        {"config": config.model_dump(), "case": case.model_dump(mode="json"),
+         "workers": workers, "ray": ray, "command": sys.argv, "versions": versions()},
+        indent=2) + "\n")
+
+
+def workers_label(workers, ray) -> str:
+    """How a run's episodes are spread, for its first line."""
+    from agents.episodes import default_workers
+
+    return f"Ray ({ray})" if ray else f"{workers or default_workers()} worker(s)"
+
+
+@dataclass(frozen=True)
+class SearchArgs:
+    """A search command's options (``cmdp-ga``, ``cmdp-search-rule``)."""
+
+    config: Path
+    overrides: tuple[str, ...]
+    workers: int | None
+    out: Path
+    resume: bool
+    progress: bool
+    ray: str | None = None
+
+
+def parse_search_args(prog: str, doc: str, default_config: Path, default_out: Path,
+                      writes: str, argv: list[str] | None = None) -> SearchArgs:
+    """The options every search command has: --config, --set, --workers, --ray, --out (which
+    holds ``writes``), --resume, --no-progress; ``doc``: the command's module docstring."""
+    import cmdp_pymunk
+
+    p = OneLineParser(prog=prog, description=" ".join(doc.split("\n\n")[0].replace("``", "").split()))
+    cmdp_pymunk.add_version_flag(p)
+    p.add_argument("--config", type=Path, default=default_config,
+                   help="the search's settings (TOML; default: the shipped one)")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override a setting of the config, e.g. --set generations=4")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="worker processes for the floors, or Ray actors with --ray (default: "
+                        "every core; with --ray ADDRESS, every CPU of the cluster)")
+    add_ray_option(p)
+    p.add_argument("--out", type=Path, default=default_out, help=f"folder for {writes}")
+    p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.pkl")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    a = p.parse_args(argv)
+    return SearchArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress,
+                      a.ray)

@@ -15,50 +15,26 @@ The settings are ``agents.ga.GAConfig``'s; a bad one exits with 2 naming it and 
 
 from __future__ import annotations
 
-import json
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import BackendError, default_workers
+from agents.episodes import BackendError
 from agents.ga import GAConfig, run_ga
-from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, add_ray_option, positive_int
+from training.cli import (
+    SearchArgs,
+    parse_search_args,
+    workers_label,
+    write_search_settings,
+)
 from training.config import RunConfig
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
 
 
-@dataclass(frozen=True)
-class GAArgs:
-    config: Path
-    overrides: tuple[str, ...]
-    workers: int | None
-    out: Path
-    resume: bool
-    progress: bool
-    ray: str | None = None
-
-
-def parse_args(argv: list[str] | None = None) -> GAArgs:
-    p = OneLineParser(prog="cmdp-ga", description=__doc__.splitlines()[0])
-    cmdp_pymunk.add_version_flag(p)
-    p.add_argument("--config", type=Path, default=DEFAULT_CONFIG)
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a setting of the config")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="worker processes for the episodes, or Ray actors with --ray "
-                        "(default: every core; with --ray ADDRESS, every CPU of the cluster)")
-    add_ray_option(p)
-    p.add_argument("--out", type=Path, default=Path("runs/ga"))
-    p.add_argument("--resume", action="store_true",
-                   help="continue from DIR/checkpoint.pkl")
-    p.add_argument("--no-progress", action="store_true")
-    a = p.parse_args(argv)
-    return GAArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress,
-                  a.ray)
+def parse_args(argv: list[str] | None = None) -> SearchArgs:
+    return parse_search_args("cmdp-ga", __doc__, DEFAULT_CONFIG, Path("runs/ga"),
+                             "best.json, history.csv and the checkpoint", argv)
 
 
 class GARunConfig(GAConfig, RunConfig):
@@ -79,15 +55,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as err:  # CaseError is a ValueError
         print(f"cmdp-ga: {err}", file=sys.stderr)
         return 2
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_atomic(args.out / "config.json", json.dumps(
-        {"config": config.model_dump(), "case": case.model_dump(mode="json"),
-         "workers": args.workers, "ray": args.ray, "command": sys.argv, "versions": versions()},
-        indent=2) + "\n")
+    write_search_settings(args.out, config, case, args.workers, args.ray)
     print(f"cmdp-ga: case {case.case.name!r}, {len(case.tasks)} genes, population "
           f"{config.population}, {config.generations} generations, training seeds "
-          f"{config.train_seeds}, " + (f"Ray ({args.ray})" if args.ray else
-                                        f"{args.workers or default_workers()} worker(s)"))
+          f"{config.train_seeds}, " + workers_label(args.workers, args.ray))
     try:
         state = run_ga(case, config, args.out, args.workers, args.resume, args.progress,
                        args.ray)

@@ -15,51 +15,26 @@ exits with 2 naming it and the fix. The floors run in worker processes, or on Ra
 
 from __future__ import annotations
 
-import json
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import BackendError, default_workers
+from agents.episodes import BackendError
 from agents.rule_search import RuleSearchConfig, search_rule
-from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, add_ray_option, positive_int
+from training.cli import (
+    SearchArgs,
+    parse_search_args,
+    workers_label,
+    write_search_settings,
+)
 from training.config import RunConfig
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "rule_search.toml"
 
 
-@dataclass(frozen=True)
-class SearchArgs:
-    config: Path
-    overrides: tuple[str, ...]
-    workers: int | None
-    out: Path
-    resume: bool
-    progress: bool
-    ray: str | None = None
-
-
 def parse_args(argv: list[str] | None = None) -> SearchArgs:
-    p = OneLineParser(prog="cmdp-search-rule", description=__doc__.splitlines()[0])
-    cmdp_pymunk.add_version_flag(p)
-    p.add_argument("--config", type=Path, default=DEFAULT_CONFIG,
-                   help="the search's settings (TOML; default: the shipped one)")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a setting of the config, e.g. --set generations=4")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="worker processes for the floors, or Ray actors with --ray (default: "
-                        "every core; with --ray ADDRESS, every CPU of the cluster)")
-    add_ray_option(p)
-    p.add_argument("--out", type=Path, default=Path("runs/rule_search"),
-                   help="folder for rule.json, history.csv and the checkpoint")
-    p.add_argument("--resume", action="store_true", help="continue from DIR/checkpoint.pkl")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    a = p.parse_args(argv)
-    return SearchArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress,
-                      a.ray)
+    return parse_search_args("cmdp-search-rule", __doc__, DEFAULT_CONFIG, Path("runs/rule_search"),
+                             "rule.json, history.csv and the checkpoint", argv)
 
 
 class RuleSearchRunConfig(RuleSearchConfig, RunConfig):
@@ -75,16 +50,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as err:  # CaseError is a ValueError
         print(f"cmdp-search-rule: {err}", file=sys.stderr)
         return 2
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_atomic(args.out / "config.json", json.dumps(
-        {"config": config.model_dump(), "case": case.model_dump(mode="json"),
-         "workers": args.workers, "ray": args.ray, "command": sys.argv, "versions": versions()},
-        indent=2) + "\n")
+    write_search_settings(args.out, config, case, args.workers, args.ray)
     print(f"cmdp-search-rule: case {case.case.name!r}, weights of {', '.join(config.features)}; "
           f"{config.generations} generations x {config.seeds_per_generation} of "
-          f"{len(config.train_seeds)} training seeds; " + (
-              f"Ray ({args.ray})" if args.ray else
-              f"{args.workers or default_workers()} worker(s)"))
+          f"{len(config.train_seeds)} training seeds; " + workers_label(args.workers, args.ray))
     try:
         state = search_rule(case, config, args.out, args.workers, args.resume, args.progress,
                             args.ray)
