@@ -102,7 +102,8 @@ def parse_search_args(prog: str, doc: str, default_config: Path, default_out: Pa
     holds ``writes``), --resume, --no-progress; ``doc``: the command's module docstring."""
     import cmdp_pymunk
 
-    p = OneLineParser(prog=prog, description=" ".join(doc.split("\n\n")[0].replace("``", "").split()))
+    summary = doc.split("\n\n")[0].replace("``", "")  # the first paragraph, no RST marks
+    p = OneLineParser(prog=prog, description=" ".join(summary.split()))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--config", type=Path, default=default_config,
                    help="the search's settings (TOML; default: the shipped one)")
