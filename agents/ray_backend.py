@@ -8,8 +8,10 @@ interface as the local worker processes (``agents.episodes.Backend``): in job or
 ``imap``, as they arrive for ``as_completed``.
 
 A worker process that dies (killed, out of memory, its node lost) loses its actor: a new
-actor is started and the jobs the old one held run again, up to ``retries`` times each; then
-``WorkerLost`` names them (after every other result was handed out). Leaving the block early
+actor is started and the jobs the old one held run again. A job that was alone on a dying
+actor counts a try, up to ``retries``; then ``WorkerLost`` names it (after every other result
+was handed out). When a dying actor held two jobs, neither is blamed (a finished job's result
+can die with the process): both go back and that slot runs one job at a time from then on. Leaving the block early
 (Ctrl-C, an error) kills the actors, which cancels the remote work, and stops a Ray that this
 process started.
 
@@ -215,9 +217,10 @@ class RayWorkers(Backend):
         lost: list[int] = []
         inflight: dict = {}  # ref -> (job index, actor slot)
         load = [0] * len(self._actors)
+        depth = [IN_FLIGHT] * len(self._actors)  # jobs a slot's actor may hold
 
         def submit(slot: int) -> None:
-            while queue and load[slot] < IN_FLIGHT:
+            while queue and load[slot] < depth[slot]:
                 i = queue.popleft()
                 inflight[self._actors[slot].run.remote(jobs[i])] = (i, slot)
                 load[slot] += 1
@@ -230,17 +233,24 @@ class RayWorkers(Backend):
             try:
                 result = ray.get(ref)
             except ray.exceptions.RayActorError:  # the worker process died: a new actor
-                # The actor ran its jobs in the order they were sent: the first was running
-                # (it counts a try), the one behind it had not started (it goes back as is).
+                # Which job killed it is known only when it held one: a job that finished
+                # just before the death can lose its result with the process (seen on a
+                # loaded machine). So a death with several jobs held sends them all back
+                # untried and its slot takes one job at a time from then on; a death with
+                # one job held counts a try against that job.
                 held = [(r, j) for r, (j, s) in inflight.items() if s == slot]
-                for n, (r, j) in enumerate(held):
+                for r, _ in held:
                     del inflight[r]
-                    if n == 0:
-                        tries[j] += 1
+                if len(held) == 1:
+                    j = held[0][1]
+                    tries[j] += 1
                     if tries[j] > self.retries:
                         lost.append(j)
                     else:
                         queue.appendleft(j)
+                else:
+                    depth[slot] = 1
+                    queue.extendleft(j for _, j in reversed(held))
                 self._kill(self._actors[slot])
                 self._actors[slot] = self._new_actor()
                 load[slot] = 0
