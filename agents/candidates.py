@@ -129,12 +129,9 @@ def is_candidate_model(path: str | Path) -> bool:
 
 def load_candidate_model(path: str | Path):
     """A MaskablePPO zip (sb3-contrib), on the CPU with one torch thread."""
-    import torch
     from sb3_contrib import MaskablePPO
 
-    torch.set_num_threads(1)
-    try:
-        return MaskablePPO.load(str(path), device="cpu")
-    except Exception as err:  # SB3 raises many kinds for a file that is not its zip
-        raise ValueError(f"{path}: cannot load a MaskablePPO model ({err}); fix: give a .zip "
-                         "written by cmdp-train stage2 with action = candidate") from None
+    from .models import load_model
+
+    return load_model(path, MaskablePPO, "MaskablePPO model", "give a .zip written by "
+                      "cmdp-train stage2 with action = candidate")

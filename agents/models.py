@@ -36,7 +36,10 @@ from cmdp_pymunk.observe import (
 ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0, out=x)}
 
 
-def load_model(path: str | Path):
+def load_model(path: str | Path, algorithm=None, what: str = "PPO model",
+               fix: str = "give a .zip written by model.save()"):
+    """An SB3 zip (``algorithm``'s ``load``, default PPO) on the CPU with one torch thread;
+    a ValueError naming the file and ``fix`` for anything it cannot load."""
     import torch
     from stable_baselines3 import PPO
 
@@ -46,10 +49,10 @@ def load_model(path: str | Path):
     torch.set_num_threads(1)
 
     try:
-        return PPO.load(str(path), device="cpu")
+        return (algorithm or PPO).load(str(path), device="cpu")
     except Exception as err:  # SB3 raises many kinds for a file that is not its zip
-        raise ValueError(f"{path}: cannot load a stable-baselines3 PPO model ({err}); "
-                         "fix: give a .zip written by model.save()") from None
+        raise ValueError(f"{path}: cannot load a stable-baselines3 {what} ({err}); "
+                         f"fix: {fix}") from None
 
 
 def _check_shape(model, expected: int, path, what: str) -> None:

@@ -11,9 +11,9 @@ A worker process that dies (killed, out of memory, its node lost) loses its acto
 actor is started and the jobs the old one held run again. A job that was alone on a dying
 actor counts a try, up to ``retries``; then ``WorkerLost`` names it (after every other result
 was handed out). When a dying actor held two jobs, neither is blamed (a finished job's result
-can die with the process): both go back and that slot runs one job at a time from then on. Leaving the block early
-(Ctrl-C, an error) kills the actors, which cancels the remote work, and stops a Ray that this
-process started.
+can die with the process): both go back and that slot runs one job at a time from then on.
+Leaving the block early (Ctrl-C, an error) kills the actors, which cancels the remote work,
+and stops a Ray that this process started.
 
 What cannot run fails before any job, as a ``ClusterError`` (a ``ValueError``: the commands
 exit 2 with its one line): Ray not installed, an address nobody answers at, workers that
