@@ -17,6 +17,7 @@ Eq. 9's choice (row 0 wins ties: torch's argmax takes the first).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +55,7 @@ class CandidateView:
             raise ValueError(f"candidates = {cap}: the policy needs at least 2 to choose from")
         self.cap = cap
         self.base = PriorityEvaluator()
+        self.low, self.high = observation_bounds(cap)
         self._facts: dict[int, FloorFacts] = {}
 
     def facts(self, site) -> FloorFacts:
@@ -62,31 +64,39 @@ class CandidateView:
             self._facts[key] = FloorFacts.of(site)
         return self._facts[key]
 
-    def rows(self, crew, site, position, positions, out: np.ndarray | None = None):
-        """(observation, mask, targets): the flat rows (padded with zeros), which rows are
-        real, and the target of each real row (best by Eq. 9 first)."""
+    def rows(self, crew, site, position, positions) -> CandidateDecision:
+        """The decision's flat rows (padded with zeros), which rows are real, the target of
+        each (best by Eq. 9 first) and Eq. 9's values of the scope, from one V'."""
         priorities = self.base.priorities(crew, site, position)
-        order = ranked(as_target_values(priorities))[:self.cap]
+        values = as_target_values(priorities)
+        order = ranked(values)[:self.cap]
         width = len(CANDIDATE_COLUMNS)
-        obs = np.zeros(self.cap * width, np.float32) if out is None else out
-        obs[:] = 0.0
+        obs = np.zeros(self.cap * width, np.float32)
         table = obs.reshape(self.cap, width)
         table[:len(order), 0] = [priorities[t] for t in order]
         table[:len(order), 1:] = candidate_features(self.facts(site), crew, site, position,
                                                     order, priorities, positions)
-        low, high = observation_bounds(self.cap)
-        np.clip(obs, low, high, out=obs)
+        np.clip(obs, self.low, self.high, out=obs)
         mask = np.zeros(self.cap, bool)
         mask[:len(order)] = True
-        return obs, mask, order
+        return CandidateDecision(obs, mask, order, values)
 
-    def values(self, crew, site, position, targets: list[int], choice: int) -> dict[int, float]:
-        """V_Tar for the crew's scope when row ``choice`` of ``targets`` is chosen: Eq. 9's
-        values, with that target swapped to the top unless it already is."""
-        values = as_target_values(self.base.priorities(crew, site, position))
+
+@dataclass
+class CandidateDecision:
+    """One decision as the policy sees it (``CandidateView.rows``)."""
+
+    observation: np.ndarray
+    mask: np.ndarray
+    targets: list[int]
+    eq9_values: dict[int, float]
+
+    def values(self, choice: int) -> dict[int, float]:
+        """V_Tar for the crew's scope when row ``choice`` is chosen: Eq. 9's values, with
+        that target swapped to the top unless it already is."""
         if choice == 0:
-            return values
-        return promote(values, targets[choice])
+            return self.eq9_values
+        return promote(self.eq9_values, self.targets[choice])
 
 
 class CandidateModelEvaluator:
@@ -108,9 +118,10 @@ class CandidateModelEvaluator:
     def target_values(self, crew, site, position) -> dict[int, float]:
         if not has_choice(crew):
             return self.view.base.target_values(crew, site, position)
-        obs, mask, targets = self.view.rows(crew, site, position, site.crew_xy)
-        action, _ = self.model.predict(obs[None], action_masks=mask[None], deterministic=True)
-        return self.view.values(crew, site, position, targets, int(action[0]))
+        decision = self.view.rows(crew, site, position, site.crew_xy)
+        action, _ = self.model.predict(decision.observation[None],
+                                       action_masks=decision.mask[None], deterministic=True)
+        return decision.values(int(action[0]))
 
 
 def is_candidate_model(path: str | Path) -> bool:

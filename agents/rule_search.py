@@ -148,8 +148,8 @@ class SearchState:
 def generations_checked(config: RuleSearchConfig) -> list[int]:
     """The generations whose means meet Eq. 9 on the selection seeds."""
     last = config.generations
-    return sorted({g for g in range(1, last + 1) if g % config.select_every == 0} | {last}
-                  - {0})
+    every = {g for g in range(1, last + 1) if g % config.select_every == 0}
+    return sorted(every | ({last} if last > 0 else set()))
 
 
 def total_episodes(config: RuleSearchConfig, popsize: int) -> int:
@@ -188,8 +188,6 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
     if resume:
         state: SearchState = resume_state(checkpoint, config)
         state.checked = getattr(state, "checked", {})  # a checkpoint from before select_every
-        if state.generation < config.generations:
-            state.selection = None  # more generations: the old selection no longer holds
     else:
         state = SearchState(0, new_strategy(config), config=settings)
     popsize = state.es.popsize

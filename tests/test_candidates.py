@@ -35,10 +35,12 @@ def test_another_row_swaps_only_the_first_choice(tiny_env):
     site = env.site
     crew = next(c for c in site.crews if len(c.scope) > 1)
     position = env.positions[crew.index]
-    obs, mask, targets = view.rows(crew, site, position, env.positions)
-    base = view.values(crew, site, position, targets, 0)
-    assert ranked(base)[0] == targets[0] and mask.sum() == len(targets) >= 2
-    swapped = view.values(crew, site, position, targets, 1)
+    decision = view.rows(crew, site, position, env.positions)
+    targets = decision.targets
+    base = decision.values(0)
+    assert base == env.evaluator.target_values(crew, site, position)  # Eq. 9's own values
+    assert ranked(base)[0] == targets[0] and decision.mask.sum() == len(targets) >= 2
+    swapped = decision.values(1)
     assert ranked(swapped)[0] == targets[1]
     assert swapped[targets[0]] == base[targets[1]] and swapped[targets[1]] == base[targets[0]]
     assert all(swapped[t] == base[t] for t in base if t not in targets[:2])

@@ -39,13 +39,12 @@ class CandidateFloor:
         self.floor, self.view = floor, CandidateView(cap)
         self.against_heuristic, self.seed_pool = against_heuristic, seed_pool
         self._heuristic_s: dict[int, float] = {}
+        self._reference: Floor | None = None  # where Eq. 9 plays each seed, made when needed
         self._seed: int | None = None
         self.low, self.high = observation_bounds(cap)
         self.actor_size = len(self.low)
         self.action_space = spaces.Discrete(cap)
-        self._targets: list[int] = []
-        self._mask = np.zeros(cap, bool)
-        self._obs = np.zeros(self.actor_size, np.float32)
+        self._decision = None  # the deciding crew's CandidateDecision
 
     @property
     def engine(self):
@@ -64,13 +63,11 @@ class CandidateFloor:
     def decide(self, action) -> Outcome:
         """Row ``action`` chosen (an index into the last observation's rows)."""
         k = int(np.asarray(action).reshape(-1)[0])
-        if not 0 <= k < len(self._targets):
-            raise ValueError(f"action {k}: only rows 0-{len(self._targets) - 1} are real "
-                             "(mask the others: action_masks())")
-        engine, i = self.floor.engine, self.floor.deciding
-        values = self.view.values(engine.site.crews[i], engine.site, engine.positions[i],
-                                  self._targets, k)
-        return self._to_choice(self.floor.value_scope(values))
+        n = len(self._decision.targets)
+        if not 0 <= k < n:
+            raise ValueError(f"action {k}: only rows 0-{n - 1} are real (mask the others: "
+                             "action_masks())")
+        return self._to_choice(self.floor.value_scope(self._decision.values(k)))
 
     def _to_choice(self, out: Outcome) -> Outcome:
         """Value decisions without a choice by Eq. 9 until one has a choice or the episode
@@ -80,8 +77,8 @@ class CandidateFloor:
             engine, i = self.floor.engine, self.floor.deciding
             crew = engine.site.crews[i]
             if has_choice(crew):
-                self._obs, self._mask, self._targets = self.view.rows(
-                    crew, engine.site, engine.positions[i], engine.positions)
+                self._decision = self.view.rows(crew, engine.site, engine.positions[i],
+                                                engine.positions)
                 return Outcome(reward, False, False)
             out = self.floor.value_scope(self.view.base.target_values(crew, engine.site,
                                                                       engine.positions[i]))
@@ -94,14 +91,18 @@ class CandidateFloor:
         return Outcome(reward, out.terminated, out.truncated)
 
     def heuristic_makespan_s(self, seed: int) -> float:
-        """Eq. 9's makespan on ``seed`` (row 0 at every decision), played once per seed on a
-        floor of its own; an unfinished floor counts twice the time limit."""
+        """Eq. 9's makespan on ``seed`` (what row 0 at every decision plays), played once per
+        seed on a floor of its own; an unfinished floor counts twice the time limit."""
         if seed not in self._heuristic_s:
-            reference = CandidateFloor(self.against_heuristic(), self.view.cap)
-            out = Outcome(reference.reset(seed), False, False)
+            if self._reference is None:
+                self._reference = self.against_heuristic()
+            reference, eq9 = self._reference, self.view.base
+            reference.reset(seed)
+            out = Outcome(0.0, False, False)
             while not (out.terminated or out.truncated):
-                out = reference.decide(0)
-            engine = reference.engine
+                engine, i = reference.engine, reference.deciding
+                out = reference.value_scope(eq9.target_values(engine.site.crews[i],
+                                                              engine.site, engine.positions[i]))
             self._heuristic_s[seed] = (engine.site.time_s if out.terminated
                                        else 2.0 * engine.max_time_s)
         return self._heuristic_s[seed]
@@ -109,12 +110,12 @@ class CandidateFloor:
     def observe(self, out: np.ndarray | None = None) -> np.ndarray:
         """The deciding crew's rows (made when the decision came up), into ``out`` if given."""
         if out is None:
-            return self._obs.copy()
-        out[:] = self._obs
+            return self._decision.observation.copy()
+        out[:] = self._decision.observation
         return out
 
     def action_masks(self) -> np.ndarray:
-        return self._mask.copy()
+        return self._decision.mask.copy()
 
     def end_info(self) -> dict:
         return self.floor.end_info()
