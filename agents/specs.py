@@ -19,6 +19,8 @@ EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority 
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
                   "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
                   "(branch the floor at each decision; futures=0 sees the true durations), "
+                  "replan or replan:limit=1+overhead=150 (CP-SAT re-solves the rest of the "
+                  "floor at each decision), "
                   "student:PATH (Eq. 9 plus a residual: fitted to the lookahead, or a "
                   "cmdp-search-rule rule.json), or a stage-2 model .zip (a desired position "
                   "or a masked choice)")
@@ -45,6 +47,8 @@ def make_evaluator(spec: str):
         return StudentEvaluator.load(spec.split(":", 1)[1])
     if spec == "lookahead" or spec.startswith("lookahead:"):
         return make_lookahead(spec.partition(":")[2])
+    if spec == "replan" or spec.startswith("replan:"):
+        return make_replan(spec.partition(":")[2])
     path = model_path(spec, "--evaluator")
     from .candidates import CandidateModelEvaluator, is_candidate_model
 
@@ -78,6 +82,33 @@ def make_lookahead(options: str):
     return LookaheadEvaluator(make_evaluator(base), LookaheadSettings(**settings))
 
 
+def make_replan(options: str):
+    """``replan:limit=S+overhead=S+window=S+base=SPEC`` (each optional) as an evaluator:
+    CP-SAT re-solves the rest of the floor at each decision (``agents.replan``)."""
+    from .replan import ReplanEvaluator, ReplanSettings
+
+    settings, base = {}, "priority"
+    for item in filter(None, options.split("+")):
+        key, sep, value = item.partition("=")
+        if key == "base" and sep:
+            base = value
+            continue
+        if key in ("limit", "overhead", "window") and sep:
+            try:
+                settings[key if key == "limit" else key + "_s"] = float(value)
+                continue
+            except ValueError:
+                pass
+        raise ValueError(f"--evaluator replan:{options}: {item!r} is not one of "
+                         f"limit=SECONDS, overhead=SECONDS, window=SECONDS, base=SPEC "
+                         f"(joined by +); e.g. "
+                         f"replan:limit=1+overhead=150+base=priority")
+    if base.startswith(("lookahead", "replan")):
+        raise ValueError(f"--evaluator replan: base={base} would plan inside plans; give a "
+                         "rule such as base=priority or base=student:PATH")
+    return ReplanEvaluator(make_evaluator(base), ReplanSettings(**settings))
+
+
 def make_navigator(spec: str, env, deterministic: bool = False) -> LowLevel:
     """``scripted`` (the navigator) or a stage-1 reaching model ``.zip``, which samples its
     actions unless ``deterministic`` (argmax), bound to ``env``; ValueError for a missing file
@@ -99,7 +130,7 @@ def model_path(spec: str, option: str) -> Path:
     """``spec`` as an existing file, or a ValueError naming ``option`` and the fix."""
     path = Path(spec)
     if not path.is_file():
-        choices = ([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH", "lookahead",
+        choices = ([*evaluate.EVALUATORS, "ga:PATH", "cpsat", "cpsat:PATH", "lookahead", "replan",
                     "student:PATH"] if option == "--evaluator" else ["scripted"])
         close = difflib.get_close_matches(spec, [c for c in choices if ":" not in c], n=1)
         hint = f"did you mean {close[0]!r}? " if close and not spec.endswith(".zip") else ""
