@@ -219,10 +219,10 @@ class CMDPEnv(ParallelEnv):
         position, heading, status, load and target, every task's pool and progress, the
         storages' stocks, the crane and its queue, and the time (layout:
         ``cmdp_pymunk.global_state``), for centralized critics."""
-        if self.site is None:
+        engine = self.engine
+        if engine.site is None:
             raise RuntimeError("state() before the first reset(); call reset() first")
-        headings = [body.angle for body in self.world.bodies]
-        out = global_state(self.site, self.positions, headings, self.max_time_s)
+        out = global_state(engine.site, engine.positions, engine.headings(), engine.max_time_s)
         return np.clip(out, self._state_low, self._state_high, out=out)
 
     def render(self):
