@@ -185,8 +185,7 @@ class Engine:
         crews = self.site.crews
         moving = [c.moving for c in crews]
         had_target = [c.moving and bool(c.scope) for c in crews]
-        # Quiet: the plane is at rest and no crew needs a movement decision: P_phy is void.
-        quiet = self.world.at_rest and not self.action_needed
+        quiet = self.quiet()
         distance = self._move(actions, moving) if not quiet else [0.0] * len(crews)  # P_phy
         ctx = self._construct()                                         # P_cons, Eq. 2
         disrupted = self._disrupt()           # disruptions starting or ending (not the paper's)
@@ -272,6 +271,11 @@ class Engine:
         if scenario is not None and copies[0].timeline is not None:  # its own future's
             copies[0].timeline.resample(copies[0].streams, self.site.time_s)  # disruptions
         return copies if companions else copies[0]
+
+    def quiet(self) -> bool:
+        """The plane is at rest and no crew needs a movement decision: P_phy is void in the
+        coming second."""
+        return self.world.at_rest and not self.action_needed
 
     def decision_due(self) -> bool:
         """A crew needs a movement decision or target values: where the idle jump stops."""
