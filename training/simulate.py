@@ -206,14 +206,14 @@ class Progress:
     """What ``cmdp-simulate`` is doing and what it has kept, for the line Ctrl-C prints."""
 
     doing: str = "while starting"
-    env: object = None  # the env of the episode under way, for its time
+    engine: object = None  # the engine of the episode under way, for its time
     out: Path | None = None
     kept: list[int] = field(default_factory=list)  # seeds whose folders are complete
     resume: str = ""
 
     def interrupted(self) -> str:
         doing = self.doing
-        site = getattr(self.env, "site", None)
+        site = self.engine.site if self.engine is not None else None
         if site is not None:
             doing += f" at t = {site.time_s:,.0f} s"
         if not self.kept:
@@ -307,13 +307,13 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         progress.doing = f"in seed {seed}"
         progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
                            f"{args.episodes - k}" if args.episodes > 1 else "")
-        progress.env = env
+        progress.engine = env.engine
         try:
             episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every)
         except PolicyStuck as err:
             print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
             return 1
-        progress.env, progress.doing = None, f"while writing seed {seed}'s files"
+        progress.engine, progress.doing = None, f"while writing seed {seed}'s files"
         episode.frames = thin(episode.frames, int(GIF_SECONDS * GIF_FPS))
         # A Ctrl-C while a seed's files are written is held until all of them are: a seed's
         # folder is either complete or not started.
