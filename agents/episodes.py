@@ -19,6 +19,7 @@ from concurrent.futures import as_completed as futures_completed
 from concurrent.futures.process import BrokenProcessPool
 
 import cmdp_pymunk
+from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
 
@@ -33,10 +34,11 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
               *DISRUPTION_IDLE_FIELDS)
 
 
-def episode_row(env, episode: Episode | None, stall_reason: str = "") -> dict:
-    """One episode's numbers, summed over the crews (``ROW_FIELDS``). ``episode`` None: the
-    low level raised (``stall_reason`` says what); the episode counts as stalled."""
-    site = env.site
+def episode_row(floor, episode: Episode | None, stall_reason: str = "") -> dict:
+    """One episode's numbers, summed over the crews (``ROW_FIELDS``), from ``floor`` (an
+    engine, or an env over one). ``episode`` None: the low level raised (``stall_reason`` says
+    what); the episode counts as stalled."""
+    site = engine_of(floor).site
     crews = site.crews
     idle = {cause: sum(c.stats.idle_steps[cause] for c in crews) for cause in (1, 2, 3)}
     stalled = episode is None or episode.stalled is not None
@@ -57,7 +59,7 @@ def episode_row(env, episode: Episode | None, stall_reason: str = "") -> dict:
         "idle_steps": sum(idle.values()),
         "crane_waits": sum(c.stats.crane_waits for c in crews),
         "crane_wait_s": sum(c.stats.crane_wait_steps for c in crews),
-        "reach_rate": round(episode_reach_rate(env), 4),
+        "reach_rate": round(episode_reach_rate(floor), 4),
         "wall_s": round(episode.wall_s, 3) if episode is not None else None,
         "stall_reason": stall_reason,
         **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)

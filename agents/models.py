@@ -262,12 +262,12 @@ class PolicyNavigator:
     def bind(self, env) -> None:
         """Drive ``env`` (an engine or an env over one): check that the model reads this
         case's reaching observation."""
-        _check_shape(self.model, ray_model(env.case).size, self.path,
+        _check_shape(self.model, ray_model(engine_of(env).case).size, self.path,
                      "the reaching observation")
 
     def actions(self, env, observations: dict) -> dict:
         """Actions for every agent of a ``CMDPEnv``, from its observations by agent."""
-        acts = self.crew_actions(env, [observations[a] for a in env.possible_agents])
+        acts = self.crew_actions(env.engine, [observations[a] for a in env.possible_agents])
         return dict(zip(env.possible_agents, acts, strict=True))
 
     def crew_actions(self, engine, observations: list) -> list:
@@ -286,20 +286,22 @@ class PolicyNavigator:
         return out
 
 
-def check_not_stuck(env, caps: int) -> None:
-    """Raise :class:`PolicyStuck` naming the first crew that has held a target for ``caps``
-    step caps without reaching one."""
+def check_not_stuck(floor, caps: int) -> None:
+    """Raise :class:`PolicyStuck` naming the first crew of ``floor`` (an engine, or an env over
+    one) that has held a target for ``caps`` step caps without reaching one."""
     from cmdp_pymunk.decide import target_id
 
-    limit = caps * env.case.simulation.reevaluate_after_steps
-    for crew in env.site.crews:
+    engine = engine_of(floor)
+    site = engine.site
+    limit = caps * engine.case.simulation.reevaluate_after_steps
+    for crew in site.crews:
         if crew.moving and crew.scope and crew.steps_since_reach >= limit:
-            x, y, _ = engine_of(env).pose(crew.index)
-            targets = ", ".join(sorted(target_id(env.site, t) for t in crew.scope))
+            x, y, _ = engine.pose(crew.index)
+            targets = ", ".join(sorted(target_id(site, t) for t in crew.scope))
             raise PolicyStuck(
                 f"the argmax navigator is stuck: {crew.id} has held its target(s) {targets} "
                 f"for {crew.steps_since_reach} steps without reaching one (at x {x:.1f}, "
-                f"y {y:.1f} m, t = {env.site.time_s:.0f} s); an argmax policy repeats a "
+                f"y {y:.1f} m, t = {site.time_s:.0f} s); an argmax policy repeats a "
                 "blocked move forever; fix: drop --deterministic (actions are sampled)")
 
 

@@ -1,7 +1,7 @@
 """The scripted navigator: drives each crew to its highest-value target with reaching actions.
 
 It is the low level until a trained one exists, and afterwards the yardstick the trained one is
-measured against. It reads the env's state (not the rays) and answers with the same
+measured against. It reads the engine's state (not the rays) and answers with the same
 ``MultiDiscrete([4, 3, 3])`` actions the learned policy uses.
 
 How it plans: the plane is a grid (``cell_m``); for each crew size, cells closer to a component
@@ -127,10 +127,10 @@ class Navigator:
     # -- set-up per episode -------------------------------------------------------------------
 
     def _setup(self) -> None:
-        env = self.env
-        self.site = env.site
-        self._episode = env.site
-        self.half_w, self.half_h = env.case.plane.half_extents
+        engine = self.engine
+        self.site = engine.site
+        self._episode = engine.site
+        self.half_w, self.half_h = engine.case.plane.half_extents
         self.nx = int(math.ceil(2 * self.half_w / self.cell_m))
         self.ny = int(math.ceil(2 * self.half_h / self.cell_m))
         xs = -self.half_w + (np.arange(self.nx) + 0.5) * self.cell_m
@@ -169,7 +169,7 @@ class Navigator:
     def _goal_mask(self, crew, target: int) -> np.ndarray:
         site = self.site
         if target == site.outlet_target:
-            plane = self.env.case.plane
+            plane = self.engine.case.plane
             return np.hypot(self.cx - plane.outlet_x_m, self.cy - plane.outlet_y_m) \
                 <= plane.outlet_radius_m - 0.1
         n_comp = len(site.components)
@@ -206,11 +206,11 @@ class Navigator:
     def actions(self, env, observations=None) -> dict:
         """Actions for every agent of a ``CMDPEnv`` (the observations are not needed: it reads
         the state)."""
-        return dict(zip(env.possible_agents, self.crew_actions(env), strict=True))
+        return dict(zip(env.possible_agents, self.crew_actions(env.engine), strict=True))
 
     def crew_actions(self, engine, observations=None) -> list:
-        """Every crew's action, by crew index, on the floor it is bound to (an engine or an
-        env over one); the observations are not needed."""
+        """Every crew's action, by crew index, on the floor it is bound to (``engine``: its
+        engine); the observations are not needed."""
         if self._episode is not engine.site:
             self._setup()
         key = tuple(sorted(self.site.active_areas))

@@ -27,7 +27,7 @@ def floor(seed: int):
 
 
 def run_to(env, navigator, t: float) -> None:
-    while env.agents and env.site.time_s < t:
+    while env.agents and env.engine.site.time_s < t:
         env.step(navigator.actions(env, None))
 
 

@@ -51,9 +51,10 @@ def run(seed: int, navigator_path: str | None, park: bool):
 
 
 def report(label: str, env, calls: int, wall: float, cpu: float, clock) -> float:
-    sim = env.site.time_s
-    end = f"makespan {env.makespan_s:.0f}" if env.makespan_s else f"stopped at {sim:.0f}"
-    print(f"{label}: {end} simulated s, {calls} step calls for {env.steps} simulated steps, "
+    engine = env.engine
+    sim = engine.site.time_s
+    end = f"makespan {engine.makespan_s:.0f}" if engine.makespan_s else f"stopped at {sim:.0f}"
+    print(f"{label}: {end} simulated s, {calls} step calls for {engine.steps} simulated steps, "
           f"{wall:.2f} s wall, {cpu:.2f} s CPU")
     print(f"  speed: {sim / cpu:,.0f} x real time per CPU second ({sim / wall:,.0f} x wall)")
     accounted = sum(clock.seconds.values())

@@ -26,7 +26,7 @@ def main(argv: list[str] | None = None) -> int:
     step = Engine.step
 
     def timed_step(self, actions):
-        quiet = self.world.at_rest and not self.action_needed  # as Engine.step decides
+        quiet = self.quiet()  # as Engine.step decides
         start = time.process_time()
         out = step(self, actions)
         part = acc["quiet" if quiet else "moving"]

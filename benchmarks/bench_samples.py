@@ -27,8 +27,9 @@ def count(env, navigator, seeds) -> tuple[int, int, int]:
         while env.agents:
             steps += 1
             samples += len(env.agents)
-            crews = env.site.crews
-            deciding += sum(env.needs_action(crews[env.agent_index[a]]) for a in env.agents)
+            engine = env.engine
+            crews = engine.site.crews
+            deciding += sum(engine.needs_action(crews[env.agent_index[a]]) for a in env.agents)
             observations, *_ = env.step(navigator.actions(env, observations))
     return steps, samples, deciding
 

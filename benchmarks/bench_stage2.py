@@ -1,13 +1,14 @@
 """Stage-2 decisions per second per core: the stage-2 env of a given commit (by default
-fcdc414, the four layers ``TargetEvaluationEnv`` -> ``CMDPEnv`` -> ``Engine``) against this
+c5777ae, the four layers ``TargetEvaluationEnv`` -> ``CMDPEnv`` -> ``Engine``) against this
 checkout's (``highlevel.Floor`` on the engine, and k floors in one ``FloorsVecEnv``), in one
 process, with their ratio.
 
-    python benchmarks/bench_stage2.py [--before fcdc414] [--decisions 30] [--k 4] [--rounds 3]
+    python benchmarks/bench_stage2.py [--before c5777ae] [--decisions 30] [--k 4] [--rounds 3]
 
 The old ``cmdp_pymunk`` package is taken from git (``git archive``) into a temporary folder
 and imported under another name beside this one; the scripted navigator of this checkout
-drives both (it reads the state, not the rays). Both are training floors as ``cmdp-train
+drives both (it reads the state, not the rays, through ``Engine.pose``: the old commit must
+have it; c5777ae is fcdc414's four layers with it). Both are training floors as ``cmdp-train
 stage2`` builds them (built-in case, idle crews parked, no rays, the global state after O^e
 for the central critic) and both decide by the priority heuristic's first choice through Eq. 4,
 so they play the very same decisions (the tests check it): a round plays the first
@@ -66,9 +67,9 @@ class OldPath:
 
     def teacher(self) -> np.ndarray:
         env = self.hl.env
-        i = env.agent_index[self.hl.deciding_agent]
-        return np.array(desired_position_of_first_choice(env.site.crews[i], env.site,
-                                                         env.positions[i]), np.float32)
+        i, engine = env.agent_index[self.hl.deciding_agent], env.engine
+        return np.array(desired_position_of_first_choice(engine.site.crews[i], engine.site,
+                                                         engine.positions[i]), np.float32)
 
     def step(self, action) -> bool:
         obs, _, terminated, truncated, _ = self.hl.step(action)
@@ -130,7 +131,7 @@ def vector_per_cpu_s(k: int, decisions: int, seed: int) -> float:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(parser)
-    parser.add_argument("--before", default="fcdc414", help="the commit to compare against")
+    parser.add_argument("--before", default="c5777ae", help="the commit to compare against")
     parser.add_argument("--decisions", type=int, default=30,
                         help="decisions per floor and round (an episode has about 60)")
     parser.add_argument("--rounds", type=int, default=3)

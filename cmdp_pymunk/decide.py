@@ -25,9 +25,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from . import construct, events, precedence
+from .physics import Physics
 from .state import CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site, inside
 from .streams import RandomStreams
-from .world import World
 
 MAX_ROWS_PER_STEP = 3
 EPS = construct.EPS
@@ -38,7 +38,7 @@ class Context:
     """What the rows read and change besides the crew: the site, the world, positions."""
 
     site: Site
-    world: World
+    world: Physics
     positions: list
     streams: RandomStreams  # a task's pace comes from its own stream
     log: events.EventLog

@@ -34,6 +34,7 @@ import numpy as np
 
 from . import construct, events, streams
 from .case_model import Case, Disruption
+from .physics import Physics
 from .state import CrewState, CrewStatus, IdleCause, Site
 
 # The case's lists, the idle cause each kind gives and its random source.
@@ -255,7 +256,7 @@ def _changes(before: Now, after: Now):
             yield kind, target, True
 
 
-def update(site: Site, world, log: events.EventLog, timeline: Timeline) -> bool:
+def update(site: Site, world: Physics, log: events.EventLog, timeline: Timeline) -> bool:
     """Set ``site.disrupted`` for the second starting now; log ``disruption_start`` and
     ``disruption_end`` events; crews leave or come back; the crane takes up a request that
     a disruption held. Returns whether anything started or ended."""

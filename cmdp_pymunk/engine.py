@@ -28,7 +28,13 @@ Arguments
     (``evaluate.TargetEvaluator`` or a name of ``evaluate.EVALUATORS``; None: values come from
     outside), ``max_time_s`` (None: the
     case's), ``park_idle`` and ``stall_s`` (see ``env``), ``position_log_every_s`` (position
-    events for trajectories; None: none).
+    events for trajectories; None: none), ``physics`` (what builds an episode's plane from the
+    case and the site, a ``physics.Physics``; default pymunk's ``world.World``).
+
+The engine owns the floor: its site (``site``), the plane behind the ``physics.Physics``
+protocol (only the engine and its stages touch it), the crews' poses (``pose(i)``), the event
+log and the counters. Policies, evaluators, the renderer and the episode library read them here
+and address crews by index; agent names live only in the PettingZoo adapter.
 """
 
 from __future__ import annotations
@@ -48,6 +54,7 @@ from .evaluate import (
     make_evaluator,
 )
 from .metrics import Counters
+from .physics import Physics
 from .state import CrewState, CrewStatus, Site, activity
 from .streams import RandomStreams
 from .world import World
@@ -97,7 +104,8 @@ class Engine:
                  evaluator: TargetEvaluator | str | None = None,
                  seed: int | None = None, max_time_s: float | None = None,
                  park_idle: bool = False, stall_s: float | None = None,
-                 position_log_every_s: float | None = None):
+                 position_log_every_s: float | None = None, *,
+                 physics: Callable[[Case, Site], Physics] = World):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -120,8 +128,9 @@ class Engine:
         self.streams = RandomStreams(seed)  # a task's pace by (seed, task): streams.py
         self.timeline: disruptions.Timeline | None = None  # the case's, drawn in reset
         self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
+        self.physics = physics
         self.site: Site | None = None
-        self.world: World | None = None
+        self.world: Physics | None = None
         self.log = events.EventLog()
         self.metrics: Counters | None = None
         self.pending: list[int] = []
@@ -135,7 +144,7 @@ class Engine:
         self.streams = RandomStreams(seed) if seed is not None else \
             self.streams.with_scenario(None)
         self.site = Site(self.case, self.stage)
-        self.world = World(self.case, self.site)
+        self.world = self.physics(self.case, self.site)
         self.log = events.EventLog()
         self.metrics = Counters(self.site)
         # Disruptions (their own streams): none in the case, no timeline, nothing changes.
@@ -150,7 +159,7 @@ class Engine:
         self.activities = [""] * n
         self._last_logged = [None] * n
         self._no_rewards = [0.0] * n
-        self.positions = [tuple(b.position) for b in self.world.bodies]
+        self.positions = [self.world.pose(i)[:2] for i in range(n)]
         self.site.crew_xy = self.positions  # the same list: evaluators may read every crew's
         self.steps = 0
         self.stalled = None
@@ -176,8 +185,7 @@ class Engine:
         crews = self.site.crews
         moving = [c.moving for c in crews]
         had_target = [c.moving and bool(c.scope) for c in crews]
-        # Quiet: the plane is at rest and no crew needs a movement decision: P_phy is void.
-        quiet = self.world.at_rest and not self.action_needed
+        quiet = self.quiet()
         distance = self._move(actions, moving) if not quiet else [0.0] * len(crews)  # P_phy
         ctx = self._construct()                                         # P_cons, Eq. 2
         disrupted = self._disrupt()           # disruptions starting or ending (not the paper's)
@@ -257,12 +265,17 @@ class Engine:
             copies = copy.deepcopy((self, *companions), memo)
         finally:
             self.clock = clock
-        self.world.__setstate__(self.world.__getstate__())
+        self.world.rebuild()
         copies[0].streams.with_scenario(scenario if scenario is not None
                                         else self.streams.scenario)
         if scenario is not None and copies[0].timeline is not None:  # its own future's
             copies[0].timeline.resample(copies[0].streams, self.site.time_s)  # disruptions
         return copies if companions else copies[0]
+
+    def quiet(self) -> bool:
+        """The plane is at rest and no crew needs a movement decision: P_phy is void in the
+        coming second."""
+        return self.world.at_rest and not self.action_needed
 
     def decision_due(self) -> bool:
         """A crew needs a movement decision or target values: where the idle jump stops."""
@@ -298,10 +311,12 @@ class Engine:
     def pose(self, i: int) -> tuple[float, float, float]:
         """Crew i's pose on the plane: x, y (m, the plane's centre at 0) and heading (rad,
         counter-clockwise from +x). What policies, the renderer and reports read, so that
-        only the engine touches pymunk bodies."""
-        body = self.world.bodies[i]
-        x, y = body.position
-        return x, y, body.angle
+        only the engine touches the plane (``physics.Physics``)."""
+        return self.world.pose(i)
+
+    def headings(self) -> list[float]:
+        """Every crew's heading (rad), in crew order (what the global state reads)."""
+        return [self.world.pose(i)[2] for i in range(len(self.site.crews))]
 
     @property
     def makespan_s(self) -> float | None:
@@ -324,9 +339,9 @@ class Engine:
         move.apply_reaching_actions(world, site, actions)
         if any(moving):
             world.step(sim.step_s, sim.physics_substeps)
-            for i, body in enumerate(world.bodies):
+            for i in range(len(moving)):
                 if moving[i]:
-                    x, y = body.position
+                    x, y, _ = world.pose(i)
                     px, py = self.positions[i]
                     distance[i] = math.hypot(x - px, y - py)
                     self.positions[i] = (x, y)
@@ -449,11 +464,10 @@ class Engine:
             return
         for crew in self.site.crews:
             if crew.moving:
-                body = self.world.bodies[crew.index]
-                x, y = body.position
+                x, y, heading = self.world.pose(crew.index)
                 last = self._last_logged[crew.index]
                 if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
                     continue
                 self._last_logged[crew.index] = (x, y)
                 self.log.add(self.site.time_s, "position", crew.id,
-                             f"{x:.2f},{y:.2f},{math.degrees(body.angle) % 360:.0f}")
+                             f"{x:.2f},{y:.2f},{math.degrees(heading) % 360:.0f}")

@@ -167,10 +167,6 @@ class CMDPEnv(ParallelEnv):
 
     # -- observations and infos ---------------------------------------------------------------
 
-    def needs_action(self, crew) -> bool:
-        """Whether the crew's reaching action is used this step (section 3.6.2)."""
-        return self.engine.needs_action(crew)
-
     def _observe(self) -> dict[str, np.ndarray]:
         """Rays are cast only for crews that need a movement decision
         (``observe.ReachingObservations``)."""
@@ -199,8 +195,9 @@ class CMDPEnv(ParallelEnv):
                 if self.stalled:
                     info["stalled"] = True
             return info
-        crew = self.site.crews[i]
-        info = {"status": crew.status.name.lower(), "time_s": self.site.time_s,
+        site = self.engine.site
+        crew = site.crews[i]
+        info = {"status": crew.status.name.lower(), "time_s": site.time_s,
                 "elapsed_s": elapsed, "needs_action": self.engine.needs_action(crew),
                 "evaluation_reward": eval_reward, "evaluation_terms": dict(terms),
                 "step_stats": window}
@@ -219,10 +216,10 @@ class CMDPEnv(ParallelEnv):
         position, heading, status, load and target, every task's pool and progress, the
         storages' stocks, the crane and its queue, and the time (layout:
         ``cmdp_pymunk.global_state``), for centralized critics."""
-        if self.site is None:
+        engine = self.engine
+        if engine.site is None:
             raise RuntimeError("state() before the first reset(); call reset() first")
-        headings = [body.angle for body in self.world.bodies]
-        out = global_state(self.site, self.positions, headings, self.max_time_s)
+        out = global_state(engine.site, engine.positions, engine.headings(), engine.max_time_s)
         return np.clip(out, self._state_low, self._state_high, out=out)
 
     def render(self):
@@ -237,20 +234,14 @@ class CMDPEnv(ParallelEnv):
     def close(self) -> None:
         pass
 
-    # -- the engine's state, as the agents, scripts and media read it -------------------------
+    # -- what an episode's caller reads: the case, the event log and how the episode ended ----
+    # The floor's state (site, poses, the plane) is the engine's: ``env.engine``.
 
     case = property(lambda self: self.engine.case)
-    site = property(lambda self: self.engine.site)
-    world = property(lambda self: self.engine.world)
     log = property(lambda self: self.engine.log)
-    positions = property(lambda self: self.engine.positions)
-    steps = property(lambda self: self.engine.steps)
     stalled = property(lambda self: self.engine.stalled)
-    activities = property(lambda self: self.engine.activities)
     makespan_s = property(lambda self: self.engine.makespan_s,
                           doc="Simulated seconds until the last task ended, once every task has.")
-    park_idle = property(lambda self: self.engine.park_idle)
-    position_log_every_s = property(lambda self: self.engine.position_log_every_s)
 
     # settable: training (``MixedStageEnv``) switches stage and time limit between episodes,
     # ``rollout.run_episode`` sets the stall guard, benchmarks a clock

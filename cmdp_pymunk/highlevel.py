@@ -188,8 +188,7 @@ class Floor:
     def state(self) -> np.ndarray:
         """The global state s (``global_state``), clipped into its bounds."""
         engine = self.engine
-        headings = [body.angle for body in engine.world.bodies]
-        out = global_state(engine.site, engine.positions, headings, engine.max_time_s)
+        out = global_state(engine.site, engine.positions, engine.headings(), engine.max_time_s)
         return np.clip(out, *self.state_bounds, out=out)
 
     def teacher_action(self) -> np.ndarray:

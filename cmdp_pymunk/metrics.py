@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from .physics import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
 from .state import CrewStatus, Site
-from .world import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
 
 if TYPE_CHECKING:
     from .engine import Second

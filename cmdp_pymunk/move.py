@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import math
 
+from .physics import Physics
 from .state import CrewState, Site, inside
-from .world import World
 
 FORWARD_FRACTIONS = (0.0, 0.3, 0.8, 1.0)
 SIDE_SIGNS = (-1.0, 0.0, 1.0)  # lateral: right, none, left; turn: clockwise, none, anticlockwise
@@ -64,22 +64,19 @@ def velocity_limits(crew: CrewState, congestion: float, lateral_m_s: float,
             congested_velocity(turning_rad_s, c, congestion, turn_floor))
 
 
-def apply_reaching_actions(world: World, site: Site, actions) -> None:
+def apply_reaching_actions(world: Physics, site: Site, actions) -> None:
     """Set each moving crew's desired velocity from its action; every other crew stands."""
     sim = site.case.simulation
     lateral, turning = sim.lateral_velocity_m_s, math.radians(sim.turning_rate_deg_s)
     for crew in site.crews:
-        desired = world.desired[crew.index]
         action = actions[crew.index] if crew.moving else None
         if action is None:
-            desired[0] = desired[1] = desired[2] = 0.0
+            world.drive(crew.index, 0.0, 0.0, 0.0)
             continue
-        body = world.bodies[crew.index]
-        x, y = body.position
+        x, y, angle = world.pose(crew.index)
         v_f, v_l, v_tu = velocity_limits(crew, congestion_index(site, x, y), lateral, turning)
         forward = FORWARD_FRACTIONS[int(action[0])] * v_f
         side = SIDE_SIGNS[int(action[1])] * v_l
-        cos_a, sin_a = math.cos(body.angle), math.sin(body.angle)
-        desired[0] = forward * cos_a - side * sin_a
-        desired[1] = forward * sin_a + side * cos_a
-        desired[2] = SIDE_SIGNS[int(action[2])] * v_tu
+        cos_a, sin_a = math.cos(angle), math.sin(angle)
+        world.drive(crew.index, forward * cos_a - side * sin_a, forward * sin_a + side * cos_a,
+                    SIDE_SIGNS[int(action[2])] * v_tu)

@@ -39,8 +39,8 @@ import math
 import numpy as np
 
 from . import disruptions
+from .physics import N_KINDS, STORAGE, Physics
 from .state import CrewState, Pool, Site
-from .world import N_KINDS, STORAGE, World
 
 VELOCITY_FEATURES = 3
 MEMORY_FEATURES = 4
@@ -136,18 +136,15 @@ def observation_bounds(rays: RayModel, case) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
-def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0.0) -> np.ndarray:
+def observe_crew(world: Physics, rays: RayModel, crew: CrewState,
+                 now_s: float = 0.0) -> np.ndarray:
     """Cast the crew's rays and return its reaching observation (see the module doc); the
     memory features, if any, are left 0 (``remembered_target`` fills them). With the memory
     on, records in ``crew.sightings`` where its frontal rays hit targets of its scope."""
-    body = world.bodies[crew.index]
-    x, y = body.position
-    angle = body.angle
+    x, y, angle = world.pose(crew.index)
     c, s = math.cos(angle), math.sin(angle)
     start = (x, y)
-    query = world.rays.cast
-    frontal_filter = world.frontal_filters[crew.index]
-    surrounding_filter = world.surrounding_filters[crew.index]
+    query, frontal_filter, surrounding_filter = world.ray_query(crew.index)
     scope, values, memory = crew.scope, crew.values, rays.memory
     cast: list[float] = []
     sightings = crew.sightings
@@ -160,7 +157,7 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
             cast += _NO_HIT
             continue
         if frontal and hit[0] == 0.0 and hit[1] == STORAGE:
-            hit = _cast_out_of(world, world.storage_rects[hit[2]], start, end, frontal_filter)
+            hit = _cast_out_of(query, world.storage_rects[hit[2]], start, end, frontal_filter)
             if hit is None:
                 cast += _NO_HIT
                 continue
@@ -171,7 +168,7 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
             sightings[target] = (x + alpha * (end[0] - x), y + alpha * (end[1] - y), now_s)
     obs = rays.template.copy()
     obs[rays.slots] = cast
-    vx, vy = body.velocity
+    vx, vy = world.velocity(crew.index)
     v_nominal = crew.spec.velocity_m_s
     at = rays.velocity_at
     obs[at] = (c * vx + s * vy) / v_nominal
@@ -180,10 +177,10 @@ def observe_crew(world: World, rays: RayModel, crew: CrewState, now_s: float = 0
     return obs
 
 
-def _cast_out_of(world: World, rect, start, end, shape_filter):
-    """A frontal ray from a crew standing in a storage: cast again from where the ray leaves
-    the storage, so that the crew is not blind while it fetches and walks out. The answer's
-    alpha is along the whole ray."""
+def _cast_out_of(query, rect, start, end, mode):
+    """A frontal ray from a crew standing in a storage: cast again (``query``, in ``mode``)
+    from where the ray leaves the storage, so that the crew is not blind while it fetches and
+    walks out. The answer's alpha is along the whole ray."""
     (x, y), (ex, ey) = start, end
     dx, dy = ex - x, ey - y
     t_out = 1.0
@@ -195,7 +192,7 @@ def _cast_out_of(world: World, rect, start, end, shape_filter):
     t_out = t_out + 1e-6
     if t_out >= 1.0:  # the whole ray lies in the storage
         return None
-    hit = world.rays.cast((x + t_out * dx, y + t_out * dy), end, shape_filter)
+    hit = query((x + t_out * dx, y + t_out * dy), end, mode)
     if hit is None:
         return None
     return t_out + hit[0] * (1.0 - t_out), hit[1], hit[2]
@@ -255,7 +252,7 @@ class ReachingObservations:
         if self.rays.memory:  # the age moves on even when nothing else does
             x, y = engine.positions[i]
             obs[-MEMORY_FEATURES:] = remembered_target(self.rays, crew, x, y,
-                                                       world.bodies[i].angle, site.time_s)
+                                                       engine.pose(i)[2], site.time_s)
         return np.clip(obs, self.low, self.high, out=obs)  # the space's promise
 
     def all(self, engine) -> list[np.ndarray]:

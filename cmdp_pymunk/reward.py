@@ -3,8 +3,8 @@
 from __future__ import annotations
 
 from .case_model import EvaluationReward, ReachingReward
+from .physics import COMPONENT, CREW, N_KINDS, STORAGE, TASK_AREA, WALL
 from .state import CrewStatus, IdleCause, Site
-from .world import COMPONENT, CREW, N_KINDS, STORAGE, TASK_AREA, WALL
 
 
 def reach_reward(k: float, target_value: float) -> float:

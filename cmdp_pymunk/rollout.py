@@ -3,7 +3,8 @@
 ``run_episode`` drives an env with a low level to the end of an episode, a time-out or a stall
 (``stall_report`` says who and what was stuck); ``crew_summary``, ``reach_rate`` and
 ``versions`` are what a run folder records. ``cmdp-simulate``, ``cmdp-train`` and the
-comparisons call these; none of them imports another script.
+comparisons call these; none of them imports another script. The summaries read the floor's
+engine (``engine.engine_of``: an engine, or an env over one) and address crews by index.
 
 The low level is a ``policy.LowLevel`` (``bind``, ``reset``, ``actions``; the implementations
 are in ``agents``); this module needs nothing from ``agents``.
@@ -21,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from .decide import target_id
+from .engine import engine_of
 from .interrupt import sigint_guard
 from .policy import LowLevel
 from .state import DISRUPTION_CAUSES, CrewStatus, IdleCause, Pool, activity
@@ -64,7 +66,8 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
         env.stall_s = stall_s
     observations, _ = env.reset(seed=seed)
     navigator.reset(seed)
-    site = env.site
+    engine = env.engine
+    site = engine.site
     frames = []
     next_frame = 0.0
     # counted in tasks ended, the one total known in advance (a floor's simulated seconds are
@@ -82,20 +85,22 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
             observations, *_ = env.step(navigator.actions(env, observations))
             bar.update(site.tasks_ended - before)
             bar.set_postfix_str(f"t = {site.time_s:,.0f} s", refresh=False)
-    stalled = stall_report(env, env.stalled["after_s"]) if env.stalled else None
+    stalled = stall_report(engine, engine.stalled["after_s"]) if engine.stalled else None
     if frame_every_s is not None:
         frames.append(env.render())
-    return Episode(seed, env.makespan_s, time.perf_counter() - start, stalled, frames)
+    return Episode(seed, engine.makespan_s, time.perf_counter() - start, stalled, frames)
 
 
-def stall_report(env, for_s: float) -> dict:
-    """The crews and tasks involved in an episode that stopped making progress."""
-    site = env.site
+def stall_report(floor, for_s: float) -> dict:
+    """The crews and tasks involved in an episode that stopped making progress (``floor``: an
+    engine, or an env over one)."""
+    engine = engine_of(floor)
+    site = engine.site
     crews = []
     for crew in site.crews:
         if crew.status == CrewStatus.LEFT:
             continue
-        x, y, _ = env.engine.pose(crew.index)
+        x, y, _ = engine.pose(crew.index)
         crews.append({"crew": crew.id, "activity": activity(crew),
                       "position_m": [round(x, 2), round(y, 2)],
                       "targets": sorted(target_id(site, t) for t in crew.scope),
@@ -106,13 +111,15 @@ def stall_report(env, for_s: float) -> dict:
             "tasks_queued": [t.id for t in site.tasks if t.pool == Pool.QUEUE]}
 
 
-def crew_summary(env) -> dict:
+def crew_summary(floor) -> dict:
     """Per crew: reaching steps, idle steps by cause (with a case's disruptions, also the
     seconds each kind of disruption kept it from working), distance, trips, crane waits,
-    contacts, reaches and reach time-outs of the episode so far."""
+    contacts, reaches and reach time-outs of the episode so far (``floor``: an engine, or an
+    env over one)."""
     out = {}
-    disrupted = bool(env.site.case.disruptions)
-    for crew in env.site.crews:
+    site = engine_of(floor).site
+    disrupted = bool(site.case.disruptions)
+    for crew in site.crews:
         s = crew.stats
         out[crew.id] = {
             "type": crew.type,
@@ -142,9 +149,10 @@ def reach_rate(reaches: int, timeouts: int) -> float:
     return reaches / max(1, reaches + timeouts)
 
 
-def episode_reach_rate(env) -> float:
-    """``reach_rate`` over every crew of the env's episode so far."""
-    crews = env.site.crews
+def episode_reach_rate(floor) -> float:
+    """``reach_rate`` over every crew of the floor's episode so far (an engine, or an env over
+    one)."""
+    crews = engine_of(floor).site.crews
     return reach_rate(sum(c.stats.reaches for c in crews),
                       sum(c.stats.reach_timeouts for c in crews))
 

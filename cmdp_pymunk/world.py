@@ -5,6 +5,10 @@ Crews are dynamic discs whose velocity is set inside their ``velocity_func`` eve
 (pymunk issue #186: assigning ``body.velocity`` before a step lets bodies sink into walls).
 Task areas and storage areas are sensor shapes: they slow crews (Eq. 1, see ``move``) and
 surrounding rays report them, but they never block movement.
+
+``World`` is the engine's ``physics.Physics``: the engine and the stages reach it only through
+that protocol's members (poses, velocities, desired velocities, steps, contacts, task areas,
+crews leaving and coming back, rays, rebuilding).
 """
 
 from __future__ import annotations
@@ -15,12 +19,19 @@ import pymunk
 
 from . import interrupt
 from .case_model import Case
+from .physics import (  # noqa: F401 - the kinds, also read from here
+    COMPONENT,
+    CREW,
+    KIND_NAMES,
+    N_KINDS,
+    NOTHING,
+    OUTLET,
+    STORAGE,
+    TASK_AREA,
+    WALL,
+)
 from .state import Rect, Site
 
-# Object kinds: ray type ids (observation), collision types and reward eta keys share them.
-NOTHING, WALL, COMPONENT, CREW, TASK_AREA, STORAGE, OUTLET = range(7)
-KIND_NAMES = ("nothing", "wall", "component", "crew", "task_area", "storage", "outlet")
-N_KINDS = len(KIND_NAMES)
 CATEGORY = {kind: 1 << kind for kind in range(1, N_KINDS)}
 ALL = pymunk.ShapeFilter.ALL_CATEGORIES()
 
@@ -111,7 +122,7 @@ class RayCaster:
 
 
 class World:
-    """The physical state S_phy of one episode."""
+    """The physical state S_phy of one episode, on pymunk (a ``physics.Physics``)."""
 
     def __init__(self, case: Case, site: Site, public_rays: bool = False):
         self.case, self.site, self.public_rays = case, site, public_rays
@@ -324,3 +335,30 @@ class World:
         counts = self.contacts[i]
         self.contacts[i] = [0] * N_KINDS
         return counts
+
+    # -- what the engine reads and sets (``physics.Physics``) ---------------------------------
+
+    def pose(self, i: int) -> tuple[float, float, float]:
+        """Crew i's x, y (m) and heading (rad), read off its body."""
+        body = self.bodies[i]
+        x, y = body.position
+        return x, y, body.angle
+
+    def velocity(self, i: int) -> tuple[float, float]:
+        """Crew i's world-frame velocity (m/s)."""
+        vx, vy = self.bodies[i].velocity
+        return vx, vy
+
+    def drive(self, i: int, vx: float, vy: float, omega: float) -> None:
+        """Crew i's desired velocity, applied inside its ``velocity_func`` every substep."""
+        desired = self.desired[i]
+        desired[0], desired[1], desired[2] = vx, vy, omega
+
+    def ray_query(self, i: int):
+        """``(cast, frontal, surrounding)`` for crew i: ``RayCaster.cast`` and the crew's two
+        shape filters (its own group, so its rays never hit itself)."""
+        return self.rays.cast, self.frontal_filters[i], self.surrounding_filters[i]
+
+    def rebuild(self) -> None:
+        """Rebuild the space from its own data (``__getstate__``, ``__setstate__``)."""
+        self.__setstate__(self.__getstate__())

@@ -116,7 +116,7 @@ def world_to_pixel(env, x: float, y: float, px_per_m: float | None = None) -> tu
 def crew_colour(env, crew: int) -> Colour:
     """The colour of the crew's disc: one per crew type, in the case's crew-type order."""
     types = list(env.case.crew_types)
-    return CREW_PALETTE[types.index(env.site.crews[crew].type) % len(CREW_PALETTE)]
+    return CREW_PALETTE[types.index(env.engine.site.crews[crew].type) % len(CREW_PALETTE)]
 
 
 def component_colour(site, component: int) -> Colour:
@@ -211,7 +211,7 @@ class _Renderer:
         return bg
 
     def draw(self, env, show_rays: bool) -> np.ndarray:
-        site, vp, fonts = env.site, self.viewport, self.fonts
+        site, vp, fonts = env.engine.site, self.viewport, self.fonts
         surface = self.surface
         surface.blit(self.background, (0, 0))
         if site is None:  # before reset(): the empty plane
@@ -280,7 +280,7 @@ class _Renderer:
         """Every moving crew's rays to their full length (not to what they hit), faintly."""
         vp, surface = self.viewport, self.surface
         surface.set_clip(self.plane_rect)  # long frontal rays end beyond the walls
-        for crew in env.site.crews:
+        for crew in env.engine.site.crews:
             if crew.moving:
                 x, y, heading = env.engine.pose(crew.index)
                 start = vp.to_px(x, y)
@@ -289,7 +289,7 @@ class _Renderer:
         surface.set_clip(None)
 
     def _draw_crews(self, env) -> None:
-        site, vp, fonts = env.site, self.viewport, self.fonts
+        site, vp, fonts = env.engine.site, self.viewport, self.fonts
         surface = self.surface
         # an absent crew is off the plane (its body too): not drawn, named in the header
         crews = [c for c in site.crews if c.status != CrewStatus.LEFT and not c.absent]

@@ -90,11 +90,11 @@ def tiny_env(tiny_case):
 
 def place(env, crew_index: int, x: float, y: float, angle: float = 0.0) -> None:
     """Put a crew somewhere by hand (tests only)."""
-    body = env.world.bodies[crew_index]
+    body = env.engine.world.bodies[crew_index]
     body.position = (x, y)
     body.angle = angle
-    env.world.space.reindex_shapes_for_body(body)
-    env.positions[crew_index] = (x, y)
+    env.engine.world.space.reindex_shapes_for_body(body)
+    env.engine.positions[crew_index] = (x, y)
 
 
 def run_episode(env, seed: int, controller, max_calls: int = 100000):
@@ -104,7 +104,7 @@ def run_episode(env, seed: int, controller, max_calls: int = 100000):
     calls = 0
     while env.agents and calls < max_calls:
         obs, rewards, terms, truncs, infos = env.step(controller(env))
-        trace.append((env.site.time_s, {a: o.tobytes() for a, o in obs.items()}, rewards,
+        trace.append((env.engine.site.time_s, {a: o.tobytes() for a, o in obs.items()}, rewards,
                       {a: i["elapsed_s"] for a, i in infos.items()}))
         calls += 1
     return trace
@@ -193,7 +193,7 @@ def scripted_floor(evaluator="priority", case=None, seed: int = 0):
 
 def play(env, navigator, until_s: float | None = None):
     """Step the floor to its end (or to ``until_s``); returns the env."""
-    while env.agents and (until_s is None or env.site.time_s < until_s):
+    while env.agents and (until_s is None or env.engine.site.time_s < until_s):
         env.step(navigator.actions(env, None))
     return env
 

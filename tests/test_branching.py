@@ -22,7 +22,7 @@ def run(env, navigator, until_s: float | None = None) -> None:
 
 
 def paces(env) -> dict[str, float]:
-    return {t.id: t.pace for t in env.site.tasks if t.started_s >= 0}
+    return {t.id: t.pace for t in env.engine.site.tasks if t.started_s >= 0}
 
 
 def test_a_task_pace_comes_from_its_own_stream():
@@ -51,7 +51,7 @@ def test_two_strategies_on_one_seed_meet_the_same_paces():
     assert len(both) >= 5 and a.keys() != b.keys()  # different orders, shared tasks
     assert all(a[t] == b[t] for t in both)
     # and each pace is Table 3's draw from the task's own stream
-    site = priority.site
+    site = priority.engine.site
     for task in site.tasks:
         if task.id in both:
             crew = site.crews[task.crew]
@@ -63,13 +63,13 @@ def test_a_clone_continued_runs_exactly_as_the_original():
     run(env, navigator, 3000.0)
     engine, env2, navigator2 = env.engine.clone(companions=(env, navigator))
     assert env2.engine is engine and navigator2.env is env2 and engine is not env.engine
-    assert engine.site is not env.site and engine.world is not env.world
+    assert engine.site is not env.engine.site and engine.world is not env.engine.world
     run(env, navigator, 9000.0)
     run(env2, navigator2, 9000.0)
     assert env.log.events == env2.log.events
-    assert env.positions == env2.positions
-    assert [c.stats.congestion_entries for c in env.site.crews] == \
-        [c.stats.congestion_entries for c in env2.site.crews]
+    assert env.engine.positions == env2.engine.positions
+    assert [c.stats.congestion_entries for c in env.engine.site.crews] == \
+        [c.stats.congestion_entries for c in env2.engine.site.crews]
 
 
 def test_scenarios_change_only_the_paces_of_tasks_not_yet_started():
@@ -84,7 +84,7 @@ def test_scenarios_change_only_the_paces_of_tasks_not_yet_started():
     later = (one.keys() & two.keys()) - started.keys()
     assert len(later) >= 3
     assert all(one[t] != two[t] for t in later)
-    site = branches[0][1].site
+    site = branches[0][1].engine.site
     for task in site.tasks:
         if task.id in later:
             stream = RandomStreams(0, scenario=1).pace(task.index)
@@ -102,8 +102,8 @@ def test_clone_refuses_an_episode_not_started_or_finished(tiny_case):
 
 
 def test_a_contact_that_outlives_a_rebuild_is_not_counted_twice(tiny_env):
-    world = tiny_env.world
-    storage = tiny_env.site.storages[0]
+    world = tiny_env.engine.world
+    storage = tiny_env.engine.site.storages[0]
     x0, y0, x1, y1 = storage.rect
     place(tiny_env, 0, (x0 + x1) / 2, (y0 + y1) / 2)
     world.desired[0] = [0.1, 0.0, 0.0]  # move, so the physics steps

@@ -32,10 +32,10 @@ def test_another_row_swaps_only_the_first_choice(tiny_env):
     view = CandidateView(3)
     env = tiny_env
     env.reset(seed=0)
-    site = env.site
+    site = env.engine.site
     crew = next(c for c in site.crews if len(c.scope) > 1)
-    position = env.positions[crew.index]
-    decision = view.rows(crew, site, position, env.positions)
+    position = env.engine.positions[crew.index]
+    decision = view.rows(crew, site, position, env.engine.positions)
     targets = decision.targets
     base = decision.values(0)
     assert base == env.evaluator.target_values(crew, site, position)  # Eq. 9's own values

@@ -60,9 +60,9 @@ def test_plan_evaluator_prefers_the_earliest_planned_task(tiny_env):
     ev.bind(tiny_env)
     # X-A starts at 0 of 390 s -> 1.0; X-B at 120 (or later) -> at most 1 - 120/390
     assert ev.priorities["X-A"] == 1.0 and ev.priorities["X-B"] <= 1 - 120 / 390 + 1e-9
-    site = tiny_env.site
+    site = tiny_env.engine.site
     crew = site.crews[0]
-    values = ev.target_values(crew, site, tiny_env.positions[0])
+    values = ev.target_values(crew, site, tiny_env.engine.positions[0])
     best = max(values, key=values.get)
     assert site.tasks[crew.scope[best]].id == "X-A"
 

@@ -14,13 +14,14 @@ A, B, C = range(3)  # components
 
 
 def ctx_of(env):
-    return decide.Context(env.site, env.world, env.positions, env.engine.streams, env.log)
+    engine = env.engine
+    return decide.Context(engine.site, engine.world, engine.positions, engine.streams, env.log)
 
 
 def fire(env, crew_index):
     """The first row whose trigger holds, applied; returns its code."""
     ctx = ctx_of(env)
-    crew = env.site.crews[crew_index]
+    crew = env.engine.site.crews[crew_index]
     rule = decide.first_rule(crew, ctx)
     assert rule is not None
     rule.effect(crew, ctx)
@@ -32,7 +33,7 @@ def test_table_has_the_ten_rows_of_table_1():
 
 
 def test_c10_acquire_target_at_reset(tiny_env):
-    crews = tiny_env.site.crews
+    crews = tiny_env.engine.site.crews
     # X-1: both X tasks are queued -> scope is components A and B
     assert crews[X1].scope_kind == ScopeKind.TASKS and set(crews[X1].scope) == {A, B}
     # K-1: K-A waits for X-A -> idle for a predecessor
@@ -40,7 +41,7 @@ def test_c10_acquire_target_at_reset(tiny_env):
     assert crews[K1].idle_cause == IdleCause.PREDECESSOR
     # M-1 needs bars and holds none -> its scope is the storage
     assert crews[M1].scope_kind == ScopeKind.STORAGES
-    assert set(crews[M1].scope) == {tiny_env.site.storages[0].target}
+    assert set(crews[M1].scope) == {tiny_env.engine.site.storages[0].target}
     assert all(c.values.keys() == c.scope.keys() for c in crews)  # evaluated
 
 
@@ -48,9 +49,9 @@ def test_c1_initiate_task(tiny_env):
     env = tiny_env
     place(env, X1, -4.5, 0.0)  # inside X-A's area (-5, -2, -1, 2), outside component A
     assert fire(env, X1) == "c1"
-    task, crew = env.site.tasks[XA], env.site.crews[X1]
+    task, crew = env.engine.site.tasks[XA], env.engine.site.crews[X1]
     assert task.pool == Pool.ON and crew.status == CrewStatus.TASKING and crew.task == XA
-    assert XA in env.world.area_shapes and env.site.active_areas == [XA]
+    assert XA in env.engine.world.area_shapes and env.engine.site.active_areas == [XA]
     assert task.pace == pytest.approx(1.0 / 120.0, rel=0.5)  # 2 min per task, sd 0.3 min
 
 
@@ -58,36 +59,38 @@ def test_c2_execute_then_c9_complete(tiny_env):
     env = tiny_env
     place(env, X1, -4.5, 0.0)
     fire(env, X1)
-    task = env.site.tasks[XA]
+    task = env.engine.site.tasks[XA]
     assert fire(env, X1) == "c2"
-    construct.advance(env.site, env.positions, env.log, 1.0)
+    construct.advance(env.engine.site, env.engine.positions, env.log, 1.0)
     assert task.progress == pytest.approx(task.pace)
     task.progress = task.work
     assert fire(env, X1) == "c9"
-    assert task.pool == Pool.END and env.site.tasks[KA].pool == Pool.QUEUE  # successor released
-    assert XA not in env.world.area_shapes and env.site.crews[X1].status == CrewStatus.REACHING
+    site = env.engine.site
+    assert task.pool == Pool.END and site.tasks[KA].pool == Pool.QUEUE  # successor released
+    assert XA not in env.engine.world.area_shapes and site.crews[X1].status == CrewStatus.REACHING
 
 
 def test_c8_request_crane_for_task(tiny_env):
     env = tiny_env
-    env.site.tasks[XA].pool = Pool.END
-    env.site.tasks[KA].pool = Pool.QUEUE
-    env.site.version += 1
+    env.engine.site.tasks[XA].pool = Pool.END
+    env.engine.site.tasks[KA].pool = Pool.QUEUE
+    env.engine.site.version += 1
     assert fire(env, K1) == "c10"
     place(env, K1, -5.0, 0.0)
     assert fire(env, K1) == "c1"
     assert fire(env, K1) == "c8"
-    assert env.site.crews[K1].status == CrewStatus.WAITING
-    assert env.site.crane.current is not None and env.site.crane.current.crew == K1
+    assert env.engine.site.crews[K1].status == CrewStatus.WAITING
+    assert env.engine.site.crane.current is not None and env.engine.site.crane.current.crew == K1
     for _ in range(29):  # assist_time_s = 30: the idle crane set off at the request
-        construct.advance(env.site, env.positions, env.log, 1.0)
-    assert env.site.crews[K1].status == CrewStatus.WAITING
-    construct.advance(env.site, env.positions, env.log, 1.0)
-    assert env.site.tasks[KA].crane_assisted and env.site.crews[K1].status == CrewStatus.TASKING
+        construct.advance(env.engine.site, env.engine.positions, env.log, 1.0)
+    assert env.engine.site.crews[K1].status == CrewStatus.WAITING
+    construct.advance(env.engine.site, env.engine.positions, env.log, 1.0)
+    site = env.engine.site
+    assert site.tasks[KA].crane_assisted and site.crews[K1].status == CrewStatus.TASKING
 
 
 def _start_mc(env, crew_index=M1, load=0.1):
-    site = env.site
+    site = env.engine.site
     for t in (XA, KA):
         site.tasks[t].pool = Pool.END
     site.tasks[MC].pool = Pool.QUEUE
@@ -108,12 +111,13 @@ def test_c3_pause_when_material_runs_out(tiny_env):
     assert fire(env, M1) == "c3"
     assert crew.paused and crew.status == CrewStatus.REACHING
     assert crew.scope_kind == ScopeKind.STORAGES
-    assert env.site.tasks[MC].pool == Pool.ON and MC in env.world.area_shapes  # area stays
+    assert env.engine.site.tasks[MC].pool == Pool.ON  # the area stays
+    assert MC in env.engine.world.area_shapes
 
 
 def test_c7_c5_c6_c4_fetch_cycle(tiny_env):
     env = tiny_env
-    site = tiny_env.site
+    site = tiny_env.engine.site
     crew = _start_mc(env)
     crew.load = 0.0
     fire(env, M1)  # c3
@@ -121,12 +125,12 @@ def test_c7_c5_c6_c4_fetch_cycle(tiny_env):
     assert fire(env, M1) == "c7"
     assert crew.status == CrewStatus.WAITING and site.storages[0].lift_pending
     for _ in range(59):  # lift_time_s = 60
-        construct.advance(site, env.positions, env.log, 1.0)
+        construct.advance(site, env.engine.positions, env.log, 1.0)
     assert site.storages[0].stock == 0.0 and crew.status == CrewStatus.WAITING
-    construct.advance(site, env.positions, env.log, 1.0)
+    construct.advance(site, env.engine.positions, env.log, 1.0)
     assert site.storages[0].stock == pytest.approx(0.5) and crew.status == CrewStatus.FETCHING
     for _ in range(20):  # 0.6 m3/min = 0.01 m3/s, capacity 0.2 -> 20 s
-        construct.advance(site, env.positions, env.log, 1.0)
+        construct.advance(site, env.engine.positions, env.log, 1.0)
     assert crew.load == pytest.approx(0.2)
     assert fire(env, M1) == "c6"
     assert crew.scope_kind == ScopeKind.PAUSED and crew.scope == {C: MC}
@@ -137,8 +141,8 @@ def test_c7_c5_c6_c4_fetch_cycle(tiny_env):
 
 def test_c6_without_a_paused_task_acquires_tasks_at_once(tiny_env):
     env = tiny_env
-    crew = env.site.crews[M1]
-    env.site.storages[0].stock = 0.5
+    crew = env.engine.site.crews[M1]
+    env.engine.site.storages[0].stock = 0.5
     place(env, M1, 6.0, 4.5)
     fire(env, M1)  # c5
     crew.load = crew.capacity
@@ -149,49 +153,49 @@ def test_c6_without_a_paused_task_acquires_tasks_at_once(tiny_env):
 
 def test_c5_fetch_at_a_stocked_storage(tiny_env):
     env = tiny_env
-    env.site.storages[0].stock = 0.5
+    env.engine.site.storages[0].stock = 0.5
     place(env, M1, 6.0, 4.5)
     assert fire(env, M1) == "c5"
-    assert env.site.crews[M1].status == CrewStatus.FETCHING
+    assert env.engine.site.crews[M1].status == CrewStatus.FETCHING
 
 
 def test_c7_while_fetching_when_stock_runs_out(tiny_env):
     env = tiny_env
-    crew = env.site.crews[M1]
-    env.site.storages[0].stock = 0.05
+    crew = env.engine.site.crews[M1]
+    env.engine.site.storages[0].stock = 0.05
     place(env, M1, 6.0, 4.5)
     fire(env, M1)  # c5
     for _ in range(6):
-        construct.advance(env.site, env.positions, env.log, 1.0)
-    assert crew.load == pytest.approx(0.05) and env.site.storages[0].stock == 0.0
+        construct.advance(env.engine.site, env.engine.positions, env.log, 1.0)
+    assert crew.load == pytest.approx(0.05) and env.engine.site.storages[0].stock == 0.0
     assert fire(env, M1) == "c7" and crew.status == CrewStatus.WAITING
 
 
 def test_c10_deregisters_to_the_outlet_when_no_work_remains(tiny_env):
     env = tiny_env
     for t in (XA, XB):
-        env.site.tasks[t].pool = Pool.END
-    env.site.version += 1
+        env.engine.site.tasks[t].pool = Pool.END
+    env.engine.site.version += 1
     assert fire(env, X1) == "c10"
-    crew = env.site.crews[X1]
+    crew = env.engine.site.crews[X1]
     assert crew.status == CrewStatus.DEREGISTERED and crew.scope_kind == ScopeKind.OUTLET
 
 
 def test_c10_idle_when_task_areas_block(tiny_env):
     env = tiny_env
     _start_mc(env, crew_index=M1)  # M-C is on; M-2 has nothing else
-    crew = env.site.crews[M2]
+    crew = env.engine.site.crews[M2]
     crew.load = 0.1
     crew.clear_scope()
     fire(env, M2)
     # M-2's only task is being worked by M-1: not queued any more -> nothing remains -> outlet
     assert crew.status == CrewStatus.DEREGISTERED
     # X-B conflicts with nothing; put an area over X-B by hand and X-1 reports AREA
-    env.site.tasks[XA].pool = Pool.END
-    env.site.tasks[XB].conflicts = (MC,)
-    env.site.version += 1
+    env.engine.site.tasks[XA].pool = Pool.END
+    env.engine.site.tasks[XB].conflicts = (MC,)
+    env.engine.site.version += 1
     fire(env, X1)
-    assert env.site.crews[X1].idle_cause == IdleCause.AREA
+    assert env.engine.site.crews[X1].idle_cause == IdleCause.AREA
 
 
 def test_no_state_fires_two_rows():
@@ -206,7 +210,7 @@ def test_no_state_fires_two_rows():
 
     env = parallel_env(case=case_from_dict(tiny_dict()), seed=0)
     env.reset(seed=0)
-    site, crew = env.site, env.site.crews[M1]
+    site, crew = env.engine.site, env.engine.site.crews[M1]
     task, storage = site.tasks[MC], site.storages[0]
     task.needs_crane = True  # one task that needs both material and the crane
     overlaps = []

@@ -471,7 +471,7 @@ def test_a_frame_shows_what_is_disrupted():
         "absences": [{"crew": "K-1", "at_s": 0.0, "duration_s": 50.0}]}}
     env = CMDPEnv(case=case_from_dict(data, "tiny.toml"), render_mode="rgb_array")
     env.reset(seed=0)
-    assert disruption_text(env.site) == "WEATHER STOP   away: K-1"
+    assert disruption_text(env.engine.site) == "WEATHER STOP   away: K-1"
     frame = env.render()
     plain = CMDPEnv(case=case_from_dict(tiny_dict(), "tiny.toml"), render_mode="rgb_array")
     plain.reset(seed=0)

@@ -27,14 +27,14 @@ def test_a_student_with_weights_changes_choices_and_holds_them():
     w = [0.0] * len(FEATURE_NAMES)
     w[FEATURE_NAMES.index("nearness")] = -5.0
     env = play_floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
-    assert env.site.done and env.log.events != play_floor(PriorityEvaluator()).log.events
+    assert env.engine.site.done and env.log.events != play_floor(PriorityEvaluator()).log.events
 
 
 def test_floor_facts_tail_by_hand(tiny_case):
     # tiny case: X-A (2 min) -> K-A (1 min + 30 s crane) -> M-C (0.3 m3 at 0.1 m3/min = 3 min)
-    site = cmdp_pymunk.parallel_env(case=tiny_case, seed=0)
-    site.reset(seed=0)
-    facts = FloorFacts.of(site.site)
+    env = cmdp_pymunk.parallel_env(case=tiny_case, seed=0)
+    env.reset(seed=0)
+    facts = FloorFacts.of(env.engine.site)
     assert facts.tail_s.tolist() == pytest.approx([120 + 90 + 180, 90 + 180, 120, 180])
     # the bottleneck: X crews have 240 s for one crew, M 180 s for two crews, K 90 s
     assert facts.bottleneck == "XC"

@@ -4,6 +4,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import cmdp_pymunk
@@ -12,6 +13,9 @@ from cmdp_pymunk import parallel_env
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import NearestFirstEvaluator
 from cmdp_pymunk.move import STAND_STILL
+from cmdp_pymunk.observe import ReachingObservations
+from cmdp_pymunk.physics import Physics
+from cmdp_pymunk.world import World
 
 
 def test_the_engine_imports_no_rl_framework():
@@ -81,3 +85,43 @@ def test_the_adapter_runs_the_engines_schedule(tiny_case):
     for actions in actions_log:
         engine.advance(actions)
     assert engine.log.events == env.log.events
+
+
+class OnlyThePhysics:
+    """pymunk's World seen only through ``physics.Physics``'s members: anything else the
+    engine or its stages read of the plane raises."""
+
+    MEMBERS = frozenset(n for n in dir(Physics) if not n.startswith("_")) \
+        | frozenset(Physics.__annotations__)
+
+    def __init__(self, case, site):
+        self._world = World(case, site)
+
+    def __getattr__(self, name):
+        if name in OnlyThePhysics.MEMBERS:
+            return getattr(self.__dict__["_world"], name)
+        raise AttributeError(f"{name!r} is not a member of physics.Physics")
+
+
+def test_a_plane_seen_only_through_the_protocol_plays_the_same_floor(tiny_case):
+    def play(physics):
+        engine = Engine(tiny_case, evaluator="priority", seed=0, physics=physics)
+        engine.reset(seed=0)
+        navigator = Navigator(engine)
+        navigator.reset(0)
+        rays = ReachingObservations(tiny_case)
+        seen = []
+        while not engine.site.done:
+            seen.append(np.concatenate(rays.all(engine)))
+            engine.advance(navigator.crew_actions(engine), until=engine.decision_due)
+            if len(seen) == 10:
+                engine.clone()  # a copy, and the original rebuilt (``rebuild``)
+        return engine.log.events, seen
+
+    assert not isinstance(OnlyThePhysics.__new__(OnlyThePhysics), World)
+    events, seen = play(OnlyThePhysics)
+    assert len(seen) > 20 and any(obs.any() for obs in seen)  # rays were cast
+    assert any(e.kind == "crew_state" and e.subject == "left" for e in events)  # the outlet
+    pymunk_events, pymunk_seen = play(World)
+    assert events == pymunk_events
+    assert all(np.array_equal(a, b) for a, b in zip(seen, pymunk_seen, strict=True))

@@ -43,7 +43,7 @@ def test_whole_episode_is_deterministic_and_finishes():
     env_a, env_b = tiny_env(stage=2), tiny_env(stage=2)
     trace_a = run_episode(env_a, 3, steer_all)
     trace_b = run_episode(env_b, 3, steer_all)
-    assert env_a.site.done
+    assert env_a.engine.site.done
     assert trace_a == trace_b
     assert env_a.log.events == env_b.log.events
     # another seed draws other durations (X tasks have a spread): another schedule
@@ -90,9 +90,9 @@ def test_idle_jump_gives_the_same_schedule_as_stepping():
     jumping, stepping = tiny_env(jump_idle=True), tiny_env(jump_idle=False)
     trace_jump = run_episode(jumping, 1, steer_all)
     trace_step = run_episode(stepping, 1, steer_all)
-    assert jumping.site.done and stepping.site.done
+    assert jumping.engine.site.done and stepping.engine.site.done
     assert schedule(jumping) == schedule(stepping)
-    assert jumping.site.time_s == stepping.site.time_s
+    assert jumping.engine.site.time_s == stepping.engine.site.time_s
     assert len(trace_jump) < len(trace_step)  # the jump skipped seconds in single calls
     assert max(e for _, _, _, el in trace_jump for e in el.values()) > 1
 
@@ -100,14 +100,15 @@ def test_idle_jump_gives_the_same_schedule_as_stepping():
 def test_stage_1_has_no_durations_stock_or_crane_wait():
     env = tiny_env(stage=1)
     run_episode(env, 0, steer_all)
-    assert env.site.done
+    assert env.engine.site.done
     kinds = [e.kind for e in env.log.events]
     assert "crane_request" not in kinds  # no crane waits
-    assert all(s.stock == s.capacity for s in env.site.storages)  # stockpiles never drawn down
+    # stockpiles never drawn down
+    assert all(s.stock == s.capacity for s in env.engine.site.storages)
     paused = {e.subject for e in env.log.events if e.kind == "task_pause"}
     assert paused == {"M-C"}  # 0.3 m3 of bars for a crew that carries 0.2: one trip between
-    assert sum(c.stats.material_trips for c in env.site.crews) >= 2
-    for task in env.site.tasks:
+    assert sum(c.stats.material_trips for c in env.engine.site.crews) >= 2
+    for task in env.engine.site.tasks:
         if task.id not in paused:
             assert task.ended_s - task.started_s == 1.0  # done the step after it was initiated
     fetching = [e for e in env.log.events if e.kind == "crew_state" and e.subject == "fetching"]
@@ -134,10 +135,10 @@ def test_crews_that_do_not_move_get_a_constant_observation_and_no_reward():
     still = (CrewStatus.TASKING, CrewStatus.WAITING, CrewStatus.LEFT)
     checked = 0
     while env.agents:
-        before = {a: env.site.crews[env.agent_index[a]].status for a in env.agents}
+        before = {a: env.engine.site.crews[env.agent_index[a]].status for a in env.agents}
         obs, rew, *_ = env.step(steer_all(env))
         for agent in obs:
-            crew = env.site.crews[env.agent_index[agent]]
+            crew = env.engine.site.crews[env.agent_index[agent]]
             if crew.status in still:
                 assert not obs[agent].any()
             if before[agent] in still:  # it stood still the whole step: nothing to reward
@@ -171,7 +172,7 @@ def test_idle_jump_with_parked_crews_gives_the_same_schedule():
         env = tiny_env(jump_idle=jump, park_idle=True, seed=2)
         nav = Navigator(env)
         run_episode(env, 2, lambda e, nav=nav: nav.actions(e))
-        assert env.site.done
+        assert env.engine.site.done
         runs.append(env)
     assert schedule(runs[0]) == schedule(runs[1])
 

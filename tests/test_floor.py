@@ -21,23 +21,23 @@ def run_checked(seed: int):
     env = cmdp_pymunk.parallel_env(seed=seed, evaluator=PriorityEvaluator(), park_idle=True)
     obs, _ = env.reset(seed=seed)
     nav = Navigator(env)
-    rects = np.array([c.rect for c in env.site.components])
-    radii = np.array([c.spec.radius_m for c in env.site.crews])
+    rects = np.array([c.rect for c in env.engine.site.components])
+    radii = np.array([c.spec.radius_m for c in env.engine.site.crews])
     half_w, half_h = env.case.plane.half_extents
     while env.agents:
         obs, *_ = env.step(nav.actions(env, obs))
-        on_plane = [c.status.name != "LEFT" for c in env.site.crews]
-        pos = np.array([b.position for b in env.world.bodies])[on_plane]
+        on_plane = [c.status.name != "LEFT" for c in env.engine.site.crews]
+        pos = np.array([b.position for b in env.engine.world.bodies])[on_plane]
         r = radii[on_plane]
         assert (np.abs(pos[:, 0]) <= half_w).all() and (np.abs(pos[:, 1]) <= half_h).all(), \
-            f"t={env.site.time_s}: a crew left the plane"
+            f"t={env.engine.site.time_s}: a crew left the plane"
         dx = np.maximum(np.maximum(rects[None, :, 0] - pos[:, None, 0], 0),
                         pos[:, None, 0] - rects[None, :, 2])
         dy = np.maximum(np.maximum(rects[None, :, 1] - pos[:, None, 1], 0),
                         pos[:, None, 1] - rects[None, :, 3])
         depth = r[:, None] - np.hypot(dx, dy)
         assert depth.max() < SINK_TOLERANCE_M, \
-            f"t={env.site.time_s}: a crew sank {depth.max():.2f} m into a component"
+            f"t={env.engine.site.time_s}: a crew sank {depth.max():.2f} m into a component"
     return env
 
 
@@ -45,8 +45,9 @@ def test_seeds_0_to_9_finish_every_task_in_the_papers_range():
     makespans = []
     for seed in range(10):
         env = run_checked(seed)
-        assert env.site.done, f"seed {seed}: {env.site.tasks_ended}/87 tasks by the time limit"
-        assert env.site.tasks_ended == 87
+        site = env.engine.site
+        assert site.done, f"seed {seed}: {site.tasks_ended}/87 tasks by the time limit"
+        assert site.tasks_ended == 87
         makespans.append(env.makespan_s)
     mean = float(np.mean(makespans))
     assert 28000 <= mean <= 38000, makespans

@@ -33,10 +33,10 @@ def test_task_priority_value_by_hand():
 
 
 def test_evaluator_prefers_the_higher_priority_task(tiny_env):
-    site = tiny_env.site
+    site = tiny_env.engine.site
     crew = site.crews[0]  # scope A (X-A) and B (X-B)
     ev = TaskPriorityEvaluator({"X-A": 0.2, "K-A": 0.0, "X-B": 0.9, "M-C": 0.0})
-    values = ev.target_values(crew, site, tiny_env.positions[0])
+    values = ev.target_values(crew, site, tiny_env.engine.positions[0])
     by_task = {site.tasks[crew.scope[t]].id: v for t, v in values.items()}
     assert by_task == {"X-B": 1.0, "X-A": 0.5}  # as_target_values: best 1, worst 0.5
 
@@ -150,9 +150,9 @@ def test_cmdp_ga_config_errors_and_a_tiny_run(tmp_path, capsys):
 def test_equal_genes_on_the_priority_base_rank_as_the_heuristic(tiny_env):
     from cmdp_pymunk.evaluate import PriorityEvaluator
 
-    site = tiny_env.site
+    site = tiny_env.engine.site
     crew = site.crews[0]
-    position = tiny_env.positions[0]
+    position = tiny_env.engine.positions[0]
     heuristic = PriorityEvaluator().target_values(crew, site, position)
     same = TaskPriorityEvaluator({t.id: 0.5 for t in site.tasks}, base="priority")
     assert same.target_values(crew, site, position) == pytest.approx(heuristic)

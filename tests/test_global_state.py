@@ -59,14 +59,14 @@ def test_state_follows_a_whole_episode(tiny_case):
         env.step(navigator.actions(env))
         s = env.state()
         assert env.state_space.contains(s)
-        site = env.site
+        site = env.engine.site
         assert s[0] == pytest.approx(site.time_s / env.max_time_s)
         for crew in site.crews:
             row = s[1 + CREW_FEATURES * crew.index:1 + CREW_FEATURES * (crew.index + 1)]
             assert row[4 + int(crew.status)] == 1.0 and row[4:10].sum() == 1.0
-            x, y = env.positions[crew.index]
+            x, y = env.engine.positions[crew.index]
             assert row[0] == pytest.approx(x / 10.0, abs=1e-6)
-            assert row[3] == pytest.approx(math.sin(env.world.bodies[crew.index].angle),
+            assert row[3] == pytest.approx(math.sin(env.engine.world.bodies[crew.index].angle),
                                            abs=1e-6)
             seen_load += row[10] > 0
         if site.crane.current is not None:
@@ -74,7 +74,7 @@ def test_state_follows_a_whole_episode(tiny_case):
             assert s[crane] == 1.0 and s[queue + 2 * site.crane.current.crew] == 1.0
         assert s[crane + 2] == pytest.approx(len(site.crane.queue) / 4)
         seen_stock += s[layout["storages"]] > 0
-    assert env.site.done
+    assert env.engine.site.done
     s = env.state()
     tasks = s[layout["tasks"]:layout["storages"]].reshape(4, 5)
     np.testing.assert_array_equal(tasks[:, 3], 1.0)  # every task ended, progress 1

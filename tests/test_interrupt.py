@@ -25,7 +25,7 @@ def world_with_a_callback_that_gets_sigint():
     """A tiny world whose first crew's velocity_func receives a SIGINT on its first call."""
     env = cmdp_pymunk.parallel_env(case=case_from_dict(tiny_dict()), seed=0)
     env.reset(seed=0)
-    world = env.world
+    world = env.engine.world
     body = world.bodies[0]
     inner = body.velocity_func
     fired = []

@@ -51,3 +51,102 @@ def test_the_training_stages_do_not_import_each_other(module, other):
                 n.startswith(f"training.{other}.")}, names
     assert "training.scaffold" in names
     assert "training.train" not in names  # the command imports the stages, not the reverse
+
+
+# -- the engine owns the floor: nothing built on the core reads its plane or an env's state ----
+
+BUILT_ON_THE_CORE = ("agents", "training", "media", "tools", "benchmarks", "examples")
+PLANE = {"world", "bodies"}  # the engine's plane (``physics.Physics``) and pymunk's bodies
+ENV_STATE = {"site", "world", "positions"}  # read through ``env.engine``, never the env
+
+
+def _dotted(node: ast.AST) -> str:
+    """``self.env`` for the expression ``self.env`` (a name or a chain of attributes)."""
+    parts = []
+    while isinstance(node, ast.Attribute):
+        parts.append(node.attr)
+        node = node.value
+    if isinstance(node, ast.Name):
+        parts.append(node.id)
+    return ".".join(reversed(parts))
+
+
+def floor_state_reads(source: str) -> list[str]:
+    """Where ``source`` reads what only the engine may: any ``.world`` or ``.bodies`` (the
+    plane, pymunk's bodies), and ``.site``, ``.world`` or ``.positions`` of an env (a name
+    ending in ``env``), as attributes or through ``getattr``/``hasattr``."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Attribute):
+            owner, name = _dotted(node.value), node.attr
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                and node.func.id in ("getattr", "hasattr", "setattr") and len(node.args) >= 2 \
+                and isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str):
+            owner, name = _dotted(node.args[0]), node.args[1].value
+        else:
+            continue
+        if owner == "cmdp_pymunk":  # a module's name (cmdp_pymunk.world), not a floor's state
+            continue
+        if name in PLANE or (name in ENV_STATE and owner.rsplit(".", 1)[-1].endswith("env")):
+            out.append(f"line {node.lineno}: {owner or '<expression>'}.{name}")
+    return out
+
+
+def built_on_the_core() -> list[Path]:
+    return [p for d in BUILT_ON_THE_CORE if (ROOT / d).is_dir()
+            for p in sorted((ROOT / d).rglob("*.py"))]
+
+
+@pytest.mark.parametrize("path", built_on_the_core(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_nothing_built_on_the_core_reads_the_plane_or_an_envs_state(path):
+    reads = floor_state_reads(path.read_text(encoding="utf-8"))
+    assert not reads, (f"{path.relative_to(ROOT)} reads the floor's state around its engine: "
+                       f"{reads}; fix: read it through the engine (env.engine: site, "
+                       "positions, pose(i), headings()), crews by index")
+    assert "pymunk" not in first_parts(path), f"{path.relative_to(ROOT)} imports pymunk"
+
+
+def test_the_floor_state_checker_sees_every_way_round():
+    source = """
+site = env.site
+xy = self.env.positions[0]
+angle = engine.world.bodies[0].angle
+plane = getattr(tiny_env, "world", None)
+fine = (engine.site, engine.positions, self.site, env.engine.site, cmdp_pymunk.world)
+"""
+    assert sorted(floor_state_reads(source)) == [
+        "line 2: env.site", "line 3: self.env.positions", "line 4: engine.world",
+        "line 4: engine.world.bodies", "line 5: tiny_env.world"]
+
+
+def test_the_core_reaches_the_plane_only_through_the_physics_protocol():
+    """Every member of a world read in the core (``world.X``, ``self.world.X``,
+    ``ctx.world.X``) outside world.py is one of ``physics.Physics``'s, and only world.py (and
+    ``rollout.versions``, for pymunk's version) imports pymunk."""
+    from cmdp_pymunk.physics import Physics
+
+    members = {n for n in dir(Physics) if not n.startswith("_")} | set(Physics.__annotations__)
+    used = {}
+    for path in sorted((ROOT / "cmdp_pymunk").rglob("*.py")):
+        if path.name in ("world.py", "physics.py"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Attribute) and _dotted(node.value).split(".")[-1] == "world":
+                used.setdefault(node.attr, set()).add(path.name)
+        if "pymunk" in first_parts(path):
+            assert path.name == "rollout.py", f"{path.name} imports pymunk"
+    assert {"pose", "step", "ray_query", "drive"} <= used.keys()  # the checker sees them
+    assert not used.keys() - members, {k: used[k] for k in used.keys() - members}
+
+
+def test_pymunks_world_is_a_physics():
+    import cmdp_pymunk
+    from cmdp_pymunk.physics import Physics
+    from cmdp_pymunk.state import Site
+    from cmdp_pymunk.world import World
+
+    case = cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE)
+    world = World(case, Site(case, 2))
+    assert isinstance(world, Physics)
+    x, y, heading = world.pose(0)
+    assert (x, y) == (case.crews[0].start_x_m, case.crews[0].start_y_m)

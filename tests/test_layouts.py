@@ -92,4 +92,4 @@ def test_held_out_layouts_finish_with_the_heuristic_and_the_navigator(path):
     for seed in range(5):
         episode = run_episode(env, navigator, seed, stall_s=3600.0, progress=False)
         assert episode.stalled is None, (path.name, seed, episode.stalled)
-        assert env.site.done and episode.makespan_s, (path.name, seed)
+        assert env.engine.site.done and episode.makespan_s, (path.name, seed)

@@ -24,7 +24,7 @@ def test_one_candidate_is_the_base_rule_exactly():
     lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=0))
     env = play_floor(lookahead)
     base = play_floor(PriorityEvaluator())
-    assert env.site.done and env.makespan_s == base.makespan_s
+    assert env.engine.site.done and env.makespan_s == base.makespan_s
     assert env.log.events == base.log.events
     assert lookahead.decisions == []
 
@@ -42,7 +42,7 @@ class Recording(LookaheadEvaluator):
 def test_candidates_meet_the_same_sampled_futures(tiny_case):
     lookahead = Recording(settings=LookaheadSettings(candidates=2, futures=2))
     env = play_floor(lookahead, tiny_case)
-    assert env.site.done and lookahead.decisions
+    assert env.engine.site.done and lookahead.decisions
     by_decision: dict = {}
     for decision, _, target, scenario in lookahead.calls:
         by_decision.setdefault(decision, {}).setdefault(target, []).append(scenario)

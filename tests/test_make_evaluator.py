@@ -54,7 +54,7 @@ def test_parallel_env_takes_a_name_and_runs(tiny_case, name):
     for _ in range(5):
         env.step({agent: STAND_STILL for agent in env.agents})
     assert type(env.evaluator) is EVALUATORS[name]
-    valued = [crew for crew in env.site.crews if crew.scope]
+    valued = [crew for crew in env.engine.site.crews if crew.scope]
     assert valued and all(crew.values.keys() == crew.scope.keys() for crew in valued)
     env.evaluator = "nearest"  # the setter takes a name too
     assert type(env.evaluator) is type(env.engine.evaluator) is NearestFirstEvaluator

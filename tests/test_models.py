@@ -117,7 +117,7 @@ def test_a_stuck_argmax_navigator_fails_fast_with_a_message(tmp_path, capsys):
     data.setdefault("simulation", {})["reevaluate_after_steps"] = 20
     env = parallel_env(case=case_from_dict(data), stage=2)
     env.reset(seed=0)
-    crew = next(c for c in env.site.crews if c.scope)
+    crew = next(c for c in env.engine.site.crews if c.scope)
     crew.steps_since_reach = 59
     check_not_stuck(env, PolicyNavigator.stuck_after_caps)  # 59 < 60: not yet
     crew.steps_since_reach = 60

@@ -20,14 +20,15 @@ def test_eq9_priority_value():
 
 def test_priority_prefers_the_task_that_unblocks_more(tiny_env):
     env = tiny_env
-    crew = env.site.crews[0]  # scope A (X-A -> K-A -> M-C: 2 successors), B (none)
+    crew = env.engine.site.crews[0]  # scope A (X-A -> K-A -> M-C: 2 successors), B (none)
     evaluator = PriorityEvaluator()
-    priorities = evaluator.priorities(crew, env.site, (1.0, 0.0))
+    priorities = evaluator.priorities(crew, env.engine.site, (1.0, 0.0))
     # A: Suc 2/2 -> 1; distance from (1,0): A at (-3,0) 4 m, B at (5,0) 4 m -> both 0.5*(0)=0;
     # conflicts with queued tasks: none queued around either -> 0. V'(A) = 1, V'(B) = 0.
     assert priorities == pytest.approx({0: 1.0, 1: 0.0})
     # as V_Tar: onto [0.5, 1], best 1
-    assert evaluator.target_values(crew, env.site, (1.0, 0.0)) == pytest.approx({0: 1.0, 1: 0.5})
+    assert evaluator.target_values(crew, env.engine.site, (1.0, 0.0)) == \
+        pytest.approx({0: 1.0, 1: 0.5})
 
 
 def test_priorities_become_positive_target_values():

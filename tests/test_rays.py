@@ -38,9 +38,9 @@ def ray(obs, j):
 
 def test_frontal_and_surrounding_rays_hit_what_they_should():
     env = scene()
-    crew = env.site.crews[0]
+    crew = env.engine.site.crews[0]
     crew.scope, crew.values = {0: -1}, {0: 0.7}  # component B is a target worth 0.7
-    obs = observe_crew(env.world, env.rays, crew)
+    obs = observe_crew(env.engine.world, env.rays, crew)
     assert obs.shape == (4 * 7 + 3,)
     # frontal ray at 0 deg: B's face at x = 4 of 10 m -> 0.4; B is in scope -> V = 0.7
     assert ray(obs, 1) == pytest.approx((0.4, 0.0, COMPONENT * SCALE, 0.7), abs=1e-6)
@@ -60,10 +60,10 @@ def test_frontal_and_surrounding_rays_hit_what_they_should():
 
 def test_out_of_scope_target_reads_zero_and_heading_rotates_rays():
     env = scene()
-    crew = env.site.crews[0]
+    crew = env.engine.site.crews[0]
     crew.scope, crew.values = {}, {}
     place(env, 0, 0.0, 0.0, angle=math.pi / 2)  # facing +y
-    obs = observe_crew(env.world, env.rays, crew)
+    obs = observe_crew(env.engine.world, env.rays, crew)
     # frontal ray at 0 deg now points up: the top wall at 5.9 m -> 0.59
     assert ray(obs, 1) == pytest.approx((0.59, 0.0, WALL * SCALE, 0.0), abs=1e-6)
     # the surrounding ray at -90 deg (index 3 + 3) now points along +x: nothing within 3 m
@@ -76,11 +76,11 @@ def test_out_of_scope_target_reads_zero_and_heading_rotates_rays():
 
 def test_frontal_rays_look_through_task_areas_surrounding_rays_stop_there():
     env = scene()
-    crew = env.site.crews[0]
+    crew = env.engine.site.crews[0]
     crew.scope, crew.values = {0: -1}, {0: 0.9}
-    env.world.add_task_area(99, (2.0, -1.5, 3.5, 1.5))  # an area between the crew and B
-    env.world.add_task_area(98, (-4.0, -1.0, -1.5, 1.0))  # an area behind the crew
-    obs = observe_crew(env.world, env.rays, crew)
+    env.engine.world.add_task_area(99, (2.0, -1.5, 3.5, 1.5))  # an area between the crew and B
+    env.engine.world.add_task_area(98, (-4.0, -1.0, -1.5, 1.0))  # an area behind the crew
+    obs = observe_crew(env.engine.world, env.rays, crew)
     assert ray(obs, 1) == pytest.approx((0.4, 0.0, COMPONENT * SCALE, 0.9), abs=1e-6)
     # surrounding 0 deg: the area at x = 2 of 3 m; 180 deg: the area's edge at x = -1.5 -> 0.5
     assert ray(obs, 3) == pytest.approx((2 / 3, 0.0, TASK_AREA * SCALE, 0.0), abs=1e-6)
@@ -91,18 +91,18 @@ def test_fast_rays_answer_like_the_public_api():
     from cmdp_pymunk.world import RayCaster
 
     env = scene()
-    env.world.add_task_area(99, (2.0, -1.5, 3.5, 1.5))
-    fast, public = env.world.rays, RayCaster(env.world.space, public=True)
+    env.engine.world.add_task_area(99, (2.0, -1.5, 3.5, 1.5))
+    fast, public = env.engine.world.rays, RayCaster(env.engine.world.space, public=True)
     assert fast.fast and not public.fast
-    for crew in env.site.crews:
-        x, y = env.positions[crew.index]
+    for crew in env.engine.site.crews:
+        x, y = env.engine.positions[crew.index]
         for ex, ey, frontal in env.rays.endpoints(x, y, 0.3 * crew.index):
-            flt = env.world.frontal_filters[crew.index] if frontal else \
-                env.world.surrounding_filters[crew.index]
+            flt = env.engine.world.frontal_filters[crew.index] if frontal else \
+                env.engine.world.surrounding_filters[crew.index]
             a, b = fast.cast((x, y), (ex, ey), flt), public.cast((x, y), (ex, ey), flt)
             assert (a is None and b is None) or (a[1:] == b[1:] and a[0] == pytest.approx(b[0]))
-    env.world.remove_task_area(99)
-    assert all(k != 99 for k in env.world.area_shapes)
+    env.engine.world.remove_task_area(99)
+    assert all(k != 99 for k in env.engine.world.area_shapes)
 
 
 def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
@@ -110,11 +110,11 @@ def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
     from cmdp_pymunk.observe import MEMORY_FEATURES, RayModel, remembered_target
 
     env = scene()
-    crew = env.site.crews[0]
+    crew = env.engine.site.crews[0]
     crew.scope, crew.values = {0: -1}, {0: 0.7}
     rays = RayModel(3, 4, 120.0, 10.0, 3.0, memory=True, memory_age_s=300.0)
     assert rays.size == 4 * 7 + 3 + MEMORY_FEATURES
-    obs = observe_crew(env.world, rays, crew, now_s=100.0)
+    obs = observe_crew(env.engine.world, rays, crew, now_s=100.0)
     # the 0 deg frontal ray hits B's face at (4, 0): the sighting of target 0, stamped 100 s
     assert crew.sightings[0] == pytest.approx((4.0, 0.0, 100.0), abs=1e-6)
     assert list(obs[-MEMORY_FEATURES:]) == [0.0] * MEMORY_FEATURES  # filled by the env
@@ -127,7 +127,7 @@ def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
     crew.scope = {1: -1}
     assert remembered_target(rays, crew, 1.0, 3.0, 0.0, 160.0) == (0.0, 0.0, 0.0, 0.0)
     # a look without the target in view keeps the old sighting; of two, the latest is offered
-    observe_crew(env.world, rays, crew, now_s=200.0)
+    observe_crew(env.engine.world, rays, crew, now_s=200.0)
     assert crew.sightings[0][2] == 100.0
     crew.sightings[1] = (1.0, 5.0, 150.0)
     crew.scope = {0: -1, 1: -1}
@@ -137,11 +137,11 @@ def test_target_memory_remembers_the_last_sighting_in_the_crew_frame():
 
 def test_a_crew_in_a_storage_sees_out_of_it_with_its_frontal_rays():
     env = scene()
-    crew = env.site.crews[0]
+    crew = env.engine.site.crews[0]
     crew.scope, crew.values = {0: -1}, {0: 0.7}
     # storage S spans x 4.5..7.5, y 3.5..5.5; the crew stands in it at (5.5, 4.5) facing -y
     place(env, 0, 5.5, 4.5, angle=-math.pi / 2)
-    obs = observe_crew(env.world, env.rays, crew)
+    obs = observe_crew(env.engine.world, env.rays, crew)
     # the 0 deg frontal ray leaves S at y = 3.5 (1 m) and meets B's top face y = 1 at 3.5 m
     assert ray(obs, 1) == pytest.approx((0.35, 0.0, COMPONENT * SCALE, 0.7), abs=1e-5)
     # surrounding rays still report the storage around the crew, at length 0
@@ -153,12 +153,13 @@ def test_a_crew_remembers_where_it_paused_its_task():
     from cmdp_pymunk import decide
 
     env = scene()
-    crew = env.site.crews[0]
+    crew = env.engine.site.crews[0]
     crew.task = 3  # M-C, on component C (target 2)
-    env.site.time_s = 42.0
-    ctx = decide.Context(env.site, env.world, env.positions, RandomStreams(0), env.log)
+    env.engine.site.time_s = 42.0
+    engine = env.engine
+    ctx = decide.Context(engine.site, engine.world, engine.positions, RandomStreams(0), env.log)
     decide.pause_task(crew, ctx)
-    assert crew.sightings[env.site.tasks[3].component] == (0.0, 0.0, 42.0)
+    assert crew.sightings[env.engine.site.tasks[3].component] == (0.0, 0.0, 42.0)
 
 
 def test_env_observation_carries_memory_only_when_the_case_asks():

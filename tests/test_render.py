@@ -34,12 +34,12 @@ def _has_colour(frame, col: int, row: int, half: int, colour) -> bool:
 def _lone_crew(env) -> int:
     """A crew whose mirror image across y = 0 is far from every crew of its type, so that a
     frame drawn with y not flipped would put its colour where no such crew is."""
-    site = env.site
+    site = env.engine.site
     for crew in site.crews:
-        x, y = env.world.bodies[crew.index].position
+        x, y = env.engine.world.bodies[crew.index].position
         if abs(y) < 2.0:
             continue
-        if all(math.dist((x, -y), env.world.bodies[o.index].position) > 2.0
+        if all(math.dist((x, -y), env.engine.world.bodies[o.index].position) > 2.0
                for o in site.crews if o.type == crew.type):
             return crew.index
     raise AssertionError("the tiny case has no crew away from the x axis")
@@ -63,9 +63,9 @@ def test_crew_colour_is_drawn_where_the_crew_is(rendered_env, px_per_m):
     env = rendered_env
     i = _lone_crew(env)
     frame = render.draw_frame(env, px_per_m=px_per_m)
-    x, y = env.world.bodies[i].position
+    x, y = env.engine.world.bodies[i].position
     scale = render.Viewport.of(env.case.plane, px_per_m).px_per_m
-    half = max(1, int(env.site.crews[i].spec.radius_m * scale * 0.6))  # inside the disc
+    half = max(1, int(env.engine.site.crews[i].spec.radius_m * scale * 0.6))  # inside the disc
     colour = render.crew_colour(env, i)
     col, row = render.world_to_pixel(env, x, y, px_per_m)
     assert _has_colour(frame, col, row, half, colour)
@@ -87,14 +87,14 @@ def test_world_to_pixel_flips_y_and_centres_the_origin(rendered_env):
 def test_left_crews_are_not_drawn(rendered_env):
     env = rendered_env
     i = _lone_crew(env)
-    env.site.crews[i].status = CrewStatus.LEFT  # hand-made state: the crew has gone
+    env.engine.site.crews[i].status = CrewStatus.LEFT  # hand-made state: the crew has gone
     frame = env.render()
-    col, row = render.world_to_pixel(env, *env.world.bodies[i].position)
+    col, row = render.world_to_pixel(env, *env.engine.world.bodies[i].position)
     assert not _has_colour(frame, col, row, 3, render.crew_colour(env, i))
 
 
 def test_component_colours_follow_the_task_pools(tiny_env):
-    site = tiny_env.site
+    site = tiny_env.engine.site
     ids = {c.id: c.index for c in site.components}
     # conftest: A and B start with a queued task, C's task waits for K-A
     assert render.component_colour(site, ids["A"]) == render.COMPONENT_EXECUTABLE

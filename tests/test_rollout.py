@@ -39,7 +39,7 @@ def test_run_episode_finishes_the_tiny_case(tiny_case):
     navigator = make_navigator("scripted", env)
     navigator.bind(env)
     episode = run_episode(env, navigator, seed=1, stall_s=3600.0, progress=False)
-    assert episode.stalled is None and episode.makespan_s == env.site.time_s
+    assert episode.stalled is None and episode.makespan_s == env.engine.site.time_s
     summary = crew_summary(env)
     assert set(summary) == {c.id for c in tiny_case.crews}
     reaches = sum(c["reaches"] for c in summary.values())

@@ -50,7 +50,7 @@ def check_step(env, observations, rewards, infos, where: str) -> None:
     assert np.isfinite(state).all() and env.state_space.contains(state), \
         f"{where}: state() outside state_space"
     half_w, half_h = env.case.plane.width_m / 2, env.case.plane.height_m / 2
-    for crew, body in zip(env.site.crews, env.world.bodies, strict=True):
+    for crew, body in zip(env.engine.site.crews, env.engine.world.bodies, strict=True):
         if crew.status == CrewStatus.LEFT:
             continue
         x, y = body.position

@@ -116,7 +116,7 @@ def test_mixed_stage_env_mixes_in_stage2_after_its_start_step():
     assert env.run_steps == 8 * 2 * n_crews
     env.reset()
     assert (env.stage, env.max_time_s) == (2, 70.0)
-    assert env.site.stage == 2
+    assert env.engine.site.stage == 2
     resumed = stage1.MixedStageEnv(config, case, start_steps=1_000)
     resumed.reset(seed=3)
     assert resumed.stage == 2

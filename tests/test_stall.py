@@ -25,7 +25,7 @@ def test_crews_that_never_move_are_stopped_at_stall_s_with_the_flag():
         _, _, terms, truncs, infos = env.step({a: STILL for a in env.agents})
         calls += 1
     # nothing ever progressed, from t = 0: stopped at exactly t = 50, not at the 5,000 s limit
-    assert env.site.time_s == 50 and calls == 50
+    assert env.engine.site.time_s == 50 and calls == 50
     assert all(truncs.values()) and not any(terms.values())
     assert all(i["stalled"] and i["TimeLimit.truncated"] for i in infos.values())
     assert env.stalled == {"after_s": 50.0, "time_s": 50.0}
@@ -52,7 +52,7 @@ def test_the_guard_changes_nothing_in_an_episode_that_progresses():
     plain, guarded = tiny_env(stage=2), tiny_env(stage=2, stall_s=200)
     trace_a = run_episode(plain, 3, steer_all)
     trace_b = run_episode(guarded, 3, steer_all)
-    assert guarded.site.done and guarded.stalled is None
+    assert guarded.engine.site.done and guarded.stalled is None
     assert trace_a == trace_b
 
 
@@ -61,11 +61,11 @@ def test_the_guard_stops_inside_an_idle_jump():
     crew stands parked and the task areas never change, so one call would jump to the limit."""
     env = tiny_env(stall_s=40, park_idle=True, max_time_s=5000)
     env.reset(seed=0)
-    for crew in env.site.crews:  # no crew has anything to do: all parked, nothing progresses
-        crew.scope, crew.values, crew.scope_version = {}, {}, env.site.version
+    for crew in env.engine.site.crews:  # no crew has anything to do: all parked, nothing progresses
+        crew.scope, crew.values, crew.scope_version = {}, {}, env.engine.site.version
     while env.agents:
         *_, truncs, infos = env.step({a: STILL for a in env.agents})
-    assert env.site.time_s <= 41
+    assert env.engine.site.time_s <= 41
 
 
 @pytest.mark.parametrize("bad", [0, -5, math.nan, math.inf])

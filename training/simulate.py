@@ -119,7 +119,8 @@ def iso_datetime(text: str) -> str:
 def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
     from cmdp_pymunk.rollout import crew_summary, episode_reach_rate, versions
 
-    site = env.site
+    engine = env.engine
+    site = engine.site
     makespan = episode.makespan_s
     data = {
         "case": site.case.case.name, "case_file": case_label, "seed": episode.seed,
@@ -130,8 +131,8 @@ def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -
         "all_finished": site.done, "simulated_s": site.time_s,
         "lower_bound": lb.as_dict(),
         "makespan_over_lower_bound": makespan / lb.lower_bound_s if makespan else None,
-        "reach_rate": episode_reach_rate(env),
-        "crews": crew_summary(env),
+        "reach_rate": episode_reach_rate(engine),
+        "crews": crew_summary(engine),
         "stalled": episode.stalled,
         "lookahead": env.evaluator.summary() if hasattr(env.evaluator, "decisions") else None,
         "wall_s": round(episode.wall_s, 3),
@@ -205,14 +206,14 @@ class Progress:
     """What ``cmdp-simulate`` is doing and what it has kept, for the line Ctrl-C prints."""
 
     doing: str = "while starting"
-    env: object = None  # the env of the episode under way, for its time
+    engine: object = None  # the engine of the episode under way, for its time
     out: Path | None = None
     kept: list[int] = field(default_factory=list)  # seeds whose folders are complete
     resume: str = ""
 
     def interrupted(self) -> str:
         doing = self.doing
-        site = getattr(self.env, "site", None)
+        site = self.engine.site if self.engine is not None else None
         if site is not None:
             doing += f" at t = {site.time_s:,.0f} s"
         if not self.kept:
@@ -306,13 +307,13 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         progress.doing = f"in seed {seed}"
         progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
                            f"{args.episodes - k}" if args.episodes > 1 else "")
-        progress.env = env
+        progress.engine = env.engine
         try:
             episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every)
         except PolicyStuck as err:
             print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
             return 1
-        progress.env, progress.doing = None, f"while writing seed {seed}'s files"
+        progress.engine, progress.doing = None, f"while writing seed {seed}'s files"
         episode.frames = thin(episode.frames, int(GIF_SECONDS * GIF_FPS))
         # A Ctrl-C while a seed's files are written is held until all of them are: a seed's
         # folder is either complete or not started.
@@ -324,15 +325,16 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         progress.kept.append(seed)
         rows.append(data)
         finishes.append(finish_times(env.log.events))
+        site = env.engine.site
         if episode.stalled:
             failed = True
-            print(f"cmdp-simulate: seed {seed}: STALLED at t = {env.site.time_s:.0f} s after "
+            print(f"cmdp-simulate: seed {seed}: STALLED at t = {site.time_s:.0f} s after "
                   f"{episode.stalled['after_s']:.0f} s without progress:\n"
                   + json.dumps(episode.stalled, indent=2), file=sys.stderr)
-        elif not env.site.done:
+        elif not site.done:
             failed = True
             print(f"cmdp-simulate: seed {seed}: time limit reached with "
-                  f"{env.site.tasks_ended}/{len(case.tasks)} tasks finished", file=sys.stderr)
+                  f"{site.tasks_ended}/{len(case.tasks)} tasks finished", file=sys.stderr)
         else:
             print(f"cmdp-simulate: seed {seed}: makespan {episode.makespan_s:.0f} s "
                   f"({data['makespan_over_lower_bound']:.2f} x lower bound), "

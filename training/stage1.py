@@ -124,14 +124,14 @@ def make_vec_env(config: Stage1Config, case, start_steps: int = 0):
 SEARCH_TURN = (0, 1, 2)  # stand and turn anticlockwise
 
 
-def teacher_action(env, agent: str, navigator_action) -> tuple:
-    """The navigator's action, except that a crew holding no target turns in place.
+def teacher_action(engine, i: int, navigator_action) -> tuple:
+    """The navigator's action for crew i, except that a crew holding no target turns in place.
 
     The rays cannot tell "no target" from "a target out of view" (both read V = 0 on every
     ray), so the navigator's standing idle would teach the policy to stand whenever its target
     is behind it. Turning finds a target behind within a turn, and costs an idle crew nothing.
     """
-    crew = env.site.crews[env.agent_index[agent]]
+    crew = engine.site.crews[i]
     return navigator_action if crew.scope else SEARCH_TURN
 
 
@@ -156,7 +156,8 @@ def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
             for agent in env.agents:
                 if infos[agent]["needs_action"]:
                     obs_out.append(observations[agent])
-                    act_out.append(teacher_action(env, agent, actions.get(agent, STAND_STILL)))
+                    act_out.append(teacher_action(env.engine, env.agent_index[agent],
+                                                  actions.get(agent, STAND_STILL)))
             observations, _, _, _, infos = env.step(actions)
         episode += 1
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out, dtype=np.int64)
@@ -212,12 +213,13 @@ def evaluate_reaching(model, config: Stage1Config, case, seeds, stage: int = 1) 
         while env.agents:
             observations, rew, *_ = env.step(navigator.actions(env, observations))
             total += sum(rew.values())
-        for crew in env.site.crews:
+        site = env.engine.site
+        for crew in site.crews:
             reaches += crew.stats.reaches
             timeouts += crew.stats.reach_timeouts
             steps += crew.stats.reaching_steps
         rewards.append(total)
-        tasks.append(env.site.tasks_ended / len(env.site.tasks))
+        tasks.append(site.tasks_ended / len(site.tasks))
     return {"reach_rate": reach_rate(reaches, timeouts),
             "steps_per_reach": steps / max(1, reaches),
             "mean_reward": float(np.mean(rewards)), "tasks_done": float(np.mean(tasks))}
