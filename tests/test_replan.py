@@ -71,6 +71,6 @@ def test_replan_finishes_the_floor_the_same_way_twice(tiny_case):
     first, second = ReplanEvaluator(), ReplanEvaluator()
     a = play_floor(first, tiny_case)
     b = play_floor(second, tiny_case)
-    assert a.site.done and a.log.events == b.log.events
+    assert a.engine.site.done and a.log.events == b.log.events
     assert first.plans and all(isinstance(p, Plan) for p in first.plans)
     assert first.summary()["plans"] == len(first.plans)
