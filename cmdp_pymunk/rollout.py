@@ -30,43 +30,6 @@ from .state import DISRUPTION_CAUSES, CrewStatus, IdleCause, Pool, activity
 PERCENTILES = (50, 80, 90)  # the makespan percentiles a run of many episodes reports
 
 
-class Frames:
-    """Rendered frames kept zlib-compressed: a floor's frames are flat colours and shrink
-    about 50 x, so a whole floor's GIF no longer holds a gigabyte of raw pixels (issue 18).
-    A list of (H, W, 3) uint8 arrays to its readers: ``len``, indexing and iteration
-    decompress one frame at a time."""
-
-    def __init__(self):
-        self._blobs: list[tuple[bytes, tuple, str]] = []
-
-    def append(self, frame) -> None:
-        import zlib
-
-        frame = np.ascontiguousarray(frame)
-        self._blobs.append((zlib.compress(frame.tobytes(), 1), frame.shape, frame.dtype.str))
-
-    def __len__(self) -> int:
-        return len(self._blobs)
-
-    def __bool__(self) -> bool:
-        return bool(self._blobs)
-
-    def __getitem__(self, i: int) -> np.ndarray:
-        import zlib
-
-        blob, shape, dtype = self._blobs[i]
-        return np.frombuffer(zlib.decompress(blob), dtype=dtype).reshape(shape)
-
-    def __iter__(self):
-        return (self[i] for i in range(len(self)))
-
-    def select(self, keep) -> Frames:
-        """The frames at the indices ``keep``, still compressed."""
-        out = Frames()
-        out._blobs = [self._blobs[i] for i in keep]
-        return out
-
-
 @dataclass
 class Episode:
     """One finished (or stopped) episode: its seed, makespan (None unless every task ended),
@@ -76,7 +39,7 @@ class Episode:
     makespan_s: float | None
     wall_s: float
     stalled: dict | None
-    frames: Frames | list = field(default_factory=list)
+    frames: list = field(default_factory=list)
 
 
 def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
@@ -105,7 +68,7 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
     navigator.reset(seed)
     engine = env.engine
     site = engine.site
-    frames = Frames()
+    frames = []
     next_frame = 0.0
     # counted in tasks ended, the one total known in advance (a floor's simulated seconds are
     # not: against the time limit, a finished floor stopped the bar at about 40 %)

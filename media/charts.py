@@ -498,29 +498,21 @@ def write_gif(frames: Iterable[np.ndarray], path: str | Path,
     that. Pillow merges consecutive identical frames into one longer frame (the playing time
     is unchanged), so the file may hold fewer frames than were given.
     """
-    from PIL import Image
+    import imageio.v3 as iio  # only GIFs need imageio
 
     if duration_s_per_frame <= 0:
         raise ValueError(f"duration_s_per_frame must be positive, not {duration_s_per_frame}")
-    frames = iter(frames)
-    first = next(frames, None)
-    if first is None:
+    stack = [np.asarray(f) for f in frames]
+    if not stack:
         raise ValueError("no frames to write; fix: pass at least one (H, W, 3) uint8 frame")
-    first = np.asarray(first)
-
-    def image(i: int, f) -> Image.Image:
-        f = np.asarray(f)
+    first = stack[0]
+    for i, f in enumerate(stack):
         if f.dtype != np.uint8 or f.ndim != 3 or f.shape[2] != 3 or f.shape != first.shape:
             raise ValueError(f"frame {i} is {f.dtype} {f.shape}; fix: every frame must be "
                              f"uint8 of one shape (H, W, 3), like frame 0 {first.shape}")
-        return Image.fromarray(f)
-
-    # Frames are handed to Pillow one at a time (a generator), never stacked: Pillow keeps
-    # each as a palette image (one byte a pixel), not the caller's three.
     buf = io.BytesIO()
-    image(0, first).save(buf, format="GIF", save_all=True,
-                         append_images=(image(i, f) for i, f in enumerate(frames, 1)),
-                         duration=round(duration_s_per_frame * 1000), loop=0)
+    iio.imwrite(buf, stack, extension=".gif", duration=round(duration_s_per_frame * 1000),
+                loop=0)
     path = Path(path)
     write_atomic(path, buf.getvalue())
     return path

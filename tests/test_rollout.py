@@ -50,22 +50,3 @@ def test_run_episode_finishes_the_tiny_case(tiny_case):
 def test_a_missing_model_file_is_named(tmp_path):
     with pytest.raises(ValueError, match="--navigator .*nope.zip.*no such model file"):
         model_path(str(tmp_path / "nope.zip"), "--navigator")
-
-
-def test_frames_are_kept_compressed_and_read_back_exactly():
-    import numpy as np
-
-    from cmdp_pymunk.rollout import Frames
-
-    rng = np.random.default_rng(0)
-    raw = [np.full((60, 80, 3), 10 * i, dtype=np.uint8) for i in range(5)]
-    raw[2][10:20, 10:20] = rng.integers(0, 255, (10, 10, 3), dtype=np.uint8)
-    frames = Frames()
-    assert not frames and len(frames) == 0
-    for f in raw:
-        frames.append(f)
-    assert len(frames) == 5 and all((a == b).all() for a, b in zip(frames, raw, strict=True))
-    # flat frames shrink far below their raw size (the point of keeping them so)
-    assert sum(len(b) for b, *_ in frames._blobs) < sum(f.nbytes for f in raw) / 20
-    kept = frames.select([0, 2, 4])
-    assert len(kept) == 3 and (kept[1] == raw[2]).all() and kept[1].dtype == np.uint8

@@ -192,15 +192,12 @@ def frame_interval(case, lb) -> float:
     return max(case.simulation.step_s, math.ceil(3 * lb.lower_bound_s / (GIF_SECONDS * GIF_FPS)))
 
 
-def thin(frames, limit: int):
-    """At most ``limit`` frames, evenly spaced (compressed ``rollout.Frames`` stay so)."""
+def thin(frames: list, limit: int) -> list:
     import numpy as np
 
     if len(frames) <= limit:
         return frames
     keep = np.linspace(0, len(frames) - 1, limit).round().astype(int)
-    if hasattr(frames, "select"):
-        return frames.select(keep)
     return [frames[i] for i in keep]
 
 
