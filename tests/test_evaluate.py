@@ -81,30 +81,6 @@ def test_a_stalled_strategy_is_reported(tmp_path, capsys):
                for r in rows)
 
 
-def test_cpsat_is_solved_only_when_asked(tmp_path, capsys, monkeypatch):
-    import agents.cpsat
-
-    calls = []
-    real = agents.cpsat.solve
-    monkeypatch.setattr(agents.cpsat, "solve", lambda *a, **k: calls.append(a) or real(*a, **k))
-    out = tmp_path / "plain"
-    assert evaluate.main(["--case", TINY, "--seeds", "0", "--workers", "1", "--out", str(out),
-                          "--no-progress", "--no-figures"]) == 0
-    assert calls == []  # the default strategies (priority, nearest) need no CP-SAT
-    text = capsys.readouterr().out
-    assert "solving CP-SAT" not in text and "CP-SAT schedule bound" not in text
-    settings = json.loads((out / "settings.json").read_text())
-    assert settings["cpsat"] is None and settings["strategies"] == ["priority", "nearest"]
-    assert json.loads((out / "summary.json").read_text())[0]["over_cpsat_bound"] is None
-    out = tmp_path / "bound"
-    assert evaluate.main(["--case", TINY, "--seeds", "0", "--strategies", "priority",
-                          "--cpsat-bound", "--cpsat-s", "5", "--workers", "1", "--out",
-                          str(out), "--no-progress", "--no-figures"]) == 0
-    assert len(calls) == 1  # announced before it runs, with its time limit
-    assert "solving CP-SAT for --cpsat-bound (up to 5 s" in capsys.readouterr().out
-    assert json.loads((out / "summary.json").read_text())[0]["over_cpsat_bound"] > 0
-
-
 def test_bad_strategy_fails_before_any_episode(tmp_path, capsys):
     assert evaluate.main(["--case", TINY, "--strategies", "priority,nope.zip", "--out",
                           str(tmp_path / "x"), "--no-progress"]) == 2

@@ -2,16 +2,14 @@
 
     cmdp-evaluate [--case FILE] [--seeds 0-19] [--strategies priority,nearest,ga:PATH,cpsat,M.zip]
                   [--navigators scripted,MODEL.zip] [--workers N] [--ray [ADDRESS]]
-                  [--out DIR] [--resume] [--cpsat-bound] [--cpsat-s 20]
+                  [--out DIR] [--resume] [--cpsat-s 20]
 
 Runs every seed x strategy x low level (the evaluators of ``cmdp-simulate --evaluator``,
 including a stage-2 model ``.zip``; the low levels of ``--navigator``) in worker processes,
 or on Ray actors with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster;
 docs/ray.md); the same seeds give the same episodes whatever the backend and the number of
-workers. CP-SAT is solved only when asked (it takes ``--cpsat-s`` seconds, 20 by default):
-the ``cpsat`` strategy solves it once here and replays its plan, saved as
-``cpsat_plan.json``; ``--cpsat-bound`` solves it for the bound column alone. Without it the
-ratios are to the lower bound of ``cmdp_pymunk.bounds`` only. Writes into DIR:
+workers. ``cpsat`` is solved once here (``--cpsat-s`` seconds) and its plan, saved as
+``cpsat_plan.json``, is replayed. Writes into DIR:
 
 - ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish:
   a stopped run (Ctrl-C, a lost worker) keeps them, and ``--resume`` runs only the others
@@ -100,11 +98,6 @@ class EvaluateArgs:
     progress: bool
     ray: str | None = None  # None: worker processes here; "local": a Ray started here
     resume: bool = False
-    cpsat_bound: bool = False  # solve CP-SAT for its bound even without the cpsat strategy
-
-    @property
-    def solves_cpsat(self) -> bool:
-        return self.cpsat_bound or "cpsat" in self.strategies
 
 
 def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
@@ -113,10 +106,9 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),
                    help="seeds, e.g. 0-19 (default) or 0,3,5")
-    p.add_argument("--strategies", type=spec_list, default=["priority", "nearest"],
-                   help="comma-separated evaluators: priority, nearest, ga:PATH, cpsat (solves "
-                        "CP-SAT first, --cpsat-s), cpsat:PATH, lookahead, replan, student:PATH, "
-                        "a stage-2 model .zip (default: priority,nearest)")
+    p.add_argument("--strategies", type=spec_list, default=["priority", "nearest", "cpsat"],
+                   help="comma-separated evaluators: priority, nearest, ga:PATH, cpsat, "
+                        "cpsat:PATH, a stage-2 model .zip (default: priority,nearest,cpsat)")
     p.add_argument("--navigators", type=spec_list, default=["scripted"],
                    help="comma-separated low levels: scripted, a stage-1 model .zip")
     p.add_argument("--workers", type=positive_int, default=None,
@@ -128,12 +120,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                    help="keep the episodes in DIR/episodes.jsonl and run only the others")
     p.add_argument("--stall-s", type=positive_seconds, default=3600.0)
     p.add_argument("--max-time-s", type=positive_seconds, default=None)
-    p.add_argument("--cpsat-bound", action="store_true",
-                   help="solve CP-SAT for its schedule bound (a column of the summary) even "
-                        "when no strategy is cpsat; takes --cpsat-s seconds")
     p.add_argument("--cpsat-s", type=positive_seconds, default=20.0,
-                   help="CP-SAT's time limit for the bound and the plan, when it is solved "
-                        "(default 20)")
+                   help="CP-SAT's time limit for the bound and the plan (default 20)")
     p.add_argument("--deterministic", action="store_true",
                    help="model navigators take their argmax action instead of sampling")
     p.add_argument("--no-figures", action="store_true")
@@ -146,7 +134,7 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
             p.error(f"{name} names one twice")
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
-                        not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound)
+                        not a.no_figures, not a.no_progress, a.ray, a.resume)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
@@ -280,25 +268,14 @@ def _main(args: EvaluateArgs) -> int:
     # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
     with open_backend(_episode_job, runner_args, args.workers, args.ray) as pool:
         lb = lower_bound(case)
-        cpsat = None
-        if args.solves_cpsat:
-            from agents.cpsat import solve
+        from agents.cpsat import save_plan, solve
 
-            why = "the cpsat strategy" if "cpsat" in args.strategies else "--cpsat-bound"
-            print(f"cmdp-evaluate: solving CP-SAT for {why} (up to {args.cpsat_s:g} s, "
-                  "--cpsat-s) ...", flush=True)
-            cpsat = solve(case, args.cpsat_s)
-            print(f"cmdp-evaluate: case {case.case.name!r}: lower bound "
-                  f"{lb.lower_bound_s:,.0f} s; CP-SAT bound {cpsat.bound_s:,.0f} s "
-                  f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
-                  f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
-        else:
-            print(f"cmdp-evaluate: case {case.case.name!r}: lower bound "
-                  f"{lb.lower_bound_s:,.0f} s (CP-SAT's bound only with --cpsat-bound or the "
-                  "cpsat strategy)")
+        cpsat = solve(case, args.cpsat_s)
+        print(f"cmdp-evaluate: case {case.case.name!r}: lower bound {lb.lower_bound_s:,.0f} s; "
+              f"CP-SAT bound {cpsat.bound_s:,.0f} s "
+              f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
+              f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
         if "cpsat" in args.strategies:
-            from agents.cpsat import save_plan
-
             plan = args.out / "cpsat_plan.json"
             if args.resume and plan.is_file():  # the kept episodes replayed this plan
                 run_specs["cpsat"] = f"cpsat:{plan}"
@@ -329,13 +306,12 @@ def _main(args: EvaluateArgs) -> int:
             return 1
         wall = time.perf_counter() - start
     ran = len(rows) - kept
-    summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)
+    summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s)
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS]
-    table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict() if cpsat else None)
+    table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict())
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
-                "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict() if cpsat else None,
-                "episodes": len(rows),
+                "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict(), "episodes": len(rows),
                 "episodes_resumed": kept, "wall_s": round(wall, 1),
                 "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
                 "command": sys.argv, "versions": versions()}
