@@ -129,6 +129,9 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
             f"{_num(cpsat['makespan_s'])} s, gap {_num(100 * (cpsat['gap'] or 0), 1)} %"
         lines.append(f"CP-SAT schedule bound (walking and material lifts left out): "
                      f"{cpsat['bound_s']:,.0f} s ({state}).")
+    else:
+        lines.append("CP-SAT schedule bound: not solved (ask with the cpsat strategy or "
+                     "--cpsat-bound); the bound column is the lower bound above.")
     for e in summary:
         for kind in ("stalled", "timed_out"):
             if e[f"{kind}_seeds"]:
