@@ -153,7 +153,8 @@ def write_json(path: Path, data) -> None:
 
 
 def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: str,
-                  lb, cpsat=None) -> dict:
+                  lb, cpsat=None, gif=None) -> dict:
+    """Every file of one episode into ``folder``; ``gif``: its ``GifStream``, finished here."""
     from cmdp_pymunk.events import write_atomic
     from cmdp_pymunk.schedule import schedule_csv
 
@@ -175,29 +176,19 @@ def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: st
         from media.charts import draw_run
 
         draw_run(folder, env.case)
-    if episode.frames:
-        from media.charts import write_gif
-
-        write_gif(episode.frames, folder / "rollout.gif", 1.0 / GIF_FPS)
+    if gif is not None:  # its frames are on disk already: finish it and move it in place
+        gif.close()
     return data
 
 
 def frame_interval(case, lb) -> float:
     """Simulated seconds between GIF frames, so the floor plays in GIF_SECONDS or less.
 
-    Sized on three times the lower bound (heuristic makespans sit at about twice it); a longer
-    episode is thinned out before writing.
+    Sized on three times the lower bound (heuristic makespans sit at about twice it). The
+    frames are written as they come (``media.charts.GifStream``), so an episode longer than
+    that plays longer.
     """
     return max(case.simulation.step_s, math.ceil(3 * lb.lower_bound_s / (GIF_SECONDS * GIF_FPS)))
-
-
-def thin(frames: list, limit: int) -> list:
-    import numpy as np
-
-    if len(frames) <= limit:
-        return frames
-    keep = np.linspace(0, len(frames) - 1, limit).round().astype(int)
-    return [frames[i] for i in keep]
 
 
 @dataclass
@@ -307,20 +298,34 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
                            f"{args.episodes - k}" if args.episodes > 1 else "")
         progress.env = env
+        # The GIF's frames go to a temporary file as they are drawn, renamed with the seed's
+        # other files; a crash or Ctrl-C deletes it (no half GIF, no frame held in memory).
+        gif, made_folder = None, not folder.exists()
+        if every is not None:
+            from media.charts import GifStream
+
+            gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
         try:
-            episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every)
-        except PolicyStuck as err:
-            print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
-            return 1
-        progress.env, progress.doing = None, f"while writing seed {seed}'s files"
-        episode.frames = thin(episode.frames, int(GIF_SECONDS * GIF_FPS))
-        # A Ctrl-C while a seed's files are written is held until all of them are: a seed's
-        # folder is either complete or not started.
-        interrupt.enter()
-        try:
-            data = write_outputs(env, episode, folder, args, case_label, lb, cpsat)
-        finally:
-            interrupt.leave()
+            try:
+                episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every,
+                                      on_frame=gif.append if gif is not None else None)
+            except PolicyStuck as err:
+                print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
+                return 1
+            progress.env, progress.doing = None, f"while writing seed {seed}'s files"
+            # A Ctrl-C while a seed's files are written is held until all of them are: a
+            # seed's folder is either complete or not started.
+            interrupt.enter()
+            try:
+                data = write_outputs(env, episode, folder, args, case_label, lb, cpsat, gif)
+            finally:
+                interrupt.leave()
+        except BaseException:
+            if gif is not None:
+                gif.abort()
+                if made_folder and not any(folder.iterdir()):
+                    folder.rmdir()  # a seed's folder is complete or absent
+            raise
         progress.kept.append(seed)
         rows.append(data)
         finishes.append(finish_times(env.log.events))
