@@ -26,7 +26,9 @@ the outputs say so. Writes into DIR:
   difference to the
   priority heuristic on the same seeds (95 % interval) and the ratio of means, reaching steps,
   idle steps by cause, crane waits; stalled and timed-out episodes are counted and listed;
-- ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``;
+- ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``: box
+  and strip plots per strategy with the mean, its 95 % interval and (Fig. 12) the bounds;
+  with ``--per-seed`` the paper's lines over the seeds (``media/comparison.py``);
 - ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer (null when not solved),
   versions and the command.
 
@@ -106,6 +108,7 @@ class EvaluateArgs:
     ray: str | None = None  # None: worker processes here; "local": a Ray started here
     resume: bool = False
     cpsat_bound: bool = False  # solve CP-SAT for its bound even without the cpsat strategy
+    per_seed: bool = False  # Figs. 12-14 as the paper's lines over the seeds
 
     @property
     def solves_cpsat(self) -> bool:
@@ -146,6 +149,9 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     p.add_argument("--deterministic", action="store_true",
                    help="model navigators take their argmax action instead of sampling")
     p.add_argument("--no-figures", action="store_true", help="write no figures")
+    p.add_argument("--per-seed", action="store_true",
+                   help="Figs. 12-14 as the paper's lines over the seeds instead of box and "
+                        "strip plots per strategy")
     p.add_argument("--no-progress", action="store_true", help="show no progress bar")
     a = p.parse_args(argv)
     if not a.strategies or not a.navigators:
@@ -155,7 +161,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
             p.error(f"{name} names one twice")
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
-                        not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound)
+                        not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
+                        a.per_seed)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
@@ -358,7 +365,8 @@ def _main(args: EvaluateArgs) -> int:
         if args.figures:
             from media.comparison import draw_comparison
 
-            draw_comparison(rows, args.out)
+            draw_comparison(rows, args.out, summary, lb.lower_bound_s,
+                            cpsat.bound_s if cpsat else None, args.per_seed)
     finally:
         interrupt.leave()
     print(table, end="")
