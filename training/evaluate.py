@@ -132,7 +132,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                    help="worker processes, or Ray actors with --ray (default: every core; "
                         "with --ray ADDRESS, every CPU of the cluster)")
     add_ray_option(p)
-    p.add_argument("--out", type=Path, default=Path("out/evaluate"))
+    p.add_argument("--out", type=Path, default=Path("out/evaluate"),
+                   help="the folder to write into (default out/evaluate)")
     p.add_argument("--resume", action="store_true",
                    help="keep the episodes in DIR/episodes.jsonl and run only the others")
     p.add_argument("--stall-s", type=positive_seconds, default=3600.0,

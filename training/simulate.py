@@ -71,9 +71,13 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    help=EVALUATOR_HELP + " (default: priority)")
     p.add_argument("--navigator", default="scripted",
                    help="scripted, or a stage-1 reaching model .zip (default: scripted)")
-    p.add_argument("--seed", type=non_negative_int, default=0)
-    p.add_argument("--episodes", type=positive_int, default=1)
-    p.add_argument("--out", type=Path, default=Path("out/simulate"))
+    p.add_argument("--seed", type=non_negative_int, default=0,
+                   help="the (first) episode's seed (default 0)")
+    p.add_argument("--episodes", type=positive_int, default=1,
+                   help="episodes on seeds SEED, SEED + 1, ...: each in DIR/seed-K, with "
+                        "P50/P80/P90, a histogram and an S-curve in DIR (default 1)")
+    p.add_argument("--out", type=Path, default=Path("out/simulate"),
+                   help="the folder to write into (default out/simulate)")
     p.add_argument("--gif", action="store_true", help="also write rollout.gif")
     p.add_argument("--stall-s", type=positive_seconds, default=3600.0,
                    help="stop an episode in which no task moves on for this long (default 3600)")
