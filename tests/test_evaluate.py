@@ -33,6 +33,20 @@ def test_mean_ci_by_hand():
     assert mean_ci([5.0]) == (5.0, None, None) and mean_ci([None]) == (None, None, None)
 
 
+def test_summary_has_the_planners_percentiles():
+    from training.comparison import markdown_table, summarize
+
+    rows = [{"strategy": "priority", "navigator": "scripted", "seed": s, "finished": True,
+             "makespan_s": m, "stalled": False, "timed_out": False}
+            for s, m in enumerate((100.0, 200.0, 300.0, 400.0, 500.0))]
+    e = summarize(rows, 50.0, None)[0]
+    # five values, rank q/100 * 4 from 0: P50 rank 2 -> 300; P80 rank 3.2 -> 400 + 0.2 * 100
+    # = 420; P90 rank 3.6 -> 400 + 0.6 * 100 = 460
+    assert (e["makespan_p50_s"], e["makespan_p80_s"], e["makespan_p90_s"]) == \
+        pytest.approx((300.0, 420.0, 460.0))
+    assert "| 300 / 420 / 460 |" in markdown_table([e], 50.0, None)
+
+
 def test_paired_difference_over_common_finished_seeds():
     ref = [{"seed": s, "finished": True, "makespan_s": m} for s, m in ((0, 100), (1, 200),
                                                                        (2, 300))]
