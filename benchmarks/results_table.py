@@ -198,11 +198,13 @@ def _registered_ids() -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
+    import cmdp_pymunk
     from cmdp_pymunk.events import write_atomic
     from training.comparison import csv_text
     from training.evaluate import seed_list, spec_list
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--ids", type=spec_list, default=None,
                    help="comma-separated registered ids (default: every one)")
     p.add_argument("--seeds", type=seed_list, default=list(range(10)))
