@@ -8,7 +8,7 @@
   coloured by task type.
 - :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
   as time goes on, with the components it worked on numbered in the order it started them;
-  (b) every crew's path.
+  (b) every crew's path, one small panel per crew.
 - :func:`draw_run` draws all three into a run folder; :class:`GifStream` writes frames as a GIF
   as they come (:func:`write_gif` for a sequence of them).
 
@@ -398,8 +398,9 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     (a) The path of ``crew`` (default :func:`default_crew`: the hoisting crew) from its
     ``position`` events, narrow early and wide late, over the layout: precast components filled
     yellow, the others outlined grey, storages light blue, the outlet and the crane (triangle).
-    The components on which it started tasks carry their order of execution. (b) Every crew's
-    path, one colour per crew. Writes a PNG to ``path`` and returns it.
+    The components on which it started tasks carry their order of execution. (b) Small
+    multiples, one panel per crew (:func:`crew_multiples`): every crew's path, none hiding
+    another's. Writes a PNG to ``path`` and returns it.
     """
     crew_ids = [c.id for c in case.crews]
     crew = default_crew(case) if crew is None else crew
@@ -409,7 +410,8 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     paths = crew_paths(events)
     hw, hh = case.plane.half_extents
     fig = Figure(figsize=(14, 6.0 * hh / hw + 1.3), layout="constrained")
-    ax_a, ax_b = fig.subplots(1, 2)
+    left, right = fig.subfigures(1, 2, wspace=0.02)
+    ax_a = left.subplots()
 
     _draw_layout(ax_a, case)
     own = paths.get(crew)
@@ -436,17 +438,8 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
                             "edgecolor": "#8a7000", "linewidth": 0.5, "alpha": 0.9})
     ax_a.set_title(f"(a) {crew}: path (wider = later) and order of execution", fontsize=10)
 
-    _draw_layout(ax_b, case, faint=True)
-    order = [c for c in crew_ids if c in paths] + [c for c in paths if c not in crew_ids]
-    cmap = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-            "#17becf", "#bcbd22", "#7f7f7f"]
-    for i, cid in enumerate(order):
-        p = paths[cid]
-        ax_b.plot(p[:, 1], p[:, 2], color=cmap[i % len(cmap)], linewidth=1.0, alpha=0.8,
-                  label=cid)
-    if order:
-        ax_b.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    ax_b.set_title("(b) every crew's path", fontsize=10)
+    crew_multiples(right, paths, case,
+                   [c for c in crew_ids if c in paths] + [c for c in paths if c not in crew_ids])
     key = [Patch(facecolor=PRECAST_FILL, edgecolor="#8a7000", label="precast component"),
            Patch(facecolor="none", edgecolor="#888888", label="other component"),
            Patch(facecolor="#dbe9f6", edgecolor="#4a7bb7", label="storage"),
@@ -457,6 +450,37 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
                frameon=False)
     return save_png(fig, path)
+
+
+def crew_multiples(fig, paths: dict, case: Case, order: list[str]) -> list:
+    """Fig. 11 (b): one small panel per crew (in ``order``), its path over the faint layout,
+    coloured from early (light) to late (dark), so that no crew's path hides another's.
+    Returns the axes."""
+    from matplotlib import colormaps
+
+    cols = min(3, max(1, len(order)))
+    rows = max(1, -(-len(order) // cols))
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharex=True, sharey=True)).ravel()
+    cmap = colormaps["viridis_r"]
+    for ax, cid in zip(axes, order, strict=False):
+        _draw_layout(ax, case, faint=True)
+        p = paths[cid]
+        if len(p) >= 2:
+            t = (p[:, 0] - p[0, 0]) / max(p[-1, 0] - p[0, 0], 1e-9)
+            segments = np.stack([p[:-1, 1:3], p[1:, 1:3]], axis=1)
+            ax.add_collection(LineCollection(segments, colors=cmap(0.15 + 0.85 * t[1:]),
+                                             linewidths=0.9))
+        ax.set_title(cid, fontsize=8, pad=2)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.tick_params(labelsize=6)
+    for ax in axes[len(order):]:
+        ax.set_axis_off()
+    if not order:
+        axes[0].text(0.5, 0.5, "no position events", ha="center", va="center",
+                     transform=axes[0].transAxes, fontsize=9)
+    fig.suptitle("(b) each crew's path (light early, dark late)", fontsize=10)
+    return list(axes[:len(order)])
 
 
 # ------------------------------------------------------------------------------------------

@@ -175,3 +175,16 @@ def test_gif_stream_leaves_nothing_when_interrupted(tmp_path):
             gif.append(np.zeros((4, 4, 3), np.uint8))
             raise KeyboardInterrupt
     assert list(tmp_path.iterdir()) == []
+
+
+def test_every_crew_gets_its_own_small_panel(tiny_case):
+    """Fig. 11 (b): one panel per crew with a path, titled with its id, in the given order."""
+    from matplotlib.figure import Figure
+
+    paths = {"RC-1": np.array([[0.0, -1.0, 0.0], [5.0, 1.0, 0.5], [9.0, 2.0, 1.0]]),
+             "HIC-1": np.array([[0.0, 2.0, 2.0], [4.0, 2.0, -1.0]])}
+    axes = charts.crew_multiples(Figure(), paths, tiny_case, ["HIC-1", "RC-1"])
+    assert [ax.get_title() for ax in axes] == ["HIC-1", "RC-1"]
+    segments = [len(c.get_segments()) for ax in axes for c in ax.collections
+                if isinstance(c, charts.LineCollection)]
+    assert segments == [1, 2]  # a path of k points is k - 1 segments
