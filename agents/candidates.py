@@ -135,7 +135,9 @@ def is_candidate_model(path: str | Path) -> bool:
             data = json.loads(z.read("data"))
     except (OSError, KeyError, ValueError, zipfile.BadZipFile):
         return False
-    return "Discrete" in str(data.get("action_space", {}).get(":type:", ""))
+    # the space's class, e.g. "<class 'gymnasium.spaces.discrete.Discrete'>" (a reaching
+    # policy's MultiDiscrete lives in spaces.multi_discrete: not a choice)
+    return "spaces.discrete.Discrete" in str(data.get("action_space", {}).get(":type:", ""))
 
 
 def load_candidate_model(path: str | Path):

@@ -175,10 +175,10 @@ def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: b
         state = GAState(0, [], [], config=settings)
     task_ids = [t.id for t in case.tasks]
     runner_args = (case, config.stall_s, config.max_time_s)
-    total = config.population * len(config.train_seeds) * (config.generations + 1)
+    total = episodes_after(config, config.generations)
     bar = tqdm(total=total, unit="episode", disable=not progress, mininterval=1.0,
-               desc="GA", initial=min(total, state.generation * config.population
-                                      * len(config.train_seeds)))
+               desc="GA", initial=episodes_after(config, state.generation) if state.population
+               else 0)
 
     def evaluate(genes_list: list[tuple], pool: Backend) -> list[float]:
         todo = [g for g in dict.fromkeys(genes_list) if g not in state.cache]
@@ -219,6 +219,14 @@ def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: b
             _record(state, out, case, config, bar)
     bar.close()
     return state
+
+
+def episodes_after(config: GAConfig, generation: int) -> int:
+    """Episodes played (cached ones counted) once ``generation`` is done: the first
+    population, then each generation's offspring (the elite are kept, not replayed), each on
+    every training seed."""
+    children = config.population - config.elite
+    return (config.population + generation * children) * len(config.train_seeds)
 
 
 def _record(state: GAState, out: Path, case, config: GAConfig, bar) -> None:

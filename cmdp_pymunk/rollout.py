@@ -16,6 +16,7 @@ import math
 import platform
 import subprocess
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -44,7 +45,8 @@ class Episode:
 
 def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
                 progress: bool = True,
-                frame_every_s: float | None = None) -> Episode:
+                frame_every_s: float | None = None,
+                on_frame: Callable[[np.ndarray], None] | None = None) -> Episode:
     """Run one episode to its end, a time-out or a stall; frames every ``frame_every_s``.
 
     Args:
@@ -56,6 +58,8 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
             own stall guard (``env.stall_s``, the one training uses); None keeps the env's.
         progress: show a tqdm bar of the tasks ended (the simulated time beside it).
         frame_every_s: render a frame every this many simulated seconds (None: no frames).
+        on_frame: where each frame goes as it is rendered (e.g. ``media.charts.GifStream.append``,
+            so that no frame is held); None keeps them in ``Episode.frames``.
     """
     from tqdm import tqdm
 
@@ -68,7 +72,8 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
     navigator.reset(seed)
     engine = env.engine
     site = engine.site
-    frames = []
+    frames: list = []
+    keep = frames.append if on_frame is None else on_frame
     next_frame = 0.0
     # counted in tasks ended, the one total known in advance (a floor's simulated seconds are
     # not: against the time limit, a finished floor stopped the bar at about 40 %)
@@ -79,7 +84,7 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
         while env.agents:
             if frame_every_s is not None:
                 while site.time_s >= next_frame:  # a jump repeats the still frame: time-lapse
-                    frames.append(env.render())
+                    keep(env.render())
                     next_frame += frame_every_s
             before = site.tasks_ended
             observations, *_ = env.step(navigator.actions(env, observations))
@@ -87,7 +92,7 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
             bar.set_postfix_str(f"t = {site.time_s:,.0f} s", refresh=False)
     stalled = stall_report(engine, engine.stalled["after_s"]) if engine.stalled else None
     if frame_every_s is not None:
-        frames.append(env.render())
+        keep(env.render())
     return Episode(seed, engine.makespan_s, time.perf_counter() - start, stalled, frames)
 
 

@@ -8,8 +8,9 @@
   coloured by task type.
 - :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
   as time goes on, with the components it worked on numbered in the order it started them;
-  (b) every crew's path.
-- :func:`draw_run` draws all three into a run folder; :func:`write_gif` writes frames as a GIF.
+  (b) every crew's path, one small panel per crew.
+- :func:`draw_run` draws all three into a run folder; :class:`GifStream` writes frames as a GIF
+  as they come (:func:`write_gif` for a sequence of them).
 
 With disruptions (docs/disruptions.md), both Gantt charts shade a band across the chart for
 every crane breakdown, late delivery and weather stop (``disruption_intervals``), and a crew
@@ -397,8 +398,9 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     (a) The path of ``crew`` (default :func:`default_crew`: the hoisting crew) from its
     ``position`` events, narrow early and wide late, over the layout: precast components filled
     yellow, the others outlined grey, storages light blue, the outlet and the crane (triangle).
-    The components on which it started tasks carry their order of execution. (b) Every crew's
-    path, one colour per crew. Writes a PNG to ``path`` and returns it.
+    The components on which it started tasks carry their order of execution. (b) Small
+    multiples, one panel per crew (:func:`crew_multiples`): every crew's path, none hiding
+    another's. Writes a PNG to ``path`` and returns it.
     """
     crew_ids = [c.id for c in case.crews]
     crew = default_crew(case) if crew is None else crew
@@ -408,7 +410,8 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     paths = crew_paths(events)
     hw, hh = case.plane.half_extents
     fig = Figure(figsize=(14, 6.0 * hh / hw + 1.3), layout="constrained")
-    ax_a, ax_b = fig.subplots(1, 2)
+    left, right = fig.subfigures(1, 2, wspace=0.02)
+    ax_a = left.subplots()
 
     _draw_layout(ax_a, case)
     own = paths.get(crew)
@@ -435,17 +438,8 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
                             "edgecolor": "#8a7000", "linewidth": 0.5, "alpha": 0.9})
     ax_a.set_title(f"(a) {crew}: path (wider = later) and order of execution", fontsize=10)
 
-    _draw_layout(ax_b, case, faint=True)
-    order = [c for c in crew_ids if c in paths] + [c for c in paths if c not in crew_ids]
-    cmap = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
-            "#17becf", "#bcbd22", "#7f7f7f"]
-    for i, cid in enumerate(order):
-        p = paths[cid]
-        ax_b.plot(p[:, 1], p[:, 2], color=cmap[i % len(cmap)], linewidth=1.0, alpha=0.8,
-                  label=cid)
-    if order:
-        ax_b.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
-    ax_b.set_title("(b) every crew's path", fontsize=10)
+    crew_multiples(right, paths, case,
+                   [c for c in crew_ids if c in paths] + [c for c in paths if c not in crew_ids])
     key = [Patch(facecolor=PRECAST_FILL, edgecolor="#8a7000", label="precast component"),
            Patch(facecolor="none", edgecolor="#888888", label="other component"),
            Patch(facecolor="#dbe9f6", edgecolor="#4a7bb7", label="storage"),
@@ -456,6 +450,37 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
                frameon=False)
     return save_png(fig, path)
+
+
+def crew_multiples(fig, paths: dict, case: Case, order: list[str]) -> list:
+    """Fig. 11 (b): one small panel per crew (in ``order``), its path over the faint layout,
+    coloured from early (light) to late (dark), so that no crew's path hides another's.
+    Returns the axes."""
+    from matplotlib import colormaps
+
+    cols = min(3, max(1, len(order)))
+    rows = max(1, -(-len(order) // cols))
+    axes = np.atleast_1d(fig.subplots(rows, cols, sharex=True, sharey=True)).ravel()
+    cmap = colormaps["viridis_r"]
+    for ax, cid in zip(axes, order, strict=False):
+        _draw_layout(ax, case, faint=True)
+        p = paths[cid]
+        if len(p) >= 2:
+            t = (p[:, 0] - p[0, 0]) / max(p[-1, 0] - p[0, 0], 1e-9)
+            segments = np.stack([p[:-1, 1:3], p[1:, 1:3]], axis=1)
+            ax.add_collection(LineCollection(segments, colors=cmap(0.15 + 0.85 * t[1:]),
+                                             linewidths=0.9))
+        ax.set_title(cid, fontsize=8, pad=2)
+        ax.set_xlabel("")
+        ax.set_ylabel("")
+        ax.tick_params(labelsize=6)
+    for ax in axes[len(order):]:
+        ax.set_axis_off()
+    if not order:
+        axes[0].text(0.5, 0.5, "no position events", ha="center", va="center",
+                     transform=axes[0].transAxes, fontsize=9)
+    fig.suptitle("(b) each crew's path (light early, dark late)", fontsize=10)
+    return list(axes[:len(order)])
 
 
 # ------------------------------------------------------------------------------------------
@@ -490,32 +515,151 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
     ]
 
 
+class GifStream:
+    """A looping GIF written to disk frame by frame, so that a long animation never sits in
+    memory (``cmdp-simulate --gif`` held every frame: about 1.4 GB at its peak).
+
+    Frames go to a temporary file beside ``path``; :meth:`close` finishes it and renames it to
+    ``path``, and :meth:`abort` (or leaving a ``with`` block by an exception, Ctrl-C included)
+    deletes it: a crash leaves no half GIF. Only the last written frame and one pending frame
+    are held. A frame equal to the one before lengthens it (as Pillow's own GIF writer merges
+    them: the playing time is unchanged); a changed frame stores only the rectangle that
+    changed, each with its own 256-colour palette (Pillow's adaptive palette, as for a whole
+    GIF).
+
+    Why not imageio's writer: with Pillow 13, imageio 2.38's v3 Pillow plugin keeps every frame
+    until the file is closed, and its legacy streaming GIF writer (``GIF-PIL``) writes a file
+    Pillow cannot read (it refuses Pillow 10.1+ for that reason). The frames are encoded with
+    Pillow's own GIF encoder (``GifImagePlugin.getdata``); only the file's header, loop
+    extension and trailer are written here (GIF89a).
+
+    Args:
+        path: the GIF to write.
+        duration_s_per_frame: seconds a frame shows, rounded to the GIF's hundredths.
+    """
+
+    def __init__(self, path: str | Path, duration_s_per_frame: float):
+        import os
+        import tempfile
+
+        if not duration_s_per_frame > 0:
+            raise ValueError(f"duration_s_per_frame must be positive, not {duration_s_per_frame}")
+        self.path = Path(path)
+        self.centis = max(1, round(duration_s_per_frame * 100))
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, self._tmp = tempfile.mkstemp(dir=self.path.parent, prefix=f".{self.path.name}.",
+                                         suffix=".tmp")
+        self._file = os.fdopen(fd, "wb")
+        self._shape: tuple | None = None
+        self._written: np.ndarray | None = None  # what a viewer shows after the last frame
+        self._pending: np.ndarray | None = None  # the newest frame, its length still growing
+        self._pending_centis = 0
+        self.frames = 0  # frames given
+        self.stored = 0  # frames in the file (equal consecutive frames merged)
+
+    def append(self, frame: np.ndarray) -> None:
+        """Add one (H, W, 3) uint8 frame (every frame of one shape)."""
+        f = np.asarray(frame)
+        if self._shape is None and not (f.dtype == np.uint8 and f.ndim == 3 and f.shape[2] == 3):
+            self.abort()
+            raise ValueError(f"frame 0 is {f.dtype} {f.shape}; fix: every frame must be uint8 "
+                             "of one shape (H, W, 3)")
+        if self._shape is not None and (f.dtype != np.uint8 or f.shape != self._shape):
+            self.abort()
+            raise ValueError(f"frame {self.frames} is {f.dtype} {f.shape}; fix: every frame "
+                             f"must be uint8 of one shape (H, W, 3), like frame 0 {self._shape}")
+        if self._shape is None:
+            self._shape = f.shape
+            self._header(f.shape[1], f.shape[0])
+        self.frames += 1
+        if self._pending is not None and np.array_equal(f, self._pending):
+            self._pending_centis += self.centis
+            return
+        self._flush()
+        self._pending, self._pending_centis = f.copy(), self.centis
+
+    def _header(self, width: int, height: int) -> None:
+        o16 = _le16
+        self._file.write(b"GIF89a" + o16(width) + o16(height) + bytes((0, 0, 0)))
+        self._file.write(b"!\xff\x0bNETSCAPE2.0\x03\x01" + o16(0) + b"\x00")  # loop forever
+
+    def _flush(self) -> None:
+        """Write the pending frame: the rectangle that changed since the last written one."""
+        from PIL import GifImagePlugin, Image
+
+        new = self._pending
+        if new is None:
+            return
+        top, left, bottom, right = 0, 0, new.shape[0], new.shape[1]
+        if self._written is not None:
+            changed = np.any(new != self._written, axis=2)
+            rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+            top, bottom, left, right = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
+        image = Image.fromarray(np.ascontiguousarray(new[top:bottom, left:right]))
+        image = image.convert("P", palette=Image.Palette.ADAPTIVE)
+        while self._pending_centis > 0:  # a delay holds at most 65535 hundredths
+            centis = min(self._pending_centis, 65535)
+            for chunk in GifImagePlugin.getdata(
+                    image, (int(left), int(top)), duration=10 * centis, disposal=1,
+                    include_color_table=True):
+                self._file.write(chunk)
+            self._pending_centis -= centis
+            self.stored += 1
+        self._written, self._pending = new, None
+
+    def close(self) -> Path:
+        """Finish the file and move it to ``path``; returns the path."""
+        import os
+
+        if self._pending is None and self._written is None:
+            self.abort()
+            raise ValueError("no frames to write; fix: pass at least one (H, W, 3) uint8 frame")
+        try:
+            self._flush()
+            self._file.write(b";")
+            self._file.close()
+            os.chmod(self._tmp, 0o644)
+            os.replace(self._tmp, self.path)
+        except BaseException:
+            self.abort()
+            raise
+        return self.path
+
+    def abort(self) -> None:
+        """Delete the unfinished file (safe to call twice)."""
+        import os
+
+        self._file.close()
+        if os.path.exists(self._tmp):
+            os.unlink(self._tmp)
+
+    def __enter__(self) -> GifStream:
+        return self
+
+    def __exit__(self, kind, value, traceback) -> None:
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def _le16(value: int) -> bytes:
+    return int(value).to_bytes(2, "little")
+
+
 def write_gif(frames: Iterable[np.ndarray], path: str | Path,
               duration_s_per_frame: float) -> Path:
-    """Write (H, W, 3) uint8 frames as a looping GIF, atomically; returns the path.
+    """Write (H, W, 3) uint8 frames as a looping GIF, atomically, one frame at a time
+    (:class:`GifStream`); returns the path.
 
     GIF stores durations in hundredths of a second, so ``duration_s_per_frame`` is rounded to
-    that. Pillow merges consecutive identical frames into one longer frame (the playing time
+    that. Consecutive identical frames are merged into one longer frame (the playing time
     is unchanged), so the file may hold fewer frames than were given.
     """
-    import imageio.v3 as iio  # only GIFs need imageio
-
-    if duration_s_per_frame <= 0:
-        raise ValueError(f"duration_s_per_frame must be positive, not {duration_s_per_frame}")
-    stack = [np.asarray(f) for f in frames]
-    if not stack:
-        raise ValueError("no frames to write; fix: pass at least one (H, W, 3) uint8 frame")
-    first = stack[0]
-    for i, f in enumerate(stack):
-        if f.dtype != np.uint8 or f.ndim != 3 or f.shape[2] != 3 or f.shape != first.shape:
-            raise ValueError(f"frame {i} is {f.dtype} {f.shape}; fix: every frame must be "
-                             f"uint8 of one shape (H, W, 3), like frame 0 {first.shape}")
-    buf = io.BytesIO()
-    iio.imwrite(buf, stack, extension=".gif", duration=round(duration_s_per_frame * 1000),
-                loop=0)
-    path = Path(path)
-    write_atomic(path, buf.getvalue())
-    return path
+    with GifStream(path, duration_s_per_frame) as gif:
+        for frame in frames:
+            gif.append(frame)
+    return gif.path
 
 
 def run_case_path(run_dir: Path) -> Path | None:

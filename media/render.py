@@ -5,8 +5,11 @@ translucent orange rectangles; storages with a bar for their stock; components c
 state of their tasks (grey: waiting for predecessors or blocked, blue: an executable task,
 red: a task being performed, green: every task ended); the outlet; the tower crane with its
 queue length; the crews (a disc of the crew's occupation area in its crew type's colour, a
-tick for its heading, its id above and its status below) with a thin line to the target it
-values most while it moves; and a clock line above the plane.
+tick for its heading, its id and its status beside it, placed where no other crew's label is:
+above, below, right or left of the disc, or further off with a thin line back to it) with a
+thin line to the target it values most while it moves; a clock line above the plane; and
+below the plane a legend of the colours (component states, task areas, storages, crane,
+outlet, disruptions, and each crew type's colour with its name).
 
 With disruptions (docs/disruptions.md): the header names what is disrupted (weather stop,
 crane down, late deliveries, crews away) in magenta; a broken-down crane is crossed out; a
@@ -40,6 +43,8 @@ from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
 TARGET_WIDTH_PX = 900  # the default scale fits the plane into about this width
 MARGIN_PX = 18
 HEADER_PX = 24  # the clock line above the plane
+LEGEND_ROW_PX = 17
+LEGEND_PX = 3 * LEGEND_ROW_PX + 6  # three rows below the plane: states, places, crew types
 
 Colour = tuple[int, int, int]
 BACKGROUND: Colour = (250, 250, 247)
@@ -93,7 +98,7 @@ class Viewport:
     def size(self) -> tuple[int, int]:
         """(width, height) of the image in pixels."""
         return (round(self.width_m * self.px_per_m) + 2 * MARGIN_PX,
-                round(self.height_m * self.px_per_m) + 2 * MARGIN_PX + HEADER_PX)
+                round(self.height_m * self.px_per_m) + 2 * MARGIN_PX + HEADER_PX + LEGEND_PX)
 
     def to_px(self, x: float, y: float) -> tuple[int, int]:
         """Pixel (column, row) of the plane point (x, y) in metres."""
@@ -208,7 +213,52 @@ class _Renderer:
         pygame.draw.circle(bg, OUTLET, centre, radius, width=2)
         label = self.fonts.small.render("outlet", True, OUTLET)
         bg.blit(label, label.get_rect(midtop=(centre[0], centre[1] + radius + 2)))
+        self._draw_legend(bg)
         return bg
+
+    def _draw_legend(self, bg: pygame.Surface) -> None:
+        """Three rows under the plane: what each colour of a frame means."""
+        font = self.fonts.label
+        types = list(self.case.crew_types.items())
+        rows = [
+            [("rect", COMPONENT_WAITING, "component: waiting or blocked"),
+             ("rect", COMPONENT_EXECUTABLE, "executable task"),
+             ("rect", COMPONENT_PERFORMING, "task being performed"),
+             ("rect", COMPONENT_DONE, "all its tasks ended")],
+            [("area", TASK_AREA, "active task area"),
+             ("storage", STORAGE_FILL, "storage (stock/capacity)"),
+             ("crane", CRANE, "tower crane (queue)"), ("outlet", OUTLET, "outlet"),
+             ("rect", DISRUPTED, "disrupted")],
+            [("disc", CREW_PALETTE[i % len(CREW_PALETTE)], f"{key} {ct.name.lower()}")
+             for i, (key, ct) in enumerate(types)],
+        ]
+        top = self.plane_rect.bottom + MARGIN_PX // 2
+        for r, row in enumerate(rows):
+            x, y = MARGIN_PX, top + r * LEGEND_ROW_PX + LEGEND_ROW_PX // 2
+            for kind, colour, text in row:
+                swatch = pygame.Rect(x, y - 6, 12, 12)
+                if kind == "disc":
+                    pygame.draw.circle(bg, colour, swatch.center, 6)
+                    pygame.draw.circle(bg, WALL, swatch.center, 6, width=1)
+                elif kind == "crane":
+                    points = [(swatch.centerx, swatch.top), swatch.bottomleft, swatch.bottomright]
+                    pygame.draw.polygon(bg, colour, points)
+                    pygame.draw.polygon(bg, WALL, points, width=1)
+                elif kind == "outlet":
+                    pygame.draw.circle(bg, OUTLET, swatch.center, 6, width=2)
+                elif kind == "area":
+                    bg.fill((255, 212, 160), swatch)  # TASK_AREA over the plane
+                    pygame.draw.rect(bg, (235, 130, 20), swatch, width=1)
+                elif kind == "storage":
+                    bg.fill((245, 238, 222), swatch)
+                    bg.fill(colour, swatch.inflate(0, -6).move(0, 3))
+                    pygame.draw.rect(bg, STORAGE_EDGE, swatch, width=2)
+                else:
+                    bg.fill(colour, swatch)
+                    pygame.draw.rect(bg, WALL, swatch, width=1)
+                label = font.render(text, True, TEXT)
+                bg.blit(label, label.get_rect(midleft=(x + 16, y)))
+                x += 16 + label.get_width() + 14
 
     def draw(self, env, show_rays: bool) -> np.ndarray:
         site, vp, fonts = env.engine.site, self.viewport, self.fonts
@@ -305,6 +355,7 @@ class _Renderer:
                 pygame.draw.line(surface, crew_colour(env, crew.index), vp.to_px(x, y),
                                  vp.to_px(tx, ty), 1)
         surface.set_clip(None)
+        discs = []
         for crew in crews:
             x, y, angle = positions[crew.index]
             centre = vp.to_px(x, y)
@@ -316,11 +367,45 @@ class _Renderer:
             tip = (centre[0] + round(radius * math.cos(angle)),
                    centre[1] - round(radius * math.sin(angle)))
             pygame.draw.line(surface, (255, 255, 255), centre, tip, 3)
-            # labels on a pale box: they often lie over components and other crews
+            discs.append((crew, centre, radius, colour))
+        # labels on a pale box (they often lie over components), placed clear of each other
+        placed = [pygame.Rect(c[0] - r, c[1] - r, 2 * r, 2 * r) for _, c, r, _ in discs]
+        for crew, centre, radius, colour in discs:
             label = self.text(fonts.label, crew.id, colour, LABEL_BOX)
-            surface.blit(label, label.get_rect(midbottom=(centre[0], centre[1] - radius - 1)))
             status = self.text(fonts.small, crew.status.name.lower(), TEXT, LABEL_BOX)
-            surface.blit(status, status.get_rect(midtop=(centre[0], centre[1] + radius + 1)))
+            block = pygame.Surface((max(label.get_width(), status.get_width()),
+                                    label.get_height() + status.get_height()))
+            block.fill(LABEL_BOX)
+            block.blit(label, label.get_rect(midtop=(block.get_width() // 2, 0)))
+            block.blit(status, status.get_rect(midtop=(block.get_width() // 2,
+                                                       label.get_height())))
+            rect, far = label_place(block.get_size(), centre, radius, placed)
+            if far:
+                pygame.draw.line(surface, colour, centre, rect.center, 1)
+            surface.blit(block, rect)
+            placed.append(rect)
+
+
+def label_place(size: tuple[int, int], centre: tuple[int, int], radius: int,
+                taken: list[pygame.Rect]) -> tuple[pygame.Rect, bool]:
+    """Where a crew's label block goes: the first of above, below, right and left of its
+    disc, then the same further off (``far``: draw a line back), that overlaps none of
+    ``taken``; if every one does, the one that overlaps least."""
+    w, h = size
+    cx, cy = centre
+    best, best_overlap = None, None
+    for ring in range(4):
+        gap = 1 + ring * (h + 2)
+        for rect in (pygame.Rect(cx - w // 2, cy - radius - gap - h, w, h),
+                     pygame.Rect(cx - w // 2, cy + radius + gap, w, h),
+                     pygame.Rect(cx + radius + gap + 1, cy - h // 2, w, h),
+                     pygame.Rect(cx - radius - gap - 1 - w, cy - h // 2, w, h)):
+            overlap = sum(rect.clip(t).width * rect.clip(t).height for t in taken)
+            if overlap == 0:
+                return rect, ring > 0
+            if best_overlap is None or overlap < best_overlap:
+                best, best_overlap = (rect, ring > 0), overlap
+    return best
 
 
 def disruption_text(site) -> str:

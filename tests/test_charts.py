@@ -138,3 +138,53 @@ def test_write_gif(tmp_path):
         charts.write_gif([frames[0], frames[1][..., :2]], tmp_path / "b.gif", 0.25)
     with pytest.raises(ValueError, match="no frames"):
         charts.write_gif([], tmp_path / "c.gif", 0.25)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.gif"]  # no temporary left
+
+
+def test_gif_stream_merges_repeats_and_stores_changed_rectangles(tmp_path):
+    """Frames come back pixel for pixel; a repeated frame lengthens the one before; only the
+    changed rectangle of a frame is stored (the file holds a 2 x 3 image for frame 2)."""
+    from PIL import Image
+
+    a = np.zeros((10, 14, 3), np.uint8)
+    b = a.copy()
+    b[4:6, 7:10] = (200, 30, 30)
+    c = b.copy()
+    c[0, 0] = (1, 2, 3)
+    with charts.GifStream(tmp_path / "s.gif", 0.1) as gif:
+        for frame in (a, a, a, b, c):
+            gif.append(frame)
+    assert (gif.frames, gif.stored) == (5, 3)
+    back = iio.imread(tmp_path / "s.gif", index=None)
+    assert back.shape == (3, 10, 14, 3)
+    for got, want in zip(back, (a, b, c), strict=True):
+        assert np.array_equal(got, want)
+    with Image.open(tmp_path / "s.gif") as im:
+        durations, tiles = [], []
+        for i in range(im.n_frames):
+            im.seek(i)
+            durations.append(im.info["duration"])
+            tiles.append(im.tile[0][1] if im.tile else None)
+    assert durations == [300, 100, 100]
+    assert tiles[1] == (7, 4, 10, 6)  # x0, y0, x1, y1 of the red patch
+
+
+def test_gif_stream_leaves_nothing_when_interrupted(tmp_path):
+    with pytest.raises(KeyboardInterrupt):
+        with charts.GifStream(tmp_path / "x.gif", 0.1) as gif:
+            gif.append(np.zeros((4, 4, 3), np.uint8))
+            raise KeyboardInterrupt
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_every_crew_gets_its_own_small_panel(tiny_case):
+    """Fig. 11 (b): one panel per crew with a path, titled with its id, in the given order."""
+    from matplotlib.figure import Figure
+
+    paths = {"RC-1": np.array([[0.0, -1.0, 0.0], [5.0, 1.0, 0.5], [9.0, 2.0, 1.0]]),
+             "HIC-1": np.array([[0.0, 2.0, 2.0], [4.0, 2.0, -1.0]])}
+    axes = charts.crew_multiples(Figure(), paths, tiny_case, ["HIC-1", "RC-1"])
+    assert [ax.get_title() for ax in axes] == ["HIC-1", "RC-1"]
+    segments = [len(c.get_segments()) for ax in axes for c in ax.collections
+                if isinstance(c, charts.LineCollection)]
+    assert segments == [1, 2]  # a path of k points is k - 1 segments

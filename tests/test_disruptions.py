@@ -511,7 +511,7 @@ duration_s = 150.0
     assert summary[0]["makespan_p80_s"] == pytest.approx(p80)
     assert summary[1]["vs_priority_paired_seeds"] == 3
     table = (out / "summary.md").read_text()
-    assert "P80 (s)" in table and "idle: crane breakdown / late delivery" in table
+    assert "P50 / P80 / P90 (s)" in table and "idle: crane breakdown / late delivery" in table
 
 
 def test_a_model_trained_without_disruptions_is_refused_naming_the_sizes():

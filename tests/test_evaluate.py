@@ -8,6 +8,7 @@ import pytest
 
 import cmdp_pymunk
 from agents.task_priority import save_priorities
+from cmdp_pymunk.bounds import lower_bound
 from training import evaluate
 from training.comparison import mean_ci, paired
 
@@ -30,6 +31,20 @@ def test_mean_ci_by_hand():
     mean, std, ci = mean_ci([1.0, 2.0, 3.0])
     assert (mean, std) == (2.0, 1.0) and ci == pytest.approx(2.4841, abs=1e-4)
     assert mean_ci([5.0]) == (5.0, None, None) and mean_ci([None]) == (None, None, None)
+
+
+def test_summary_has_the_planners_percentiles():
+    from training.comparison import markdown_table, summarize
+
+    rows = [{"strategy": "priority", "navigator": "scripted", "seed": s, "finished": True,
+             "makespan_s": m, "stalled": False, "timed_out": False}
+            for s, m in enumerate((100.0, 200.0, 300.0, 400.0, 500.0))]
+    e = summarize(rows, 50.0, None)[0]
+    # five values, rank q/100 * 4 from 0: P50 rank 2 -> 300; P80 rank 3.2 -> 400 + 0.2 * 100
+    # = 420; P90 rank 3.6 -> 400 + 0.6 * 100 = 460
+    assert (e["makespan_p50_s"], e["makespan_p80_s"], e["makespan_p90_s"]) == \
+        pytest.approx((300.0, 420.0, 460.0))
+    assert "| 300 / 420 / 460 |" in markdown_table([e], 50.0, None)
 
 
 def test_paired_difference_over_common_finished_seeds():
@@ -63,7 +78,48 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
     settings = json.loads((out / "settings.json").read_text())
     assert settings["cpsat"]["optimal"] and settings["seeds"] == [0, 1]
     assert "| priority | scripted | 2/2 |" in (out / "summary.md").read_text()
-    assert "CP-SAT schedule bound" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "CP-SAT schedule bound" in printed
+    # announced with its time limit before it runs, and before its answer
+    assert printed.index("solving CP-SAT for the cpsat strategy, time limit 5 s") < \
+        printed.index("CP-SAT bound")
+
+
+def test_cpsat_is_solved_only_when_asked_for(tmp_path, capsys, monkeypatch):
+    """The default strategies solve no CP-SAT; the bound columns fall back on the lower bound
+    and say so; --cpsat-bound solves it for its bound alone (no plan replayed)."""
+    import agents.cpsat
+
+    calls = []
+    real = agents.cpsat.solve
+    monkeypatch.setattr(agents.cpsat, "solve", lambda *a: calls.append(a) or real(*a))
+    assert "cpsat" not in evaluate.parse_args([]).strategies
+    out = tmp_path / "plain"
+    assert evaluate.main(["--case", TINY, "--seeds", "0", "--workers", "1", "--out", str(out),
+                          "--no-progress", "--no-figures"]) == 0
+    assert calls == []
+    printed = capsys.readouterr().out
+    assert "solving CP-SAT" not in printed and "CP-SAT not solved" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert [e["strategy"] for e in summary] == ["priority", "nearest"]
+    lb = lower_bound(cmdp_pymunk.load_case(TINY)).lower_bound_s
+    for e in summary:
+        assert e["over_lower_bound"] == pytest.approx(e["makespan_mean_s"] / lb)
+        assert e["over_cpsat_bound"] is None
+    assert "CP-SAT schedule bound: not solved" in (out / "summary.md").read_text()
+    assert json.loads((out / "settings.json").read_text())["cpsat"] is None
+    assert not (out / "cpsat_plan.json").exists()
+
+    out = tmp_path / "bound"
+    assert evaluate.main(["--case", TINY, "--seeds", "0", "--strategies", "priority",
+                          "--cpsat-bound", "--cpsat-s", "5", "--workers", "1", "--out",
+                          str(out), "--no-progress", "--no-figures"]) == 0
+    assert len(calls) == 1 and "solving CP-SAT (--cpsat-bound), time limit 5 s" in \
+        capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    bound = json.loads((out / "settings.json").read_text())["cpsat"]["bound_s"]
+    assert summary[0]["over_cpsat_bound"] == pytest.approx(summary[0]["makespan_mean_s"] / bound)
+    assert not (out / "cpsat_plan.json").exists()
 
 
 def test_a_stalled_strategy_is_reported(tmp_path, capsys):

@@ -60,3 +60,45 @@ def test_missing_model_is_reported(tmp_path, capsys):
     assert export.main([str(tmp_path / "nope.zip"), str(tmp_path / "x.onnx")]) == 2
     assert "no such model file" in capsys.readouterr().err
     assert not Path(tmp_path / "x.onnx").exists()
+
+
+def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_path):
+    """A stage-2 masked-choice model (MaskablePPO, CandidateScorerPolicy) with every weight
+    made non-zero: on candidate rows and masks recorded from a tiny-floor episode the ONNX
+    logits equal the policy's own (masked ones -1e8) and its action is model.predict's."""
+    from sb3_contrib import MaskablePPO
+
+    from training import stage2
+    from training.stage2 import Stage2Config
+
+    config = Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1)
+    case = stage2.training_case(config)
+    floor = stage2.make_floor(config, case)
+    model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))
+    generator = torch.Generator().manual_seed(0)
+    with torch.no_grad():  # untrained, the linear and residual heads are zero: perturb them
+        for p in model.policy.action_net.parameters():
+            p.add_(0.3 * torch.randn(p.shape, generator=generator))
+    path = tmp_path / "candidate.zip"
+    model.save(path)
+    states = []
+
+    def record(obs):
+        states.append((obs, floor.action_masks()))
+        return 0
+
+    stage2.play_floor(floor, 7, record)
+    obs = np.stack([s[0] for s in states]).astype(np.float32)
+    masks = np.stack([s[1] for s in states]).astype(bool)
+    assert len(states) > 20 and not masks.all()  # some decisions have fewer candidates
+
+    out = export.export(path, tmp_path / "candidate.onnx")
+    session = ort.InferenceSession(str(out), providers=["CPUExecutionProvider"])
+    logits, action = session.run(["logits", "action"], {"obs": obs, "mask": masks})
+    loaded = MaskablePPO.load(path, device="cpu")
+    with torch.no_grad():
+        raw = loaded.policy.action_net(torch.as_tensor(obs)).numpy()
+    assert np.allclose(logits[masks], raw[masks], atol=1e-4)
+    assert (logits[~masks] == export.HUGE_NEG).all()
+    expected, _ = loaded.predict(obs, action_masks=masks, deterministic=True)
+    assert (action == expected).all() and len(set(expected.tolist())) > 1

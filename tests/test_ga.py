@@ -162,3 +162,27 @@ def test_equal_genes_on_the_priority_base_rank_as_the_heuristic(tiny_env):
     genes[site.tasks[crew.scope[worst]].id] = 2.0
     moved = TaskPriorityEvaluator(genes, base="priority").target_values(crew, site, position)
     assert max(moved, key=moved.get) == worst
+
+
+def test_the_progress_bar_ends_at_its_total(tmp_path, monkeypatch):
+    """The bar counts the first population and each generation's offspring (the elite are
+    kept, not replayed): 6 + 3 x (6 - 1) = 21 episodes on one seed; before, its total
+    counted the elite too and it stopped short (7/8 of the way with these settings)."""
+    import tqdm
+
+    from agents.ga import episodes_after
+
+    seen = []
+
+    class Recorder(tqdm.tqdm):
+        def close(self):
+            if getattr(self, "desc", "").startswith("GA"):  # not the episodes' own (disabled) bars
+                seen.append((self.n, self.total))
+            super().close()
+
+    monkeypatch.setattr(tqdm, "tqdm", Recorder)
+    config = GAConfig(population=6, generations=3, train_seeds=[0], distance_weight=0.0,
+                      seed_successors=False, seed=1, elite=1)
+    run_ga(far_start_case(), config, tmp_path, workers=1, progress=True)
+    assert episodes_after(config, 3) == 21
+    assert seen and set(seen) == {(21, 21)}  # before: (21, 24)

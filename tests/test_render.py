@@ -125,3 +125,32 @@ def test_render_before_reset_draws_the_empty_plane(tiny_case):
 
 def test_render_without_render_mode_returns_none(tiny_env):
     assert tiny_env.render() is None
+
+
+def test_crew_labels_never_overlap_when_crews_crowd(tiny_case):
+    """Four crews on one spot (as at t = 0 by the outlet): each label block lands clear of
+    the discs and of the labels placed before it."""
+    import pygame
+
+    centre, radius, size = (100, 100), 8, (40, 24)
+    taken = [pygame.Rect(92, 92, 16, 16)]  # the disc
+    for _ in range(4):
+        rect, _far = render.label_place(size, centre, radius, taken)
+        assert rect.collidelist(taken) == -1
+        taken.append(rect)
+    # the first goes right above the disc (no line back), the fifth needs a second ring
+    first, far = render.label_place(size, centre, radius, taken[:1])
+    assert not far and first.bottom == centre[1] - radius - 1
+    assert render.label_place(size, centre, radius, taken)[1]
+
+
+def test_the_legend_shows_every_state_colour_and_crew_type(rendered_env):
+    frame = rendered_env.render()
+    vp = render.Viewport.of(rendered_env.case.plane)
+    legend = frame[vp.size[1] - render.LEGEND_PX:]
+    colours = {tuple(c) for c in legend.reshape(-1, 3)}
+    for colour in (render.COMPONENT_WAITING, render.COMPONENT_EXECUTABLE,
+                   render.COMPONENT_PERFORMING, render.COMPONENT_DONE, render.DISRUPTED):
+        assert colour in colours, colour
+    for i, _ in enumerate(rendered_env.case.crew_types):
+        assert render.CREW_PALETTE[i] in colours

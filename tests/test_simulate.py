@@ -89,6 +89,25 @@ def test_gif_is_written(tmp_path):
     assert 2 <= len(frames) <= simulate.GIF_SECONDS * simulate.GIF_FPS
 
 
+def test_a_ctrl_c_while_the_gif_streams_leaves_no_half_gif(tmp_path, monkeypatch, capsys):
+    """The frames go to a temporary file as they are drawn: a Ctrl-C mid-episode deletes it."""
+    from media.charts import GifStream
+
+    real = GifStream.append
+
+    def append(self, frame):
+        if self.frames == 3:
+            raise KeyboardInterrupt
+        real(self, frame)
+
+    monkeypatch.setattr(GifStream, "append", append)
+    out = tmp_path / "gif"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--gif", "--no-charts",
+                          "--no-progress"]) == 130
+    assert sorted(p.name for p in out.iterdir()) == ["case.json"]
+    assert "interrupted in seed 0" in capsys.readouterr().err
+
+
 def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch):
     from cmdp_pymunk.move import STAND_STILL
 

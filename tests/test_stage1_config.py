@@ -45,3 +45,52 @@ def test_every_problem_is_reported_at_once_naming_the_file(tmp_path):
 def test_unknown_setting_lists_the_known_ones():
     with pytest.raises(ValueError, match="unknown setting.*gama.*known: case, seed"):
         Stage1Config.load(None, ["gama=0.9"])
+
+
+def test_a_typo_in_set_is_blamed_on_set_not_the_file():
+    with pytest.raises(ValueError) as caught:
+        Stage1Config.load(DEFAULT_CONFIG, ["totl_steps=3"])
+    assert str(caught.value).startswith("--set: unknown setting(s) totl_steps (did you mean "
+                                        "total_steps?)")
+    with pytest.raises(ValueError) as caught:
+        Stage1Config.load(DEFAULT_CONFIG, ["batch_size=0"])
+    assert str(caught.value).startswith("--set: batch_size = 0 must be positive")
+
+
+def test_wandb_asked_for_but_not_installed_says_how(monkeypatch):
+    """Weights & Biases is opt-in and no dependency: asking for it without wandb installed
+    fails when the settings load (before anything runs), naming --set and the fix."""
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "wandb" else real(name, *a))
+    with pytest.raises(ValueError) as caught:
+        Stage1Config.load(DEFAULT_CONFIG, ["wandb_project=cmdp-stage1"])
+    assert str(caught.value) == (
+        "--set: wandb_project = 'cmdp-stage1' asks for Weights & Biases, but wandb is not "
+        "installed; fix: pip install wandb (then wandb login), or drop wandb_project")
+    assert Stage1Config.load(DEFAULT_CONFIG).wandb_project is None  # off by default
+
+
+def test_without_wandb_project_no_callback_is_added():
+    from types import SimpleNamespace
+
+    from training.scaffold import wandb_run
+
+    with wandb_run(SimpleNamespace(config=Stage1Config.load(DEFAULT_CONFIG))) as extra:
+        assert extra == []
+
+
+def test_train_reports_the_missing_wandb_with_exit_2(monkeypatch, capsys, tmp_path):
+    import importlib.util
+
+    from training import train
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(importlib.util, "find_spec",
+                        lambda name, *a: None if name == "wandb" else real(name, *a))
+    assert train.main(["stage1", "--set", "wandb_project=x", "--out",
+                       str(tmp_path / "run")]) == 2
+    assert "pip install wandb" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()

@@ -32,11 +32,16 @@ def mean_ci(values) -> tuple[float | None, float | None, float | None]:
     return float(x.mean()), std, float(stats.t.ppf(0.975, len(x) - 1) * std / math.sqrt(len(x)))
 
 
-def p80(values) -> float | None:
-    """The makespan 80 % of the finished episodes stay within (a planner's P80):
-    ``numpy.percentile`` at 80, linear between order statistics; None without any."""
+def percentile(values, q: float) -> float | None:
+    """The makespan q % of the finished episodes stay within (a planner's P50/P80/P90):
+    ``numpy.percentile`` at q, linear between order statistics; None without any."""
     x = [v for v in values if v is not None]
-    return float(np.percentile(x, 80)) if x else None
+    return float(np.percentile(x, q)) if x else None
+
+
+def p80(values) -> float | None:
+    """``percentile(values, 80)``, the planner's P80."""
+    return percentile(values, 80)
 
 
 def paired(rows: list[dict], reference: list[dict]) -> dict:
@@ -71,6 +76,8 @@ def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | Non
             "timed_out_seeds": [r["seed"] for r in group if r["timed_out"]],
             "makespan_mean_s": mean, "makespan_std_s": std, "makespan_ci95_s": ci,
             "makespan_p80_s": p80(finished),
+            "makespan_p50_s": percentile(finished, 50),
+            "makespan_p90_s": percentile(finished, 90),
             "over_lower_bound": mean / lower_bound_s if mean else None,
             "over_cpsat_bound": mean / cpsat_bound_s if mean and cpsat_bound_s else None,
         }
@@ -99,7 +106,8 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
     stalled or timed-out episodes."""
     # crew-seconds kept from working by disruptions: a column only when a case has them
     disrupted = any(e.get(f"{k}_mean") for e in summary for k in DISRUPTION_IDLE_FIELDS)
-    head = ("| strategy | low level | finished | makespan (s), mean ± 95 % CI | P80 (s) "
+    head = ("| strategy | low level | finished | makespan (s), mean ± 95 % CI "
+            "| P50 / P80 / P90 (s) "
             "| x lower bound | x CP-SAT bound | vs priority: diff (s) ± 95 % CI | ratio "
             "| reaching steps | idle: predecessor / task area / no target | crane waits |")
     if disrupted:
@@ -115,7 +123,8 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
         lines.append(
             f"| {e['strategy']} | {e['navigator']} | {e['finished']}/{e['episodes']} | "
             f"{_num(e['makespan_mean_s'], 0, e['makespan_ci95_s'])} | "
-            f"{_num(e['makespan_p80_s'])} | "
+            f"{_num(e.get('makespan_p50_s'))} / {_num(e['makespan_p80_s'])} / "
+            f"{_num(e.get('makespan_p90_s'))} | "
             f"{_num(e['over_lower_bound'], 2)} | {_num(e['over_cpsat_bound'], 2)} | {vs} | "
             f"{ratio} | {_num(e['reaching_steps_mean'])} | {idle} | "
             f"{_num(e['crane_waits_mean'], 1)} |"
@@ -129,6 +138,9 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
             f"{_num(cpsat['makespan_s'])} s, gap {_num(100 * (cpsat['gap'] or 0), 1)} %"
         lines.append(f"CP-SAT schedule bound (walking and material lifts left out): "
                      f"{cpsat['bound_s']:,.0f} s ({state}).")
+    else:
+        lines.append("CP-SAT schedule bound: not solved (ask with the cpsat strategy or "
+                     "--cpsat-bound); the bound column is the lower bound above.")
     for e in summary:
         for kind in ("stalled", "timed_out"):
             if e[f"{kind}_seeds"]:

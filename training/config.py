@@ -48,23 +48,34 @@ class RunConfig(BaseModel):
             except (OSError, tomllib.TOMLDecodeError) as err:
                 raise ValueError(f"{path}: cannot read the config ({err}); fix: check the "
                                  "path and the TOML syntax") from None
+        set_keys = set()
         for item in overrides:
             key, sep, value = item.partition("=")
+            set_keys.add(key)
             if not sep:
                 raise ValueError(f"--set {item!r}: write key=value, e.g. --set seed=3")
             try:
                 data[key] = tomllib.loads(f"v = {value}")["v"]
             except tomllib.TOMLDecodeError:
                 data[key] = value  # a bare string
-        where = path or "--set"
+
+        def where(keys) -> str:  # a setting given by --set is blamed on --set, not the file
+            return "--set" if path is None or set(keys) <= set_keys else str(path)
+
         unknown = sorted(set(data) - set(cls.model_fields))
         if unknown:
-            raise ValueError(f"{where}: unknown setting(s) {', '.join(unknown)}; "
+            import difflib
+
+            hints = [f"{k} (did you mean {close[0]}?)" if (close := difflib.get_close_matches(
+                k, list(cls.model_fields), n=1)) else k for k in unknown]
+            raise ValueError(f"{where(unknown)}: unknown setting(s) {', '.join(hints)}; "
                              f"known: {', '.join(cls.model_fields)}")
         try:
             return cls.model_validate(data)
         except ValidationError as err:
-            raise ValueError(f"{where}: " + "; ".join(_config_problems(err))) from None
+            keys = {str(e["loc"][0]) for e in err.errors() if e["loc"]}
+            raise ValueError(f"{where(keys) if keys else path or '--set'}: "
+                             + "; ".join(_config_problems(err))) from None
 
 
 
@@ -94,6 +105,6 @@ def _config_problems(error: ValidationError) -> list[str]:
         elif kind == "less_than_equal" and loc[0] == "stage2_share":
             text = "is a share of the episodes; fix: give a number from 0 to 1"
         else:
-            text = err["msg"]
+            text = err["msg"].removeprefix("Value error, ")
         out.append(f"{name} = {value!r} {text}")
     return out

@@ -2,14 +2,17 @@
 
     cmdp-evaluate [--case FILE] [--seeds 0-19] [--strategies priority,nearest,ga:PATH,cpsat,M.zip]
                   [--navigators scripted,MODEL.zip] [--workers N] [--ray [ADDRESS]]
-                  [--out DIR] [--resume] [--cpsat-s 20]
+                  [--out DIR] [--resume] [--cpsat-bound] [--cpsat-s 20]
 
 Runs every seed x strategy x low level (the evaluators of ``cmdp-simulate --evaluator``,
 including a stage-2 model ``.zip``; the low levels of ``--navigator``) in worker processes,
 or on Ray actors with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster;
 docs/ray.md); the same seeds give the same episodes whatever the backend and the number of
-workers. ``cpsat`` is solved once here (``--cpsat-s`` seconds) and its plan, saved as
-``cpsat_plan.json``, is replayed. Writes into DIR:
+workers. CP-SAT is solved only when asked for: the ``cpsat`` strategy (solved once here,
+``--cpsat-s`` seconds, and its plan, saved as ``cpsat_plan.json``, replayed) or
+``--cpsat-bound`` (its bound only); it is announced with its time limit before it runs.
+Without it the bound columns use the cheap lower bound (``cmdp_pymunk.bounds``) alone and
+the outputs say so. Writes into DIR:
 
 - ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish:
   a stopped run (Ctrl-C, a lost worker) keeps them, and ``--resume`` runs only the others
@@ -19,11 +22,15 @@ workers. ``cpsat`` is solved once here (``--cpsat-s`` seconds) and its plan, sav
   rate, whether it stalled or timed out (and why), wall seconds;
 - ``summary.md`` and ``summary.csv``: per strategy and low level, the mean makespan with its
   95 % interval, its P80 (the makespan 80 % of the finished episodes stay within), over
-  the lower bound and over CP-SAT's bound, the paired difference to the
+  the lower bound and over CP-SAT's bound (empty when CP-SAT was not solved), the paired
+  difference to the
   priority heuristic on the same seeds (95 % interval) and the ratio of means, reaching steps,
   idle steps by cause, crane waits; stalled and timed-out episodes are counted and listed;
-- ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``;
-- ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer, versions and the command.
+- ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``: box
+  and strip plots per strategy with the mean, its 95 % interval and (Fig. 12) the bounds;
+  with ``--per-seed`` the paper's lines over the seeds (``media/comparison.py``);
+- ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer (null when not solved),
+  versions and the command.
 
 The files above ``episodes.jsonl`` are written at the end, each atomically: a stopped run
 leaves none of them half-written. Exit status 1 if any episode stalled, timed out or was lost
@@ -56,6 +63,8 @@ from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
 from training.cli import OneLineParser, add_ray_option, positive_int, positive_seconds
 from training.comparison import csv_text, markdown_table, summarize
+
+DEFAULT_STRATEGIES = ("priority", "nearest")  # CP-SAT (about 20 s on the built-in floor) on request
 
 
 def seed_list(text: str) -> list[int]:
@@ -98,6 +107,13 @@ class EvaluateArgs:
     progress: bool
     ray: str | None = None  # None: worker processes here; "local": a Ray started here
     resume: bool = False
+    cpsat_bound: bool = False  # solve CP-SAT for its bound even without the cpsat strategy
+    per_seed: bool = False  # Figs. 12-14 as the paper's lines over the seeds
+
+    @property
+    def solves_cpsat(self) -> bool:
+        """CP-SAT runs only when asked for: the ``cpsat`` strategy or ``--cpsat-bound``."""
+        return self.cpsat_bound or "cpsat" in self.strategies
 
 
 def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
@@ -106,26 +122,38 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),
                    help="seeds, e.g. 0-19 (default) or 0,3,5")
-    p.add_argument("--strategies", type=spec_list, default=["priority", "nearest", "cpsat"],
-                   help="comma-separated evaluators: priority, nearest, ga:PATH, cpsat, "
-                        "cpsat:PATH, a stage-2 model .zip (default: priority,nearest,cpsat)")
+    p.add_argument("--strategies", type=spec_list, default=list(DEFAULT_STRATEGIES),
+                   help="comma-separated evaluators: priority, nearest, ga:PATH, cpsat (solves "
+                        "CP-SAT here, --cpsat-s), cpsat:PATH, student:PATH, lookahead[:...], a "
+                        "stage-2 model .zip (default: priority,nearest)")
     p.add_argument("--navigators", type=spec_list, default=["scripted"],
                    help="comma-separated low levels: scripted, a stage-1 model .zip")
     p.add_argument("--workers", type=positive_int, default=None,
                    help="worker processes, or Ray actors with --ray (default: every core; "
                         "with --ray ADDRESS, every CPU of the cluster)")
     add_ray_option(p)
-    p.add_argument("--out", type=Path, default=Path("out/evaluate"))
+    p.add_argument("--out", type=Path, default=Path("out/evaluate"),
+                   help="the folder to write into (default out/evaluate)")
     p.add_argument("--resume", action="store_true",
                    help="keep the episodes in DIR/episodes.jsonl and run only the others")
-    p.add_argument("--stall-s", type=positive_seconds, default=3600.0)
-    p.add_argument("--max-time-s", type=positive_seconds, default=None)
+    p.add_argument("--stall-s", type=positive_seconds, default=3600.0,
+                   help="an episode in which no task moves on for this many simulated seconds "
+                        "stalls (default 3600)")
+    p.add_argument("--max-time-s", type=positive_seconds, default=None,
+                   help="stop an episode at this simulated time (default: the case's limit)")
+    p.add_argument("--cpsat-bound", action="store_true",
+                   help="solve CP-SAT for its schedule bound even without the cpsat strategy "
+                        "(the x CP-SAT bound column; --cpsat-s seconds)")
     p.add_argument("--cpsat-s", type=positive_seconds, default=20.0,
-                   help="CP-SAT's time limit for the bound and the plan (default 20)")
+                   help="CP-SAT's time limit for the bound and the plan, when the cpsat "
+                        "strategy or --cpsat-bound asks for it (default 20)")
     p.add_argument("--deterministic", action="store_true",
                    help="model navigators take their argmax action instead of sampling")
-    p.add_argument("--no-figures", action="store_true")
-    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--no-figures", action="store_true", help="write no figures")
+    p.add_argument("--per-seed", action="store_true",
+                   help="Figs. 12-14 as the paper's lines over the seeds instead of box and "
+                        "strip plots per strategy")
+    p.add_argument("--no-progress", action="store_true", help="show no progress bar")
     a = p.parse_args(argv)
     if not a.strategies or not a.navigators:
         p.error("--strategies and --navigators need at least one name each")
@@ -134,7 +162,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
             p.error(f"{name} names one twice")
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
-                        not a.no_figures, not a.no_progress, a.ray, a.resume)
+                        not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
+                        a.per_seed)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
@@ -268,13 +297,22 @@ def _main(args: EvaluateArgs) -> int:
     # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
     with open_backend(_episode_job, runner_args, args.workers, args.ray) as pool:
         lb = lower_bound(case)
-        from agents.cpsat import save_plan, solve
+        cpsat = None
+        if args.solves_cpsat:
+            from agents.cpsat import save_plan, solve
 
-        cpsat = solve(case, args.cpsat_s)
-        print(f"cmdp-evaluate: case {case.case.name!r}: lower bound {lb.lower_bound_s:,.0f} s; "
-              f"CP-SAT bound {cpsat.bound_s:,.0f} s "
-              f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
-              f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
+            why = "for the cpsat strategy" if "cpsat" in args.strategies else "(--cpsat-bound)"
+            print(f"cmdp-evaluate: solving CP-SAT {why}, time limit {args.cpsat_s:g} s ...",
+                  flush=True)
+            cpsat = solve(case, args.cpsat_s)
+            print(f"cmdp-evaluate: case {case.case.name!r}: lower bound "
+                  f"{lb.lower_bound_s:,.0f} s; CP-SAT bound {cpsat.bound_s:,.0f} s "
+                  f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
+                  f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
+        else:
+            print(f"cmdp-evaluate: case {case.case.name!r}: lower bound "
+                  f"{lb.lower_bound_s:,.0f} s (CP-SAT not solved: add the cpsat strategy or "
+                  "--cpsat-bound for its bound)")
         if "cpsat" in args.strategies:
             plan = args.out / "cpsat_plan.json"
             if args.resume and plan.is_file():  # the kept episodes replayed this plan
@@ -306,12 +344,13 @@ def _main(args: EvaluateArgs) -> int:
             return 1
         wall = time.perf_counter() - start
     ran = len(rows) - kept
-    summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s)
+    cpsat_dict = cpsat.as_dict() if cpsat else None
+    summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS]
-    table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict())
+    table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
-                "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict(), "episodes": len(rows),
+                "lower_bound": lb.as_dict(), "cpsat": cpsat_dict, "episodes": len(rows),
                 "episodes_resumed": kept, "wall_s": round(wall, 1),
                 "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
                 "command": sys.argv, "versions": versions()}
@@ -327,7 +366,8 @@ def _main(args: EvaluateArgs) -> int:
         if args.figures:
             from media.comparison import draw_comparison
 
-            draw_comparison(rows, args.out)
+            draw_comparison(rows, args.out, summary, lb.lower_bound_s,
+                            cpsat.bound_s if cpsat else None, args.per_seed)
     finally:
         interrupt.leave()
     print(table, end="")

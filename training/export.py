@@ -24,8 +24,24 @@ Outputs, Gaussian actions (the evaluation policy's ``Box(2)``)
     (sample ``mean + exp(log_std) * N(0, 1)``). ``action``: float32 (batch, dim), the mean
     clipped to the action space (the deterministic action).
 
+Inputs and outputs, a masked choice (stage 2's ``action = "candidate"``, a MaskablePPO zip)
+    ``obs``: float32 (batch, candidates x columns), the candidate rows of
+    ``agents.candidates.CandidateView`` side by side; ``mask``: bool (batch, candidates),
+    true for a real candidate. ``logits``: float32 (batch, candidates), each row's
+    ``scale * V' + linear(row) + residual(row)`` (``agents.candidate_policy.CandidateScorer``)
+    with the masked ones set to -1e8 as sb3-contrib does (a softmax gives the policy's
+    probabilities). ``action``: int64 (batch,), the argmax, the candidate it chooses.
+
 The model's metadata (``metadata_props``) records the observation size, the action space and
 the source file.
+
+Why a graph built by hand and not ``torch.onnx.export`` (measured with torch 2.13.0): its
+default exporter (``dynamo=True``, torch.export-based) needs ``onnxscript``, which is not
+installed here (one more dependency for the ``onnx`` extra); its TorchScript exporter
+(``dynamo=False``) still works but warns on every call that it "will be removed", and the
+package accepts any torch up to 3. The graphs here need only ``onnx``, use a handful of
+standard operators (MatMul, Add, the activation, Split/ArgMax or Where/ArgMax), and are
+checked against the SB3 policies' own outputs in tests/test_export.py.
 """
 
 from __future__ import annotations
@@ -102,12 +118,83 @@ def actor_to_onnx(actor, source: str = ""):
     return model
 
 
+HUGE_NEG = -1e8  # sb3-contrib's MaskableCategorical: the logit of a masked choice
+
+
+def candidate_to_onnx(model, source: str = ""):
+    """An ``onnx.ModelProto`` of a masked-choice model's actor (a MaskablePPO whose policy is
+    ``agents.candidate_policy.CandidateScorerPolicy``): inputs ``obs`` and ``mask``, outputs
+    ``logits`` and ``action`` (see the module doc)."""
+    import onnx
+    from onnx import TensorProto, helper, numpy_helper
+
+    scorer = model.policy.action_net
+    columns, cap = int(scorer.columns), int(model.action_space.n)
+    first, second = scorer.residual[0], scorer.residual[2]
+    if type(scorer.residual[1]).__name__ != "Tanh":
+        raise ValueError(f"{source}: the scorer's residual is not Linear-Tanh-Linear; fix: "
+                         "export a model trained by cmdp-train stage2 with action = candidate")
+
+    def weights(tensor) -> np.ndarray:
+        return tensor.detach().cpu().numpy().astype(np.float32)
+
+    inits = []
+
+    def const(name, value):
+        inits.append(numpy_helper.from_array(np.asarray(value), name))
+        return name
+
+    n = helper.make_node
+    nodes = [
+        n("Reshape", ["obs", const("rows_shape", np.array([0, cap, columns], np.int64))],
+          ["rows"]),
+        # scale * V': V' is column 0 of each row
+        n("Gather", ["rows", const("v_column", np.array(0, np.int64))], ["v"], axis=2),
+        n("Mul", ["v", const("scale", np.float32(scorer.scale))], ["scaled_v"]),
+        # linear(row): (batch, cap, columns) @ (columns, 1)
+        n("MatMul", ["rows", const("w_linear", weights(scorer.linear.weight).T)], ["lin3"]),
+        # residual(row): Linear, Tanh, Linear
+        n("MatMul", ["rows", const("w_res0", weights(first.weight).T)], ["res0_mm"]),
+        n("Add", ["res0_mm", const("b_res0", weights(first.bias))], ["res0_pre"]),
+        n("Tanh", ["res0_pre"], ["res0"]),
+        n("MatMul", ["res0", const("w_res1", weights(second.weight).T)], ["res1_mm"]),
+        n("Add", ["res1_mm", const("b_res1", weights(second.bias))], ["res3"]),
+        n("Add", ["lin3", "res3"], ["terms3"]),
+        n("Squeeze", ["terms3", const("last_axis", np.array([2], np.int64))], ["terms"]),
+        n("Add", ["scaled_v", "terms"], ["raw_logits"]),
+        n("Where", ["mask", "raw_logits", const("huge_neg", np.float32(HUGE_NEG))],
+          ["logits"]),
+        n("ArgMax", ["logits"], ["action"], axis=1, keepdims=0),
+    ]
+    batch = "batch"
+    graph = helper.make_graph(
+        nodes, "candidate_choice",
+        [helper.make_tensor_value_info("obs", TensorProto.FLOAT, [batch, cap * columns]),
+         helper.make_tensor_value_info("mask", TensorProto.BOOL, [batch, cap])],
+        [helper.make_tensor_value_info("logits", TensorProto.FLOAT, [batch, cap]),
+         helper.make_tensor_value_info("action", TensorProto.INT64, [batch])], inits)
+    proto = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)],
+                              producer_name="cmdp-pymunk")
+    proto.ir_version = 8
+    for key, value in (("observation_size", str(cap * columns)),
+                       ("action_space", f"Discrete({cap}) over {cap} candidates of {columns} "
+                                        "columns, masked"), ("source", source)):
+        proto.metadata_props.add(key=key, value=value)
+    onnx.checker.check_model(proto)
+    return proto
+
+
 def export(model_path: str | Path, onnx_path: str | Path) -> Path:
-    """Write the actor of the SB3 zip at ``model_path`` to ``onnx_path`` (atomically)."""
+    """Write the actor of the SB3 zip at ``model_path`` to ``onnx_path`` (atomically): a PPO
+    (reaching policy, stage-2 desired position) or a MaskablePPO masked choice."""
+    from agents.candidates import is_candidate_model, load_candidate_model
     from agents.models import LeanActor
 
-    actor = LeanActor.from_zip(model_path)
-    proto = actor_to_onnx(actor, source=Path(model_path).name)
+    if is_candidate_model(model_path):
+        proto = candidate_to_onnx(load_candidate_model(model_path),
+                                  source=Path(model_path).name)
+    else:
+        proto = actor_to_onnx(LeanActor.from_zip(model_path), source=Path(model_path).name)
     onnx_path = Path(onnx_path)
     onnx_path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=onnx_path.parent, suffix=".onnx.tmp")
@@ -122,7 +209,8 @@ def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
     cmdp_pymunk.add_version_flag(parser)
-    parser.add_argument("model", type=Path, help="a stable-baselines3 PPO .zip")
+    parser.add_argument("model", type=Path, help="a stable-baselines3 PPO .zip, or a masked-choice "
+                        "MaskablePPO .zip (cmdp-train stage2 with action = candidate)")
     parser.add_argument("onnx", type=Path, help="the .onnx file to write")
     args = parser.parse_args(argv)
     if not args.model.is_file():

@@ -18,6 +18,7 @@ SB3 and torch are imported when a run starts, so ``cmdp-train --version`` stays 
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import functools
 import json
@@ -27,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
-from pydantic import model_validator
+from pydantic import field_validator, model_validator
 
 from cmdp_pymunk.case import Case
 from cmdp_pymunk.events import write_atomic
@@ -70,6 +71,19 @@ class PPOSettings(RunConfig):
     eval_every_steps: Count
     eval_seeds: Sizes
     checkpoint_every_steps: Count
+    # Weights & Biases (opt-in, docs/training-stage1.md): a project name logs the run there
+    # through SB3's WandbCallback; needs `pip install wandb` (not a dependency)
+    wandb_project: str | None = None
+
+    @field_validator("wandb_project")
+    @classmethod
+    def _wandb_installed(cls, project: str | None) -> str | None:
+        import importlib.util
+
+        if project and importlib.util.find_spec("wandb") is None:
+            raise ValueError("asks for Weights & Biases, but wandb is not installed; fix: "
+                             "pip install wandb (then wandb login), or drop wandb_project")
+        return project
 
     @model_validator(mode="before")
     @classmethod
@@ -181,7 +195,8 @@ def train_ppo(run: Run, make_venv: Callable[[], Any], new_model: Callable[[Any],
                         f"{run.folder} holds only config{run.suffix}.json and case.json; "
                         f"start again with the same command (or --set {skip_warm_start} to "
                         "skip cloning)") from None
-        final = learn(model, run, [metrics, periodic_callback(run, evaluation)])
+        with wandb_run(run) as extra:
+            final = learn(model, run, [metrics, periodic_callback(run, evaluation), *extra])
     finally:
         venv.close()
     try:
@@ -301,6 +316,28 @@ def without_sigint(make):
     finally:
         if blocked:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
+@contextlib.contextmanager
+def wandb_run(run: Run):
+    """Weights & Biases, opt-in: with ``wandb_project`` set, a wandb run (the settings as its
+    config, SB3's TensorBoard scalars synced, files under the run folder) and SB3's
+    ``WandbCallback`` to add to ``learn``; else nothing. ``PPOSettings`` already refused the
+    setting when wandb is not installed."""
+    project = getattr(run.config, "wandb_project", None)
+    if not project:
+        yield []
+        return
+    import wandb
+    from wandb.integration.sb3 import WandbCallback
+
+    session = wandb.init(project=project, name=run.folder.name, dir=str(run.folder),
+                         config=run.config.model_dump(mode="json"), sync_tensorboard=True)
+    run.log(f"Weights & Biases: logging to project {project!r} ({session.url})")
+    try:
+        yield [WandbCallback(verbose=0)]
+    finally:
+        session.finish()
 
 
 def learn(model, run: Run, callbacks) -> Path:

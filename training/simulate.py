@@ -71,9 +71,13 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    help=EVALUATOR_HELP + " (default: priority)")
     p.add_argument("--navigator", default="scripted",
                    help="scripted, or a stage-1 reaching model .zip (default: scripted)")
-    p.add_argument("--seed", type=non_negative_int, default=0)
-    p.add_argument("--episodes", type=positive_int, default=1)
-    p.add_argument("--out", type=Path, default=Path("out/simulate"))
+    p.add_argument("--seed", type=non_negative_int, default=0,
+                   help="the (first) episode's seed (default 0)")
+    p.add_argument("--episodes", type=positive_int, default=1,
+                   help="episodes on seeds SEED, SEED + 1, ...: each in DIR/seed-K, with "
+                        "P50/P80/P90, a histogram and an S-curve in DIR (default 1)")
+    p.add_argument("--out", type=Path, default=Path("out/simulate"),
+                   help="the folder to write into (default out/simulate)")
     p.add_argument("--gif", action="store_true", help="also write rollout.gif")
     p.add_argument("--stall-s", type=positive_seconds, default=3600.0,
                    help="stop an episode in which no task moves on for this long (default 3600)")
@@ -154,7 +158,8 @@ def write_json(path: Path, data) -> None:
 
 
 def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: str,
-                  lb, cpsat=None) -> dict:
+                  lb, cpsat=None, gif=None) -> dict:
+    """Every file of one episode into ``folder``; ``gif``: its ``GifStream``, finished here."""
     from cmdp_pymunk.events import write_atomic
     from cmdp_pymunk.schedule import schedule_csv
 
@@ -176,29 +181,19 @@ def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: st
         from media.charts import draw_run
 
         draw_run(folder, env.case)
-    if episode.frames:
-        from media.charts import write_gif
-
-        write_gif(episode.frames, folder / "rollout.gif", 1.0 / GIF_FPS)
+    if gif is not None:  # its frames are on disk already: finish it and move it in place
+        gif.close()
     return data
 
 
 def frame_interval(case, lb) -> float:
     """Simulated seconds between GIF frames, so the floor plays in GIF_SECONDS or less.
 
-    Sized on three times the lower bound (heuristic makespans sit at about twice it); a longer
-    episode is thinned out before writing.
+    Sized on three times the lower bound (heuristic makespans sit at about twice it). The
+    frames are written as they come (``media.charts.GifStream``), so an episode longer than
+    that plays longer.
     """
     return max(case.simulation.step_s, math.ceil(3 * lb.lower_bound_s / (GIF_SECONDS * GIF_FPS)))
-
-
-def thin(frames: list, limit: int) -> list:
-    import numpy as np
-
-    if len(frames) <= limit:
-        return frames
-    keep = np.linspace(0, len(frames) - 1, limit).round().astype(int)
-    return [frames[i] for i in keep]
 
 
 @dataclass
@@ -308,20 +303,34 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
                            f"{args.episodes - k}" if args.episodes > 1 else "")
         progress.engine = env.engine
+        # The GIF's frames go to a temporary file as they are drawn, renamed with the seed's
+        # other files; a crash or Ctrl-C deletes it (no half GIF, no frame held in memory).
+        gif, made_folder = None, not folder.exists()
+        if every is not None:
+            from media.charts import GifStream
+
+            gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
         try:
-            episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every)
-        except PolicyStuck as err:
-            print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
-            return 1
-        progress.engine, progress.doing = None, f"while writing seed {seed}'s files"
-        episode.frames = thin(episode.frames, int(GIF_SECONDS * GIF_FPS))
-        # A Ctrl-C while a seed's files are written is held until all of them are: a seed's
-        # folder is either complete or not started.
-        interrupt.enter()
-        try:
-            data = write_outputs(env, episode, folder, args, case_label, lb, cpsat)
-        finally:
-            interrupt.leave()
+            try:
+                episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every,
+                                      on_frame=gif.append if gif is not None else None)
+            except PolicyStuck as err:
+                print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
+                return 1
+            progress.engine, progress.doing = None, f"while writing seed {seed}'s files"
+            # A Ctrl-C while a seed's files are written is held until all of them are: a
+            # seed's folder is either complete or not started.
+            interrupt.enter()
+            try:
+                data = write_outputs(env, episode, folder, args, case_label, lb, cpsat, gif)
+            finally:
+                interrupt.leave()
+        except BaseException:
+            if gif is not None:
+                gif.abort()
+                if made_folder and not any(folder.iterdir()):
+                    folder.rmdir()  # a seed's folder is complete or absent
+            raise
         progress.kept.append(seed)
         rows.append(data)
         finishes.append(finish_times(env.log.events))

@@ -135,19 +135,25 @@ def teacher_action(engine, i: int, navigator_action) -> tuple:
     return navigator_action if crew.scope else SEARCH_TURN
 
 
-def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
-    """(observations, actions) of the scripted navigator on stage-1 episodes.
+def navigator_samples(config: Stage1Config, case, n: int, seed: int,
+                      progress: bool = False) -> tuple:
+    """(observations, actions) of the scripted navigator on stage-1 episodes; ``progress``
+    shows a bar of the decisions collected out of ``n`` (the warm start's longest phase).
 
     DAgger (the clone drives, the navigator labels the states it visits) was tried on the
     built-in case and made the clone worse (stage-2 reach rate 0.75-0.83 after two rounds
     against 0.89-0.91 for plain cloning): the navigator's answers in the clone's states lean on
     its own re-planning memory and the map, which the rays cannot show.
     """
+    from tqdm import tqdm
+
     from agents.navigator import Navigator
 
     env = make_env(config, case, seed=seed)
     obs_out, act_out = [], []
     episode = 0
+    bar = tqdm(total=n, unit="decision", disable=not progress, mininterval=1.0,
+               desc="behaviour cloning samples")
     while len(obs_out) < n:
         observations, infos = env.reset(seed=seed + episode)
         navigator = Navigator(env)
@@ -158,8 +164,10 @@ def navigator_samples(config: Stage1Config, case, n: int, seed: int) -> tuple:
                     obs_out.append(observations[agent])
                     act_out.append(teacher_action(env.engine, env.agent_index[agent],
                                                   actions.get(agent, STAND_STILL)))
+            bar.update(min(len(obs_out), n) - bar.n)
             observations, _, _, _, infos = env.step(actions)
         episode += 1
+    bar.close()
     return np.asarray(obs_out, dtype=np.float32), np.asarray(act_out, dtype=np.int64)
 
 
@@ -280,7 +288,8 @@ def train(config: Stage1Config, run: Path, resume: Path | None = None, argv=None
         log(f"behaviour cloning: collecting {config.bc_samples:,} decisions of the scripted "
             "navigator")
         t0 = time.perf_counter()
-        obs, acts = navigator_samples(config, case, config.bc_samples, config.seed + 10_000)
+        obs, acts = navigator_samples(config, case, config.bc_samples, config.seed + 10_000,
+                                      progress_bar)
         log(f"behaviour cloning: {len(obs):,} navigator samples in "
             f"{time.perf_counter() - t0:.0f} s")
         behaviour_clone(model, obs, acts, config, log)

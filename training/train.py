@@ -40,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
         p.add_argument("--out", type=Path, default=Path(f"runs/{stage}"),
                        help=f"run folder (default: runs/{stage})")
         p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
-        p.add_argument("--no-progress", action="store_true")
+        p.add_argument("--no-progress", action="store_true", help="show no progress bar")
     args = parser.parse_args(argv)
     argv = argv if argv is not None else sys.argv[1:]
     module, config_class, _ = STAGES[args.stage]
