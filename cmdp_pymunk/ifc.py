@@ -6,11 +6,15 @@ cast in place; ``floorplan.PRECAST_RECIPE``) become components: each element's p
 (its body geometry projected on the floor, in metres) is boxed in the axis-aligned rectangle
 the simulator needs. An element that its rectangle covers poorly (the footprint fills less
 than ``[import] min_fill`` of it: an L-shape, a beam at 45 degrees) is reported, not silently
-boxed. Tasks come from the recipe's chains: JC -> HI -> G on a precast component, R -> F on
-a cast-in-place one, R waiting for HI on the components beside it (``neighbour_gap_m``).
+boxed, and so is an element that does not sit on its storey: the bottom of its body lies
+outside the storey's range, from halfway down to the storey below to halfway up to the one
+above (:class:`StoreyRange`). Tasks come from the recipe's chains: JC -> HI -> G on a precast
+component, R -> F on a cast-in-place one, R waiting for HI on the components beside it
+(``neighbour_gap_m``).
 
 Where the model carries a 4D schedule (IfcTask assigned to the storey's elements with
-IfcRelAssignsToProduct, IfcRelSequence between such tasks), its sequences replace the
+IfcRelAssignsToProduct, or the elements to the task with IfcRelAssignsToProcess;
+IfcRelSequence between such tasks), its sequences replace the
 recipe's links between components: a sequence A -> B makes the first task of B's chain on each
 of B's elements wait for the last task of A's chain on each of A's elements (a task whose
 Identification or Name holds a recipe task type as a word, e.g. "HI S-1", stands for that
@@ -27,8 +31,10 @@ crews start in the left margin.
 IfcWorkSchedule holding one IfcTask per task of the case: IfcTaskTime with the simulated
 start and finish (elapsed time from a given start date, no calendar), the crew that did it as
 an IfcCrewResource assigned to it (IfcRelAssignsToProcess), the element it builds
-(IfcRelAssignsToProduct) and the case's precedences as IfcRelSequence. IFC4 and later;
-IFC2X3 has no IfcTaskTime.
+(IfcRelAssignsToProduct) and the case's precedences as IfcRelSequence. IFC2X3 has no
+IfcTaskTime: there the times are an IfcScheduleTimeControl, the TimeForTask of the
+IfcRelAssignsTasks that puts the task in the schedule, written entity by entity
+(:func:`_write_4d_ifc2x3`).
 
 IfcOpenShell is an optional dependency (``pip install 'cmdp-pymunk[ifc]'``), imported only
 when a function here is called.
@@ -66,7 +72,7 @@ INSTALL_HINT = "pip install 'cmdp-pymunk[ifc]'"
 # open floor left and right of the components, 7 m above and below).
 DEFAULT_OVERLAY: dict = {
     "plane": {"margin_x_m": 6.0, "margin_y_m": 7.0},
-    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0},
+    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0, "check_storey": True},
     "crews": {"JCC": 1, "HIC": 1, "GC": 1, "RC": 2, "FC": 2},
     "crane": {"lift_time_s": 240.0, "assist_time_s": 180.0},
     # x_frac: where along the edge, -1 (left wall) to 1 (right wall)
@@ -82,7 +88,7 @@ DEFAULT_OVERLAY: dict = {
 _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
 _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
-                 "import": ("min_fill", "neighbour_gap_m"),
+                 "import": ("min_fill", "neighbour_gap_m", "check_storey"),
                  "crane": ("lift_time_s", "assist_time_s")}
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
                  "edge", "x_frac")
@@ -214,6 +220,9 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             if key not in allowed:
                 problems.append(f"{section}.{key}: unknown field"
                                 + _did_you_mean(key, list(allowed)))
+            elif key == "check_storey":
+                if not isinstance(value[key], bool):
+                    problems.append(f"{section}.{key} = {value[key]!r}: write true or false")
             elif not _is_number(value[key]) or value[key] < 0:
                 problems.append(f"{section}.{key} = {value[key]!r}: write a number of 0 or "
                                 "more")
@@ -287,6 +296,7 @@ class Element:
     kind: str
     rect: Rect | None  # the footprint's bounding rectangle; None: no body geometry
     fill: float  # footprint area / rectangle area
+    z_m: tuple[float, float] | None = None  # the body's bottom and top (world z, metres)
 
     @property
     def label(self) -> str:
@@ -311,6 +321,85 @@ def find_storey(model, name: str, source: str):
         raise CaseError(source, [f'{len(found)} storeys are named "{name}"; fix: name it by '
                                  "GlobalId: " + ", ".join(s.GlobalId for s in found)])
     return found[0]
+
+
+# A storey alone in its building has no storey levels to take its height from: it is taken
+# as this high (its range: its level +- half of it).
+NOMINAL_STOREY_HEIGHT_M = 4.0
+
+
+@dataclass(frozen=True)
+class StoreyRange:
+    """Where the elements of a storey sit: the bottom of an element's body (world z, metres)
+    lies from ``low_m`` up to (not including) ``high_m``, the levels halfway to the storeys
+    below and above. With no storey below (above), the range reaches as far down (up) as it
+    reaches up (down); a storey alone in its building spans its level +-
+    ``NOMINAL_STOREY_HEIGHT_M`` / 2. An element outside sits nearer another storey's level
+    than its own."""
+
+    name: str
+    level_m: float
+    low_m: float
+    high_m: float
+    others: tuple[StoreyRange, ...] = ()  # the building's other storeys with a level
+
+    def holds(self, z_m: float) -> bool:
+        return self.low_m - 1e-6 <= z_m < self.high_m - 1e-6
+
+    def sits_on(self, z_m: float) -> StoreyRange | None:
+        """The other storey whose range holds ``z_m``, if any."""
+        return next((s for s in self.others if s.holds(z_m)), None)
+
+
+def _storey_level_m(storey, scale: float) -> float | None:
+    """A storey's level in metres: its placement's world z, else its Elevation; None: neither."""
+    import ifcopenshell.util.placement
+
+    if storey.ObjectPlacement is not None and storey.ObjectPlacement.is_a("IfcLocalPlacement"):
+        matrix = ifcopenshell.util.placement.get_local_placement(storey.ObjectPlacement)
+        return float(matrix[2][3]) * scale
+    if storey.Elevation is not None:
+        return float(storey.Elevation) * scale
+    return None
+
+
+def storey_ranges(levels: Sequence[tuple[str, float]]) -> list[StoreyRange]:
+    """The :class:`StoreyRange` of each storey of a building, from (name, level in metres);
+    storeys at one level (within a millimetre) share a range."""
+    distinct = sorted({round(lv, 3) for _, lv in levels})
+    spans = {}
+    for k, level in enumerate(distinct):
+        down = (level - distinct[k - 1]) / 2 if k > 0 else None
+        up = (distinct[k + 1] - level) / 2 if k + 1 < len(distinct) else None
+        if down is None and up is None:
+            down = up = NOMINAL_STOREY_HEIGHT_M / 2
+        spans[level] = (level - (down if down is not None else up),
+                        level + (up if up is not None else down))
+    return [StoreyRange(name, lv, *spans[round(lv, 3)]) for name, lv in levels]
+
+
+def storey_range(model, storey) -> StoreyRange | None:
+    """The storey's :class:`StoreyRange` among the storeys of its building (of the model when
+    it is in none), with the others; None when the storey has neither a placement nor an
+    Elevation."""
+    import ifcopenshell.util.element
+    import ifcopenshell.util.unit
+
+    scale = ifcopenshell.util.unit.calculate_unit_scale(model)
+    if _storey_level_m(storey, scale) is None:
+        return None
+    parent = ifcopenshell.util.element.get_aggregate(storey)
+    peers = ([p for p in ifcopenshell.util.element.get_parts(parent)
+              if p.is_a("IfcBuildingStorey")] if parent is not None
+             else model.by_type("IfcBuildingStorey"))
+    if storey not in peers:
+        peers.append(storey)
+    with_level = [(p, lv) for p in peers if (lv := _storey_level_m(p, scale)) is not None]
+    ranges = storey_ranges([(p.Name or p.GlobalId, lv) for p, lv in with_level])
+    own = next(r for (p, _), r in zip(with_level, ranges, strict=True) if p == storey)
+    others = tuple(r for (p, _), r in zip(with_level, ranges, strict=True)
+                   if p != storey and abs(r.level_m - own.level_m) > 1e-3)
+    return StoreyRange(own.name, own.level_m, own.low_m, own.high_m, others)
 
 
 def _class_chain(element) -> list[str]:
@@ -367,14 +456,18 @@ def storey_elements(model, storey, recipe: Recipe) -> tuple[list[Element], dict[
         if kind is None:
             skipped[element.is_a()] = skipped.get(element.is_a(), 0) + 1
             continue
-        rect, fill = None, 0.0
+        rect, fill, z = None, 0.0, None
         if element.Representation is not None:
             try:
-                rect, fill = footprint(ifcopenshell.geom.create_shape(settings, element))
+                shape = ifcopenshell.geom.create_shape(settings, element)
             except RuntimeError:
-                rect = None
+                shape = None
+            if shape is not None:
+                rect, fill = footprint(shape)
+                heights = shape.geometry.verts[2::3]
+                z = (min(heights), max(heights)) if heights else None
         elements.append(Element(element.GlobalId, element.is_a(), (element.Name or "").strip(),
-                                kind, rect, fill))
+                                kind, rect, fill, z))
     return elements, skipped
 
 
@@ -422,22 +515,29 @@ def _task_label(task) -> str:
 
 
 def model_schedule(model, component_of: dict[str, str], recipe: Recipe) -> ModelSchedule:
-    """The IfcTasks assigned to the components' elements and the IfcRelSequence among them.
+    """The IfcTasks that build the components' elements (the task assigned to the element,
+    IfcRelAssignsToProduct, or the element to the task, IfcRelAssignsToProcess) and the
+    IfcRelSequence among them.
 
     A task whose Identification or Name holds one of the recipe's task types as a word
     (e.g. "HI S-1") stands for that task type only; None: for the whole chain."""
     types = recipe.task_types()
     schedule = ModelSchedule()
-    for rel in model.by_type("IfcRelAssignsToProduct"):
-        comp = component_of.get(getattr(rel.RelatingProduct, "GlobalId", None))
-        if comp is None:
+    # A task builds an element: the task assigned to the element (IfcRelAssignsToProduct, as
+    # ifcopenshell.api and cmdp-simulate --ifc write it), or the element assigned to the task
+    # as what it operates on (IfcRelAssignsToProcess, as some 4D tools write it)
+    links = [(rel.RelatingProduct, task) for rel in model.by_type("IfcRelAssignsToProduct")
+             for task in rel.RelatedObjects]
+    links += [(product, rel.RelatingProcess) for rel in model.by_type("IfcRelAssignsToProcess")
+              for product in rel.RelatedObjects]
+    for product, task in links:
+        comp = component_of.get(getattr(product, "GlobalId", None))
+        if comp is None or not task.is_a("IfcTask"):
             continue
-        for task in rel.RelatedObjects:
-            if not task.is_a("IfcTask"):
-                continue
-            words = re.split(r"[^A-Za-z0-9]+", f"{_task_code(task)} {task.Name or ''}")
-            step = next((w for w in words if w in types), None)
-            label, comps, _ = schedule.tasks.get(task.GlobalId, (_task_label(task), [], step))
+        words = re.split(r"[^A-Za-z0-9]+", f"{_task_code(task)} {task.Name or ''}")
+        step = next((w for w in words if w in types), None)
+        label, comps, _ = schedule.tasks.get(task.GlobalId, (_task_label(task), [], step))
+        if comp not in comps:
             schedule.tasks[task.GlobalId] = (label, [*comps, comp], step)
     for rel in model.by_type("IfcRelSequence"):
         a, b = rel.RelatingProcess.GlobalId, rel.RelatedProcess.GlobalId
@@ -507,18 +607,40 @@ def _r(v: float) -> float:
     return round(v, 3) + 0.0
 
 
+def _off_storey(e: Element, storey: StoreyRange) -> str:
+    """The message for an element whose body starts outside its storey's range."""
+    bottom = e.z_m[0]
+    near = storey.sits_on(bottom)
+    if near is not None:
+        where = f'nearer storey "{near.name}" (level {near.level_m:.2f} m) than its own'
+        fix = (f'assign it to "{near.name}" in the model (IfcRelContainedInSpatialStructure) '
+               "or correct its placement")
+    else:
+        where = "on no storey of the building"
+        fix = "correct its placement in the model (its elevation, or its unit)"
+    return (f'{e.label}: sits at z {bottom:.2f} m (the bottom of its body), outside storey '
+            f'"{storey.name}" (level {storey.level_m:.2f} m: its elements start from '
+            f"{storey.low_m:.2f} m up to {storey.high_m:.2f} m), {where}; fix: {fix}, or take "
+            "the storey's elements as assigned with [import] check_storey = false in the "
+            "overlay")
+
+
 def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSchedule | None,
-               name: str, description: str, ids: Sequence[str], source: str
-               ) -> tuple[dict, list[str], str]:
-    """The case data of a storey's elements (footprints checked), the notes, and where the
-    precedences came from ("recipe" or "model")."""
+               name: str, description: str, ids: Sequence[str], source: str,
+               storey: StoreyRange | None = None) -> tuple[dict, list[str], str]:
+    """The case data of a storey's elements (footprints checked; each element's height
+    against ``storey``'s range unless the overlay's ``import.check_storey`` is false), the
+    notes, and where the precedences came from ("recipe" or "model")."""
     problems, notes = [], []
     min_fill = float(overlay.data["import"]["min_fill"])
+    check_storey = storey is not None and overlay.data["import"]["check_storey"]
     for e in elements:
         if e.rect is None:
             problems.append(f"{e.label}: has no body geometry to take a footprint from; fix: "
                             "give it a body representation, or leave its class out of the "
                             "recipe")
+        elif check_storey and e.z_m is not None and not storey.holds(e.z_m[0]):
+            problems.append(_off_storey(e, storey))
         elif min(e.rect.size) <= 1e-6:
             problems.append(f"{e.label}: its footprint has no extent in plan "
                             f"({e.rect.size[0]:.3g} x {e.rect.size[1]:.3g} m; an element out "
@@ -602,6 +724,17 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         raise CaseError(source, ["the recipe gives the storey's elements no tasks (their kinds "
                                  "have no chain); fix: add [recipe.chains] for "
                                  + ", ".join(sorted({e.kind for e in elements}))])
+    task_types = overlay.base["task_types"]
+    unmanned = {}
+    for t in tasks:
+        crew_type = task_types[t["type"]]["crew_type"]
+        if not overlay.data["crews"].get(crew_type):
+            unmanned.setdefault((t["type"], crew_type), []).append(t["id"])
+    if unmanned:
+        raise CaseError(overlay.source, [
+            f"task type {tt} ({len(ids_)} task(s) on the storey, e.g. {ids_[0]}) needs a "
+            f'"{ct}" crew, and [crews] has none; fix: add {ct} = 1 to the overlay\'s [crews]'
+            for (tt, ct), ids_ in unmanned.items()])
     if use_model:
         cycle = _schedule_cycle(schedule)
         if cycle:
@@ -640,6 +773,7 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
                                  "fix: pick another storey, or map its classes to kinds in "
                                  "the overlay's [recipe.classes]"])
     ids = _component_ids(elements)
+    storey_span = storey_range(model, level)
     schedule = model_schedule(model, {e.guid: cid for e, cid in zip(elements, ids,
                                                                     strict=True)},
                               overlay.recipe)
@@ -647,7 +781,10 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     description = (f"imported from {source}, storey {level.Name or level.GlobalId}, by "
                    "cmdp-import-ifc")
     data, notes, precedences = build_case(elements, overlay, schedule, name, description, ids,
-                                          source)
+                                          source, storey_span)
+    if storey_span is None and overlay.data["import"]["check_storey"]:
+        notes.insert(0, f'storey "{level.Name or level.GlobalId}" has no level (neither a '
+                        "placement nor an Elevation): its elements' heights are not checked")
     case_from_dict(data, f"the case made from {source}")
     by_class: dict[str, int] = {}
     for e in elements:
@@ -659,7 +796,7 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
 
 def model_from_case(case, storey: str = "Level 1", origin: tuple[float, float] = (0.0, 0.0),
                     classes: dict[str, str] | None = None, seed: str = "cmdp"):
-    """An IFC4 model of a case's components: one storey, each component a box 0.3 m thick
+    """An IFC4 model of a case's components: one storey at z 0, each component a box 0.3 m thick
     (IfcSlab for "precast", IfcBeam for "cast-in-place", by default; other kinds
     IfcBuildingElementProxy) named by its id, its centre at ``origin`` + the component's
     centre. GlobalIds are derived from ``seed`` and the ids, and the header's time stamp is
@@ -700,6 +837,7 @@ def model_from_case(case, storey: str = "Level 1", origin: tuple[float, float] =
     api.aggregate.assign_object(f, products=[site], relating_object=project)
     api.aggregate.assign_object(f, products=[building], relating_object=site)
     api.aggregate.assign_object(f, products=[level], relating_object=building)
+    api.geometry.edit_object_placement(f, product=level)  # its level: z 0
     elements = []
     for comp in case.components:
         element = entity(classes.get(comp.kind, "IfcBuildingElementProxy"), comp.id)
@@ -726,13 +864,17 @@ def _iso(t: dt.datetime) -> str:
 
 
 def open_for_4d(model_path: str | Path, case):
-    """The model a 4D schedule of ``case`` can be written into, or :class:`CaseError`: an
-    IFC2X3 model (no IfcTaskTime), or a case whose components do not name its elements."""
+    """The model a 4D schedule of ``case`` can be written into, or :class:`CaseError`: a
+    case whose components do not name the model's elements, or an IFC2X3 model without the
+    user and application that its new entities' mandatory owner history names."""
     model = open_model(model_path)
     source = Path(model_path).name
-    if model.schema == "IFC2X3":
-        raise CaseError(source, ["is IFC2X3, which has no IfcTaskTime for a task's start and "
-                                 "finish; fix: save the model as IFC4 and export again"])
+    if model.schema == "IFC2X3" and not (model.by_type("IfcPersonAndOrganization")
+                                         and model.by_type("IfcApplication")):
+        raise CaseError(source, ["is IFC2X3, where every entity needs an owner history, but "
+                                 "it has no IfcPersonAndOrganization and IfcApplication to "
+                                 "name in one; fix: save it again from a BIM tool (which "
+                                 "writes them), or as IFC4"])
     missing = [c.id for c in case.components if c.ifc_guid is None]
     unknown = [c.id for c in case.components if c.ifc_guid is not None
                and not _by_guid(model, c.ifc_guid)]
@@ -768,6 +910,10 @@ def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: d
     from .events import write_atomic
 
     model = open_for_4d(model_path, case)
+    if model.schema == "IFC2X3":
+        counts = _write_4d_ifc2x3(model, case, bars, start, name)
+        write_atomic(Path(out_path), model.to_string())
+        return counts
     api = ifcopenshell.api
     schedule = api.sequence.add_work_schedule(model, name=name, predefined_type="PLANNED",
                                               start_time=start)
@@ -821,6 +967,78 @@ def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: d
             "crews": len(resources)}
 
 
+def _write_4d_ifc2x3(model, case, bars, start: dt.datetime, name: str) -> dict:
+    """:func:`export_4d`'s schedule in IFC2X3, written entity by entity: IFC2X3 has no
+    IfcTaskTime, and ``ifcopenshell.api.sequence`` writes IFC4's entities.
+
+    Each IfcTask (TaskId and Name: the task's id) is assigned to the IfcWorkSchedule by an
+    IfcRelAssignsTasks of its own (the schema's rule: one task each) whose TimeForTask, an
+    IfcScheduleTimeControl, holds ScheduleStart and ScheduleFinish (IfcDateAndTime, to the
+    second) and ScheduleDuration (in the model's time unit). The element it builds is
+    assigned as in IFC4 (IfcRelAssignsToProduct), and so is its crew, an IfcCrewResource
+    (IfcRelAssignsToProcess: the task is the relating process, the crew what it uses;
+    IfcRelAssignsToResource runs the other way, assigning objects to a resource).
+    IfcRelSequence needs a TimeLag in IFC2X3: 0. One IfcOwnerHistory, the model's first user
+    and application, owns every new entity."""
+    import ifcopenshell.api.owner
+    import ifcopenshell.api.sequence
+    import ifcopenshell.guid
+    import ifcopenshell.util.unit
+
+    owner = ifcopenshell.api.owner.create_owner_history(model)
+    seconds_per_unit = ifcopenshell.util.unit.calculate_unit_scale(model, "TIMEUNIT")
+
+    def rooted(ifc_class: str, **attributes):
+        return model.create_entity(ifc_class, GlobalId=ifcopenshell.guid.new(),
+                                   OwnerHistory=owner, **attributes)
+
+    def date_time(t: dt.datetime):  # IFC2X3: an IfcDateAndTime
+        return ifcopenshell.api.sequence.add_date_time(model, t)
+
+    user = model.by_type("IfcPersonAndOrganization")[0]
+    schedule = rooted("IfcWorkSchedule", Name=name, Identifier=name,
+                      CreationDate=date_time(dt.datetime.now()), Creators=[user.ThePerson],
+                      StartTime=date_time(start), WorkControlType="PLANNED")
+    crews = {c.id: c for c in case.crews}
+    resources = {crew.id: rooted("IfcCrewResource", Name=crew.id, ResourceIdentifier=crew.id,
+                                 Description=case.crew_types[crew.type].name,
+                                 ObjectType=crew.type)
+                 for crew in case.crews}
+    bar_of = {b.task: b for b in bars}
+    element_of = {c.id: _by_guid(model, c.ifc_guid) for c in case.components if c.ifc_guid}
+    tasks, timed = {}, 0
+    for task in case.tasks:
+        ifc_task = rooted("IfcTask", Name=task.id, TaskId=task.id, IsMilestone=False,
+                          Description=case.task_types[task.type].name)
+        tasks[task.id] = ifc_task
+        element = element_of.get(task.component)
+        if element is not None:
+            rooted("IfcRelAssignsToProduct", RelatedObjects=[ifc_task], RelatingProduct=element)
+        bar = bar_of.get(task.id)
+        time_control = None
+        if bar is not None:
+            timed += 1
+            time_control = rooted(
+                "IfcScheduleTimeControl",
+                ScheduleStart=date_time(start + dt.timedelta(seconds=bar.start_s)),
+                ScheduleFinish=date_time(start + dt.timedelta(seconds=bar.end_s)),
+                ScheduleDuration=(bar.end_s - bar.start_s) / seconds_per_unit)
+            ifc_task.Status = "FINISHED" if bar.finished else "NOT FINISHED"
+            if bar.crew in crews:
+                rooted("IfcRelAssignsToProcess", RelatedObjects=[resources[bar.crew]],
+                       RelatingProcess=ifc_task)
+        rooted("IfcRelAssignsTasks", RelatedObjects=[ifc_task], RelatingControl=schedule,
+               TimeForTask=time_control)
+    sequences = 0
+    for task in case.tasks:
+        for pred in task.predecessors:
+            rooted("IfcRelSequence", RelatingProcess=tasks[pred], RelatedProcess=tasks[task.id],
+                   TimeLag=0.0, SequenceType="FINISH_START")
+            sequences += 1
+    return {"tasks": len(tasks), "timed": timed, "sequences": sequences,
+            "crews": len(resources)}
+
+
 def _by_guid(model, guid: str):
     try:
         return model.by_guid(guid)
@@ -839,9 +1057,33 @@ def read_4d(path: str | Path) -> list[dict]:
                     if a.is_a("IfcRelAssignsToProduct")]
         crews = [r.Name for rel in task.OperatesOn or () for r in rel.RelatedObjects
                  if r.is_a("IfcCrewResource")]
-        preds = [rel.RelatingProcess.Identification for rel in task.IsSuccessorFrom or ()]
-        time = task.TaskTime
-        out.append({"id": task.Identification, "start": time.ScheduleStart if time else None,
-                    "finish": time.ScheduleFinish if time else None, "products": products,
-                    "crews": crews, "predecessors": preds})
+        preds = [_task_code(rel.RelatingProcess) for rel in task.IsSuccessorFrom or ()]
+        start, finish = _task_times(task)
+        out.append({"id": _task_code(task), "start": start, "finish": finish,
+                    "products": products, "crews": crews, "predecessors": preds})
     return out
+
+
+def _task_times(task) -> tuple[str | None, str | None]:
+    """A task's scheduled start and finish as ISO strings: IfcTaskTime (IFC4), or the
+    IfcScheduleTimeControl of the IfcRelAssignsTasks that assigns it (IFC2X3)."""
+    import ifcopenshell.util.date
+
+    if hasattr(task, "TaskTime"):  # IFC4 and later
+        time = task.TaskTime
+        return (time.ScheduleStart, time.ScheduleFinish) if time else (None, None)
+
+    def iso(value) -> str | None:  # an IfcDateAndTime, IfcCalendarDate or IfcLocalTime
+        if value is None:
+            return None
+        if value.is_a("IfcLocalTime"):
+            return f"{value.HourComponent:02d}:{value.MinuteComponent or 0:02d}:" \
+                   f"{int(value.SecondComponent or 0):02d}"
+        t = ifcopenshell.util.date.ifc2datetime(value)
+        return _iso(t) if isinstance(t, dt.datetime) else t.isoformat()
+
+    for rel in task.HasAssignments or ():
+        time = rel.TimeForTask if rel.is_a("IfcRelAssignsTasks") else None
+        if time is not None:
+            return iso(time.ScheduleStart), iso(time.ScheduleFinish)
+    return None, None

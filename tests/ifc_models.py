@@ -22,6 +22,7 @@ def new_model(schema: str = "IFC4"):
     """A project, site, building and storeys "Level 1" (z 0) and "Level 2" (z 3.5)."""
     import ifcopenshell.api.aggregate
     import ifcopenshell.api.context
+    import ifcopenshell.api.geometry
     import ifcopenshell.api.owner
     import ifcopenshell.api.project
     import ifcopenshell.api.root
@@ -44,9 +45,12 @@ def new_model(schema: str = "IFC4"):
     api.aggregate.assign_object(f, products=[site], relating_object=project)
     api.aggregate.assign_object(f, products=[building], relating_object=site)
     storeys = {}
-    for name in ("Level 1", "Level 2"):
+    for name, z in (("Level 1", 0.0), ("Level 2", 3.5)):
         storeys[name] = api.root.create_entity(f, ifc_class="IfcBuildingStorey", name=name)
         api.aggregate.assign_object(f, products=[storeys[name]], relating_object=building)
+        matrix = np.eye(4)
+        matrix[2, 3] = z
+        api.geometry.edit_object_placement(f, product=storeys[name], matrix=matrix)
     return f, body, storeys
 
 
@@ -89,10 +93,13 @@ def two_by_two(schema: str = "IFC4"):
     return f, elements
 
 
-def add_schedule(f, elements, tasks: dict[str, list[str]], sequences, kind="FINISH_START"):
+def add_schedule(f, elements, tasks: dict[str, list[str]], sequences, kind="FINISH_START",
+                 link="product"):
     """A work schedule with IfcTasks (name -> the elements each builds) and IfcRelSequence
     (relating task name, related task name); returns the tasks by name. IFC2X3: the entities
-    are made by hand (the sequence API reads IfcTask.TaskTime, which IFC2X3 lacks)."""
+    are made by hand (the sequence API reads IfcTask.TaskTime, which IFC2X3 lacks). ``link``:
+    "product", each task assigned to its elements (IfcRelAssignsToProduct), or "process", the
+    elements assigned to the task (IfcRelAssignsToProcess)."""
     import ifcopenshell.api.owner
     import ifcopenshell.api.root
     import ifcopenshell.api.sequence
@@ -109,8 +116,12 @@ def add_schedule(f, elements, tasks: dict[str, list[str]], sequences, kind="FINI
         else:
             made[name] = api.sequence.add_task(f, work_schedule=schedule, name=name)
         for element in builds:
-            api.sequence.assign_product(f, relating_product=elements[element],
-                                        related_object=made[name])
+            if link == "product":
+                api.sequence.assign_product(f, relating_product=elements[element],
+                                            related_object=made[name])
+            else:
+                api.sequence.assign_process(f, relating_process=made[name],
+                                            related_object=elements[element])
     for a, b in sequences:
         if old:
             f.create_entity("IfcRelSequence", GlobalId=ifcopenshell.guid.new(),

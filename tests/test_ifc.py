@@ -69,8 +69,13 @@ def test_two_by_two_tasks_and_precedences_by_hand(two_by_two):
     assert {c["start_x_m"] for c in data["crews"]} == {-9.5}
 
 
-def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsys):
-    f, elements = ifc_models.two_by_two("IFC4")
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsys, schema):
+    """Import, simulate to the end, export 4D, read the tasks back: each task's start and
+    finish are simulated second 0 (--ifc-start) plus its schedule.csv times, to the second;
+    its element and its crew are the case's. IFC4 keeps them in IfcTaskTime, IFC2X3 in an
+    IfcScheduleTimeControl (IfcRelAssignsTasks)."""
+    f, elements = ifc_models.two_by_two(schema)
     model = tmp_path / "floor.ifc"
     f.write(str(model))
     case_file = tmp_path / "floor.toml"
@@ -85,25 +90,46 @@ def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsy
                           "--no-progress", "--ifc", str(model),
                           "--ifc-start", "2026-03-02T07:00:00"]) == 0
     rows = (run / "schedule.csv").read_text().splitlines()[1:]
-    assert len(rows) == 20
+    assert len(rows) == 20 and all(r.endswith(",true") for r in rows)  # simulated to the end
+    import json
+
+    assert json.loads((run / "summary.json").read_text())["tasks_finished"] == 20
     sim = {r.split(",")[0]: r.split(",") for r in rows}
     tasks = {t["id"]: t for t in read_4d(run / "floor-4d.ifc")}
     assert set(tasks) == set(sim)
     import datetime
 
     t0 = datetime.datetime(2026, 3, 2, 7, 0, 0)
+
+    def at(seconds: str) -> str:  # whole seconds, as the export writes them
+        return (t0 + datetime.timedelta(seconds=float(seconds))).isoformat(timespec="seconds")
+
     for task_id, (_, crew, start_s, end_s, *_rest) in sim.items():
         got = tasks[task_id]
-        assert got["start"] == (t0 + datetime.timedelta(seconds=float(start_s))).isoformat()
-        assert got["finish"] == (t0 + datetime.timedelta(seconds=float(end_s))).isoformat()
+        assert (got["start"], got["finish"]) == (at(start_s), at(end_s))
         assert got["crews"] == [crew]
         component = task_id.split("-", 1)[1]
         assert got["products"] == [elements[component].GlobalId]
     assert sorted(tasks["R-B-H1"]["predecessors"]) == ["HI-S-11", "HI-S-12"]
+    assert sorted(tasks["G-S-11"]["predecessors"]) == ["HI-S-11"]
     import ifcopenshell.validate
 
+    exported = ifcopenshell.open(str(run / "floor-4d.ifc"))
+    assert exported.schema == schema
+    assert [s.Name for s in exported.by_type("IfcWorkSchedule")] == ["CMDP simulated schedule"]
+    assert {t.Status for t in exported.by_type("IfcTask")} == {"FINISHED"}
+    if schema == "IFC2X3":  # one IfcRelAssignsTasks a task, its times in TimeForTask
+        rels = exported.by_type("IfcRelAssignsTasks")
+        assert sorted(r.RelatedObjects[0].TaskId for r in rels) == sorted(sim)
+        assert {r.RelatingControl.Name for r in rels} == {"CMDP simulated schedule"}
+        hi = next(r.TimeForTask for r in rels if r.RelatedObjects[0].TaskId == "HI-S-11")
+        start = hi.ScheduleStart
+        assert (start.DateComponent.YearComponent, start.DateComponent.MonthComponent,
+                start.DateComponent.DayComponent) == (2026, 3, 2)
+        assert hi.ScheduleDuration == pytest.approx(float(sim["HI-S-11"][3])
+                                                    - float(sim["HI-S-11"][2]))
     logger = ifcopenshell.validate.json_logger()  # the schema (EXPRESS rules: a slow test)
-    ifcopenshell.validate.validate(ifcopenshell.open(str(run / "floor-4d.ifc")), logger)
+    ifcopenshell.validate.validate(exported, logger)
     assert logger.statements == []
     # the exported model imports again: its sequences now give the precedences
     data, report = import_storey(run / "floor-4d.ifc", "Level 1")
@@ -112,13 +138,16 @@ def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsy
     assert again == {t.id: sorted(t.predecessors) for t in case.tasks}
 
 
-@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
-def test_a_4d_sequence_replaces_the_recipes_links(tmp_path, schema):
+@pytest.mark.parametrize("schema, link", [("IFC4", "product"), ("IFC2X3", "product"),
+                                          ("IFC4", "process"), ("IFC2X3", "process")])
+def test_a_4d_sequence_replaces_the_recipes_links(tmp_path, schema, link):
+    """The tasks build their elements whichever way they are linked: the task assigned to
+    the element (IfcRelAssignsToProduct) or the element to the task (IfcRelAssignsToProcess)."""
     f, elements = ifc_models.two_by_two(schema)
     # "Install S-11" stands for S-11's whole chain; "HI S-12" for HI on S-12 only
     ifc_models.add_schedule(f, elements, {"Install S-11": ["S-11"], "HI S-12": ["S-12"],
                                           "Beam B-H1": ["B-H1"]},
-                            [("Install S-11", "HI S-12"), ("HI S-12", "Beam B-H1")])
+                            [("Install S-11", "HI S-12"), ("HI S-12", "Beam B-H1")], link=link)
     path = tmp_path / "4d.ifc"
     f.write(str(path))
     data, report = import_storey(path, "Level 1")
@@ -161,6 +190,16 @@ def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path, capsys)
                        "congestion_index = 0.5\n")
     fails([str(model), "--storey", "Level 1", "--overlay", str(overlay)],
           'task type JC needs crew type "JXC", which is not in [crew_types]')
+    overlay.write_text("[crews]\nJCC = 1\nHIC = 1\nRC = 1\nFC = 1\n")  # no GC
+    fails([str(model), "--storey", "Level 1", "--overlay", str(overlay)],
+          'overlay.toml: task type G (4 task(s) on the storey, e.g. G-S-11) needs a "GC" crew, '
+          "and [crews] has none; fix: add GC = 1 to the overlay's [crews]")
+    level = f.by_type("IfcBuildingStorey")[0]
+    body = f.by_type("IfcGeometricRepresentationSubContext")[0]
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-X", ifc_models.box(101, 61, 2, 2))
+    f.write(str(model))
+    fails([str(model), "--storey", "Level 1"], 'IfcSlab "S-11"', 'IfcSlab "S-X"',
+          "footprints overlap by 1.00 x 1.00 m")
 
 
 def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
@@ -186,6 +225,99 @@ def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
     assert "footprints overlap by 1.00 x 1.00 m" in str(err.value)
 
 
+def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path, capsys):
+    """Level 1 at z 0, Level 2 at 3.5 m (the model in millimetres): Level 1's elements start
+    from -1.75 m (as far down as up: no storey below) up to 1.75 m (halfway to Level 2). A
+    slab whose top is at the level (z -0.3..0) and a beam hanging 1.2 m under the floor sit on
+    it; a slab of Level 2 (z 3.5..3.8) and a beam 20 m up, both assigned to Level 1, do not."""
+    f, elements = ifc_models.two_by_two("IFC4")
+    level = f.by_type("IfcBuildingStorey")[0]
+    body = f.by_type("IfcGeometricRepresentationSubContext")[0]
+    ifc_models.add_element(f, body, level, "IfcSlab", "S-TOP", ifc_models.box(120, 60, 2, 2),
+                           z=-0.3)
+    ifc_models.add_element(f, body, level, "IfcBeam", "B-DEEP", ifc_models.box(120, 50, 2, 1.2),
+                           z=-1.2, depth=1.2)
+    path = tmp_path / "storey.ifc"
+    f.write(str(path))
+    data, report = import_storey(path, "Level 1")
+    assert {"S-TOP", "B-DEEP"} <= {c["id"] for c in data["components"]}
+    assert report.notes == []
+    up = ifc_models.add_element(f, body, level, "IfcSlab", "S-UP", ifc_models.box(100, 60, 2, 2),
+                                z=3.5)
+    high = ifc_models.add_element(f, body, level, "IfcBeam", "B-HIGH",
+                                  ifc_models.box(90, 55, 1.2, 2), z=20.0)
+    f.write(str(path))
+    out = tmp_path / "case.toml"
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cmdp-import-ifc: storey.ifc: 2 problem(s)")
+    level_1 = ('outside storey "Level 1" (level 0.00 m: its elements start from -1.75 m up to '
+               "1.75 m)")
+    assert (f'IfcSlab "S-UP" ({up.GlobalId}): sits at z 3.50 m (the bottom of its body), '
+            f'{level_1}, nearer storey "Level 2" (level 3.50 m) than its own; fix: assign it '
+            'to "Level 2" in the model (IfcRelContainedInSpatialStructure) or correct its '
+            "placement, or take the storey's elements as assigned with [import] check_storey "
+            "= false in the overlay") in err
+    assert (f'IfcBeam "B-HIGH" ({high.GlobalId}): sits at z 20.00 m (the bottom of its body), '
+            f"{level_1}, on no storey of the building; fix: correct its placement in the "
+            "model (its elevation, or its unit), or take the storey's elements as assigned "
+            "with [import] check_storey = false in the overlay") in err
+    assert "overlap" not in err  # S-UP lies over S-11 in plan: its storey is the cause
+    assert not out.exists()
+    # taken as assigned, S-UP is a footprint over S-11's
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[import]\ncheck_storey = false\n")
+    with pytest.raises(CaseError, match='IfcSlab "S-11" .* and IfcSlab "S-UP" .*: footprints '
+                                        "overlap by 2.00 x 2.00 m"):
+        import_storey(path, "Level 1", load_overlay(overlay))
+    overlay.write_text("[import]\ncheck_storey = 1\n")
+    with pytest.raises(CaseError, match="import.check_storey = 1: write true or false"):
+        load_overlay(overlay)
+
+
+def test_the_storeys_ranges_by_hand():
+    """Levels 0 and 3.5 m: Level 1 spans -1.75..1.75 m (as far down as up: none below),
+    Level 2 1.75..5.25 m (none above: as far up as down); a roof at 10 m makes Level 2's
+    1.75..6.75 m and its own 6.75..13.25 m; a storey alone spans its level +- 2 m (a nominal
+    4 m storey)."""
+    from cmdp_pymunk.ifc import storey_range
+
+    def span(model, storey):
+        r = storey_range(model, storey)
+        return r.level_m, r.low_m, r.high_m
+
+    f, _, storeys = ifc_models.new_model("IFC4")
+    assert span(f, storeys["Level 1"]) == (0.0, -1.75, 1.75)
+    assert span(f, storeys["Level 2"]) == (3.5, 1.75, 5.25)
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.root
+
+    building = f.by_type("IfcBuilding")[0]
+    roof = ifcopenshell.api.root.create_entity(f, ifc_class="IfcBuildingStorey", name="Roof")
+    ifcopenshell.api.aggregate.assign_object(f, products=[roof], relating_object=building)
+    roof.Elevation = 10000.0  # no placement: the Elevation, in millimetres
+    assert span(f, storeys["Level 2"]) == (3.5, 1.75, 6.75)
+    assert span(f, roof) == (10.0, 6.75, 13.25)
+    level_1 = storey_range(f, storeys["Level 1"])
+    assert level_1.sits_on(9.0).name == "Roof" and level_1.sits_on(6.0).name == "Level 2"
+    assert level_1.sits_on(0.5) is None and level_1.sits_on(20.0) is None
+    alone, _, lone = ifc_models.new_model("IFC2X3")
+    ifcopenshell.api.aggregate.unassign_object(alone, products=[lone["Level 2"]])
+    alone.remove(lone["Level 2"])
+    assert span(alone, lone["Level 1"]) == (0.0, -2.0, 2.0)
+
+
+def test_a_storey_without_a_level_is_noted(tmp_path):
+    f, _ = ifc_models.two_by_two("IFC2X3")
+    for storey in f.by_type("IfcBuildingStorey"):
+        storey.ObjectPlacement = None
+    path = tmp_path / "nolevel.ifc"
+    f.write(str(path))
+    _, report = import_storey(path, "Level 1")
+    assert report.notes == ['storey "Level 1" has no level (neither a placement nor an '
+                            "Elevation): its elements' heights are not checked"]
+
+
 def test_a_fixed_plane_too_small_is_reported(two_by_two, tmp_path):
     overlay = tmp_path / "o.toml"
     overlay.write_text("[plane]\nwidth_m = 10.0\n")
@@ -193,8 +325,9 @@ def test_a_fixed_plane_too_small_is_reported(two_by_two, tmp_path):
         import_storey(two_by_two[0], "Level 1", load_overlay(overlay))
 
 
-def test_a_cycle_in_the_4d_sequence_is_reported(tmp_path, capsys):
-    f, elements = ifc_models.two_by_two("IFC4")
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_a_cycle_in_the_4d_sequence_is_reported(tmp_path, capsys, schema):
+    f, elements = ifc_models.two_by_two(schema)
     ifc_models.add_schedule(f, elements, {"A": ["S-11"], "B": ["S-12"]}, [("A", "B"), ("B", "A")])
     path = tmp_path / "cycle.ifc"
     f.write(str(path))
@@ -205,15 +338,25 @@ def test_a_cycle_in_the_4d_sequence_is_reported(tmp_path, capsys):
     assert not (tmp_path / "c.toml").exists()
 
 
-def test_ifc2x3_cannot_take_a_4d_schedule(two_by_two, tmp_path, capsys):
-    path, _ = two_by_two
-    if ifcopenshell.open(str(path)).schema != "IFC2X3":
-        pytest.skip("IFC2X3 only")
+def test_an_ifc2x3_model_without_a_user_cannot_take_a_4d_schedule(tmp_path, capsys):
+    """IFC2X3's owner history is mandatory: a model that names no user and application
+    (not one a BIM tool writes) is refused before simulating."""
+    f, _ = ifc_models.two_by_two("IFC2X3")
+    path = tmp_path / "floor.ifc"
+    f.write(str(path))
     case_file = tmp_path / "c.toml"
     assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(case_file)]) == 0
+    for pao in f.by_type("IfcPersonAndOrganization"):
+        for history in f.by_type("IfcOwnerHistory"):
+            history.OwningUser = history.LastModifyingUser = None
+        f.remove(pao)
+    f.write(str(path))
     assert simulate.main(["--case", str(case_file), "--out", str(tmp_path / "r"), "--ifc",
                           str(path), "--no-progress", "--no-charts"]) == 2
-    assert "IFC2X3, which has no IfcTaskTime" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "is IFC2X3, where every entity needs an owner history" in err
+    assert "fix: save it again from a BIM tool" in err
+    assert not (tmp_path / "r").exists()
 
 
 def test_the_written_file_is_toml_with_the_guids(two_by_two, tmp_path):
@@ -331,9 +474,10 @@ def test_a_start_start_sequence_is_noted_and_read_as_finish_start(tmp_path):
 
 
 @pytest.mark.slow
-def test_the_4d_export_passes_the_express_rules(tmp_path):
-    """The export of a hand-made schedule (no simulation) against IFC4's EXPRESS rules too
-    (about 5 s: the rules are loaded)."""
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_the_4d_export_passes_the_express_rules(tmp_path, schema):
+    """The export of a hand-made schedule (no simulation) against the schema's EXPRESS rules
+    too (about 5 s: the rules are loaded); IFC2X3's say one task to an IfcRelAssignsTasks."""
     import datetime
 
     import ifcopenshell.validate
@@ -342,7 +486,7 @@ def test_the_4d_export_passes_the_express_rules(tmp_path):
     from cmdp_pymunk.ifc import export_4d
     from cmdp_pymunk.schedule import TaskBar
 
-    f, _ = ifc_models.two_by_two("IFC4")
+    f, _ = ifc_models.two_by_two(schema)
     model = tmp_path / "floor.ifc"
     f.write(str(model))
     case = case_from_dict(import_storey(model, "Level 1")[0])

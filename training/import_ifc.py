@@ -7,8 +7,9 @@ The storey's elements of the recipe's classes become components (their plan foot
 tasks come from the recipe (or the model's 4D sequences), crews, crane and storages from the
 overlay (defaults fit the built-in case); see ``cmdp_pymunk.ifc`` and docs/ifc.md. The case
 passes the case check before it is written. Bad input (not an IFC file, an unknown storey, no
-elements of the recipe's classes, overlapping footprints, a cycle in the model's sequences, an
-overlay naming an unknown crew or task type) exits with 2 and one message; nothing is written.
+elements of the recipe's classes, an element that does not sit on its storey, overlapping
+footprints, a cycle in the model's sequences, an overlay naming an unknown crew or task type)
+exits with 2 and one message; nothing is written.
 Needs the ``[ifc]`` extra: ``pip install 'cmdp-pymunk[ifc]'``.
 """
 

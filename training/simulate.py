@@ -14,8 +14,8 @@ seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.p
 ``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
 (tasks ended over time, with the spread over seeds). With ``--ifc MODEL.ifc`` (a case made by
 ``cmdp-import-ifc`` from that model) each episode's folder also gets ``MODEL-4d.ifc``: the
-model with the simulated schedule as an IfcWorkSchedule (``cmdp_pymunk.ifc.export_4d``),
-simulated second 0 at ``--ifc-start``.
+model with the simulated schedule as an IfcWorkSchedule (``cmdp_pymunk.ifc.export_4d``; IFC4
+or IFC2X3, as the model), simulated second 0 at ``--ifc-start``.
 
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported with the crews and tasks involved; the command then exits with 1.
