@@ -176,18 +176,16 @@ class ReplanEvaluator:
         self.decisions = 0
         self.overrides = 0
         self._episode = None
-        self._cliques: list[list[int]] | None = None
+        self._cliques: tuple = (None, [])  # (case, its conflict cliques), made once per case
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
-
-    def bind(self, env) -> None:
-        self._cliques = None  # another case may come with the env
 
     def target_values(self, crew, site, position) -> dict[int, float]:
         values = self.base.target_values(crew, site, position)
         if self._episode is not site:  # a new episode (reset builds a new site)
             self._episode, self._held, self.plans = site, {}, []
             self.decisions = self.overrides = 0
-            self._cliques = conflict_cliques(site.case)
+            if self._cliques[0] is not site.case:
+                self._cliques = (site.case, conflict_cliques(site.case))
         held = self._held.get(crew.index)
         if held is not None:
             target, reaches = held
@@ -207,9 +205,7 @@ class ReplanEvaluator:
         first = min(plan.starts.get(task, 1 << 62) for task in tasks.values())
         eligible = [t for t in tasks
                     if plan.starts.get(tasks[t], 1 << 62) <= first + self.settings.window_s]
-        choice = min(eligible, key=lambda t: (plan.starts.get(tasks[t], 1 << 62)
-                                              if self.settings.window_s == 0 else 0,
-                                              order.index(t)))
+        choice = min(eligible, key=order.index)  # window 0: the plan's first, ties to the base
         self.decisions += 1
         self.overrides += choice != order[0]
         self._held[crew.index] = (choice, crew.stats.reaches)
@@ -219,7 +215,7 @@ class ReplanEvaluator:
         if self.plans and self.plans[-1].time_s == site.time_s \
                 and self.plans[-1].version == site.version:
             return self.plans[-1]
-        plan = solve_rest(site, self.settings, self._cliques)
+        plan = solve_rest(site, self.settings, self._cliques[1])
         plan.version = site.version
         self.plans.append(plan)
         return plan
@@ -229,4 +225,5 @@ class ReplanEvaluator:
         return {"plans": len(self.plans), "decisions": self.decisions,
                 "overrides": self.overrides,
                 "solver_wall_s": round(sum(p.wall_s for p in self.plans), 2),
-                "limit": self.settings.limit, "overhead_s": self.settings.overhead_s}
+                "limit": self.settings.limit, "overhead_s": self.settings.overhead_s,
+                "window_s": self.settings.window_s}

@@ -74,3 +74,18 @@ def test_replan_finishes_the_floor_the_same_way_twice(tiny_case):
     assert a.engine.site.done and a.log.events == b.log.events
     assert first.plans and all(isinstance(p, Plan) for p in first.plans)
     assert first.summary()["plans"] == len(first.plans)
+
+
+def test_cmdp_simulate_runs_replan_and_reports_it_under_its_own_key(tmp_path):
+    import json
+
+    import cmdp_pymunk
+    from training import simulate
+
+    out = tmp_path / "run"
+    assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),
+                          "--evaluator", "replan:overhead=10", "--no-charts",
+                          "--no-progress"]) == 0
+    data = json.loads((out / "summary.json").read_text())
+    assert data["all_finished"] and data["lookahead"] is None
+    assert data["replan"]["plans"] >= 1 and data["replan"]["overhead_s"] == 10.0

@@ -124,8 +124,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                    help="seeds, e.g. 0-19 (default) or 0,3,5")
     p.add_argument("--strategies", type=spec_list, default=list(DEFAULT_STRATEGIES),
                    help="comma-separated evaluators: priority, nearest, ga:PATH, cpsat (solves "
-                        "CP-SAT here, --cpsat-s), cpsat:PATH, student:PATH, lookahead[:...], a "
-                        "stage-2 model .zip (default: priority,nearest)")
+                        "CP-SAT here, --cpsat-s), cpsat:PATH, student:PATH, lookahead[:...], "
+                        "replan[:...], a stage-2 model .zip (default: priority,nearest)")
     p.add_argument("--navigators", type=spec_list, default=["scripted"],
                    help="comma-separated low levels: scripted, a stage-1 model .zip")
     p.add_argument("--workers", type=positive_int, default=None,

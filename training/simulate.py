@@ -138,7 +138,8 @@ def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -
         "reach_rate": episode_reach_rate(engine),
         "crews": crew_summary(engine),
         "stalled": episode.stalled,
-        "lookahead": env.evaluator.summary() if hasattr(env.evaluator, "decisions") else None,
+        "lookahead": planner_summary(env.evaluator, "lookahead"),
+        "replan": planner_summary(env.evaluator, "replan"),
         "wall_s": round(episode.wall_s, 3),
         "simulated_s_per_wall_s": round(site.time_s / episode.wall_s, 1)
         if episode.wall_s > 0 else None,
@@ -184,6 +185,16 @@ def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: st
     if gif is not None:  # its frames are on disk already: finish it and move it in place
         gif.close()
     return data
+
+
+def planner_summary(evaluator, kind: str) -> dict | None:
+    """What the lookahead or the re-planning solver did on the floor, each under its own key
+    of summary.json (None for any other evaluator)."""
+    if kind == "lookahead":
+        from agents.lookahead import LookaheadEvaluator as planner
+    else:
+        from agents.replan import ReplanEvaluator as planner
+    return evaluator.summary() if isinstance(evaluator, planner) else None
 
 
 def frame_interval(case, lb) -> float:
