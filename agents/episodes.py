@@ -67,12 +67,15 @@ def episode_row(floor, episode: Episode | None, stall_reason: str = "") -> dict:
     }
 
 
-def make_env(case, evaluator, navigator_spec: str, max_time_s: float | None = None):
+def make_env(case, evaluator, navigator_spec: str, max_time_s: float | None = None,
+             **env_options):
     """The stage-2 env as ``cmdp-simulate`` builds it: the scripted navigator lets the env skip
-    parked crews' seconds (``park_idle``); a trained navigator decides for every crew."""
+    parked crews' seconds (``park_idle``); a trained navigator decides for every crew.
+    ``env_options``: more arguments of ``cmdp_pymunk.parallel_env`` (``cmdp-simulate``'s
+    position log and ``blind``)."""
     env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
                                    max_time_s=max_time_s,
-                                   park_idle=navigator_spec == "scripted")
+                                   park_idle=navigator_spec == "scripted", **env_options)
     if hasattr(evaluator, "bind"):
         evaluator.bind(env)
     return env
@@ -83,21 +86,23 @@ class EpisodeRunner:
 
     An evaluator is a spec (``agents.specs.make_evaluator``) or an evaluator object (the GA
     passes its individuals); an object is swapped into a cached env of the same navigator.
+    ``env_options``: more arguments of the env (``make_env``).
     """
 
     def __init__(self, case, stall_s: float | None = 3600.0, max_time_s: float | None = None,
-                 deterministic: bool = False):
+                 deterministic: bool = False, env_options: dict | None = None):
         self.case = case
         self.stall_s = stall_s
         self.max_time_s = max_time_s
         self.deterministic = deterministic
+        self.env_options = env_options or {}
         self._cache: dict = {}
 
     def _env(self, evaluator, navigator_spec: str):
         key = (evaluator if isinstance(evaluator, str) else "<object>", navigator_spec)
         if key not in self._cache:
             ev = make_evaluator(evaluator) if isinstance(evaluator, str) else evaluator
-            env = make_env(self.case, ev, navigator_spec, self.max_time_s)
+            env = make_env(self.case, ev, navigator_spec, self.max_time_s, **self.env_options)
             self._cache[key] = (env, make_navigator(navigator_spec, env, self.deterministic))
         env, navigator = self._cache[key]
         if not isinstance(evaluator, str):
@@ -113,6 +118,36 @@ class EpisodeRunner:
         except PolicyStuck as err:
             return episode_row(env, None, str(err))
         return episode_row(env, episode)
+
+    def play(self, evaluator, navigator_spec: str, seed: int, progress: bool = False):
+        """One seed played on the cached env: ``(env, Episode)``, the env left at the
+        episode's end for whoever reads its log; ``PolicyStuck`` passes through."""
+        env, navigator = self._env(evaluator, navigator_spec)
+        return env, run_episode(env, navigator, seed, self.stall_s, progress=progress)
+
+
+def check_specs(case, strategies: list[str], navigators: list[str],
+                deterministic: bool) -> None:
+    """Build every evaluator and low level once on the case: a missing file or a model or
+    priority file that does not fit the case fails here, before any episode."""
+    for spec in strategies:
+        make_env(case, make_evaluator(spec), "scripted")
+    for spec in navigators:
+        env = make_env(case, make_evaluator("priority"), spec)
+        make_navigator(spec, env, deterministic)
+
+
+def check_worker(runner: EpisodeRunner, strategies: list[str], navigators: list[str],
+                 deterministic: bool) -> str:
+    """``check_specs`` in a (Ray) worker, through ``Backend.check_each``: its files are the
+    ones that count. An error as one line naming the worker's host ("" if all is well)."""
+    import socket
+
+    try:
+        check_specs(runner.case, strategies, navigators, deterministic)
+    except (ValueError, OSError) as err:
+        return f"on worker host {socket.gethostname()}: {err}"
+    return ""
 
 
 # -- where the episodes run ---------------------------------------------------------------------

@@ -206,3 +206,28 @@ def test_the_rule_search_is_the_same_on_ray(cluster, tmp_path):
     on_ray = search_rule(far_start_case(), config, tmp_path / "ray", workers=None,
                          progress=False, ray=cluster.address)
     assert on_ray.log == local.log and on_ray.selection == local.selection
+
+
+def test_simulate_plays_the_same_seeds_on_ray(cluster, tmp_path):
+    """``cmdp-simulate --episodes``: the same seed folders from 2 actors on two nodes as from
+    this process."""
+    from test_simulate import seed_files
+
+    from training import simulate
+
+    argv = ["--case", str(cmdp_pymunk.TINY_CASE), "--seed", "4", "--episodes", "3",
+            "--no-charts", "--no-progress"]
+    assert simulate.main([*argv, "--out", str(tmp_path / "here")]) == 0
+    assert simulate.main([*argv, "--ray", cluster.address, "--out", str(tmp_path / "ray")]) == 0
+    assert seed_files(tmp_path / "ray", (4, 5, 6)) == seed_files(tmp_path / "here", (4, 5, 6))
+
+
+def test_simulate_with_an_address_nobody_answers_at_is_one_line(tmp_path, capsys):
+    from training import simulate
+
+    out = tmp_path / "out"
+    assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--episodes", "2", "--ray",
+                          "127.0.0.1:9", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cmdp-simulate: --ray 127.0.0.1:9: no Ray cluster answers there")
+    assert "\n" not in err and not out.exists()

@@ -158,3 +158,30 @@ def test_no_charts_says_so(tmp_path, capsys):
     out = capsys.readouterr().out
     assert out.splitlines()[-1].startswith("cmdp-simulate: summary, schedule.csv and events.csv in")
     assert not (tmp_path / "gantt_tasks.png").exists()
+
+
+def seed_files(out, seeds) -> dict:
+    """Each seed's events.csv, schedule.csv and summary.json without the wall times (the only
+    numbers that differ between two runs of the same seeds), and makespans.csv."""
+    files = {"makespans.csv": (out / "makespans.csv").read_text()}
+    for seed in seeds:
+        folder = out / f"seed-{seed}"
+        data = json.loads((folder / "summary.json").read_text())
+        for key in ("wall_s", "simulated_s_per_wall_s"):
+            data.pop(key)
+        files[seed] = ((folder / "events.csv").read_text(),
+                       (folder / "schedule.csv").read_text(), data)
+    return files
+
+
+def test_episodes_are_the_same_with_any_number_of_workers(tmp_path, capsys):
+    """Seeds 4-6 in this process, in 2 worker processes, and with the GIF's seed rendered here
+    and the others in the workers: the same files."""
+    argv = ["--case", TINY, "--seed", "4", "--episodes", "3", "--no-charts", "--no-progress"]
+    runs = {"one": [], "two": ["--workers", "2"], "gif": ["--workers", "2", "--gif"]}
+    for name, extra in runs.items():
+        assert simulate.main([*argv, *extra, "--out", str(tmp_path / name)]) == 0
+    files = {name: seed_files(tmp_path / name, (4, 5, 6)) for name in runs}
+    assert files["one"] == files["two"] == files["gif"]
+    assert "3 episodes, 2 worker process(es)" in capsys.readouterr().out
+    assert (tmp_path / "gif" / "seed-4" / "rollout.gif").exists()

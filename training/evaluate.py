@@ -53,10 +53,10 @@ from agents.episodes import (
     BackendError,
     EpisodeRunner,
     WorkerLost,
-    make_env,
+    check_specs,
+    check_worker,
     open_backend,
 )
-from agents.specs import make_evaluator, make_navigator
 from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
@@ -168,30 +168,6 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
     return runner.run(spec, navigator, seed)
-
-
-def check_specs(case, strategies: list[str], navigators: list[str],
-                deterministic: bool) -> None:
-    """Build every evaluator and low level once on the case: a missing file or a model or
-    priority file that does not fit the case fails here, before any episode."""
-    for spec in strategies:
-        make_env(case, make_evaluator(spec), "scripted")
-    for spec in navigators:
-        env = make_env(case, make_evaluator("priority"), spec)
-        make_navigator(spec, env, deterministic)
-
-
-def _check_worker(runner: EpisodeRunner, strategies: list[str], navigators: list[str],
-                  deterministic: bool) -> str:
-    """``check_specs`` in a (Ray) worker: its files are the ones that count. An error as one
-    line naming the worker's host ("" if all is well)."""
-    import socket
-
-    try:
-        check_specs(runner.case, strategies, navigators, deterministic)
-    except (ValueError, OSError) as err:
-        return f"on worker host {socket.gethostname()}: {err}"
-    return ""
 
 
 LOG = "episodes.jsonl"
@@ -322,7 +298,7 @@ def _main(args: EvaluateArgs) -> int:
                     run_specs["cpsat"] = f"cpsat:{save_plan(plan, case, cpsat)}"
                 except ValueError as err:
                     raise _Stop(str(err)) from None
-        problems = [p for p in pool.check_each(_check_worker, list(run_specs.values()),
+        problems = [p for p in pool.check_each(check_worker, list(run_specs.values()),
                                                args.navigators, args.deterministic) if p]
         if problems:
             raise _Stop(f"{problems[0]}; fix: put the file at the same path on every node "

@@ -2,6 +2,7 @@
 
     cmdp-simulate [--case FILE] [--evaluator priority|nearest|ga:PATH|cpsat|MODEL.zip]
                   [--navigator scripted|MODEL.zip] [--seed N] [--episodes N] [--out DIR] [--gif]
+                  [--workers N] [--ray [ADDRESS]]
                   [--cpsat-s SECONDS] [--ifc MODEL.ifc [--ifc-start ISO-DATETIME]]
 
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
@@ -16,6 +17,16 @@ seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.p
 ``cmdp-import-ifc`` from that model) each episode's folder also gets ``MODEL-4d.ifc``: the
 model with the simulated schedule as an IfcWorkSchedule (``cmdp_pymunk.ifc.export_4d``; IFC4
 or IFC2X3, as the model), simulated second 0 at ``--ifc-start``.
+
+The episodes run through ``cmdp-evaluate``'s episode runner (``agents/episodes.py``): in this
+process (the default, ``--workers 1``), in ``--workers N`` worker processes, or on Ray actors
+with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster; docs/ray.md). A worker
+plays its seed and sends back the summary and the event log; this process writes each seed's
+folder (atomically, charts and IFC included) in seed order as the results arrive, under one
+progress bar over the episodes. The same seeds give the same files whatever the backend and
+the number of workers. The GIF's seed (the first) is played in this process, which renders it.
+With ``--evaluator cpsat`` the plan is solved here and saved as ``DIR/cpsat_plan.json``, which
+the workers replay.
 
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported with the crews and tasks involved; the command then exits with 1.
@@ -32,7 +43,13 @@ from pathlib import Path
 
 # Only light modules at the top: Ctrl-C during the heavy imports (numpy, pymunk, PettingZoo,
 # torch) lands inside main(), which turns it into one line and exit 130.
-from training.cli import OneLineParser, non_negative_int, positive_int, positive_seconds
+from training.cli import (
+    OneLineParser,
+    add_ray_option,
+    non_negative_int,
+    positive_int,
+    positive_seconds,
+)
 
 GIF_SECONDS = 30.0
 GIF_FPS = 10
@@ -58,6 +75,8 @@ class SimulateArgs:
     cpsat_s: float | None = None
     ifc: Path | None = None
     ifc_start: str = "2026-01-05T08:00:00"
+    workers: int | None = None  # None: this process (local), every CPU of the cluster (Ray)
+    ray: str | None = None  # None: worker processes here; "local": a Ray started here
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
@@ -99,12 +118,16 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    metavar="ISO-DATETIME",
                    help="the date and time of simulated second 0 in the 4D schedule "
                         "(default 2026-01-05T08:00:00)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="worker processes for the episodes, or Ray actors with --ray (default: "
+                        "this process; with --ray, every CPU of the Ray)")
+    add_ray_option(p)
     p.add_argument("--stochastic", action="store_true",
                    help="accepted for old scripts; sampling is the default now")
     a = p.parse_args(argv)
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
-                        a.deterministic, a.cpsat_s, a.ifc, a.ifc_start)
+                        a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray)
 
 
 def iso_datetime(text: str) -> str:
@@ -158,16 +181,53 @@ def write_json(path: Path, data) -> None:
     write_atomic(path, json.dumps(data, indent=2) + "\n")
 
 
-def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: str,
-                  lb, cpsat=None, gif=None) -> dict:
-    """Every file of one episode into ``folder``; ``gif``: its ``GifStream``, finished here."""
-    from cmdp_pymunk.events import write_atomic
+@dataclass(frozen=True)
+class SeedRun:
+    """One seed's episode as a worker sends it back: ``summary.json``'s data without CP-SAT's
+    keys (None when the low level got stuck, ``stuck`` says how) and the event log."""
+
+    seed: int
+    summary: dict | None
+    events: list
+    stuck: str = ""
+
+
+def seed_run(env, episode, args: SimulateArgs, case_label: str, lb) -> SeedRun:
+    """What is kept of a finished (or stalled) episode on ``env``."""
+    return SeedRun(episode.seed, summary(env, episode, args, case_label, lb),
+                   list(env.log.events))
+
+
+def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: str, lb,
+                  seed: int, progress: bool) -> SeedRun:
+    """One seed in a worker (``agents.episodes.open_backend``): played on the worker's env."""
+    from agents.models import PolicyStuck
+
+    try:
+        env, episode = runner.play(evaluator_spec, args.navigator, seed, progress)
+    except PolicyStuck as err:
+        return SeedRun(seed, None, [], str(err))
+    return seed_run(env, episode, args, case_label, lb)
+
+
+def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=None,
+                  gif=None) -> dict:
+    """Every file of one seed into ``folder``, each atomically; ``gif``: its ``GifStream``,
+    finished here. Returns ``summary.json``'s data."""
+    from cmdp_pymunk.events import EventLog, write_atomic
     from cmdp_pymunk.schedule import schedule_csv
 
     folder.mkdir(parents=True, exist_ok=True)
-    data = summary(env, episode, args, case_label, lb, cpsat)
-    env.log.write_csv(folder / "events.csv")
-    write_atomic(folder / "schedule.csv", schedule_csv(env.log.events))
+    data = dict(run.summary)
+    if cpsat is not None:
+        makespan = data["makespan_s"]
+        data["cpsat"] = cpsat.as_dict()
+        data["makespan_over_cpsat_bound"] = makespan / cpsat.bound_s \
+            if makespan and cpsat.bound_s > 0 else None
+    log = EventLog()
+    log.events = run.events
+    log.write_csv(folder / "events.csv")
+    write_atomic(folder / "schedule.csv", schedule_csv(run.events))
     write_json(folder / "summary.json", data)
     if args.ifc is not None:
         import datetime
@@ -175,13 +235,13 @@ def write_outputs(env, episode, folder: Path, args: SimulateArgs, case_label: st
         from cmdp_pymunk.ifc import export_4d
         from cmdp_pymunk.schedule import task_bars
 
-        export_4d(args.ifc, env.case, task_bars(env.log.events),
+        export_4d(args.ifc, case, task_bars(run.events),
                   folder / f"{args.ifc.stem}-4d.ifc",
                   datetime.datetime.fromisoformat(args.ifc_start))
     if args.charts:
         from media.charts import draw_run
 
-        draw_run(folder, env.case)
+        draw_run(folder, case)
     if gif is not None:  # its frames are on disk already: finish it and move it in place
         gif.close()
     return data
@@ -245,14 +305,16 @@ def main(argv: list[str] | None = None) -> int:
         return 130
 
 
+class _Stop(Exception):
+    """An episode that cannot go on (its low level got stuck, its worker was lost): leave the
+    backend (its workers stop now) and exit 1 with this line."""
+
+
 def _main(argv: list[str] | None, progress: Progress) -> int:
     import cmdp_pymunk
-    from agents.models import PolicyStuck
+    from agents.episodes import BackendError, open_backend
     from agents.specs import make_evaluator, make_navigator
-    from cmdp_pymunk import interrupt
     from cmdp_pymunk.bounds import lower_bound
-    from cmdp_pymunk.rollout import run_episode
-    from cmdp_pymunk.schedule import finish_times
 
     args = parse_args(argv)
     try:
@@ -275,90 +337,65 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     lb = lower_bound(case)
     # The scripted navigator only parks idle crews: let the env skip their seconds (park_idle);
     # it reads the state, not the rays, so none are cast (blind).
-    # A trained navigator gets every crew's decision, as in the paper.
+    # A trained navigator gets every crew's decision, as in the paper. The workers build theirs
+    # with the same options; this one checks the navigator and renders the GIF's seed.
+    env_options = {"position_log_every_s": POSITION_LOG_EVERY_S,
+                   "blind": args.navigator == "scripted"}
     env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
                                    render_mode="rgb_array" if args.gif else None,
                                    max_time_s=args.max_time_s,
-                                   position_log_every_s=POSITION_LOG_EVERY_S,
-                                   park_idle=args.navigator == "scripted",
-                                   blind=args.navigator == "scripted")
-    cpsat = None
-    if args.cpsat_s is not None or args.evaluator == "cpsat":
-        from agents.cpsat import DEFAULT_TIME_LIMIT_S, solve
-
-        cpsat = solve(case, args.cpsat_s or DEFAULT_TIME_LIMIT_S)
-        print(f"cmdp-simulate: CP-SAT schedule bound {cpsat.bound_s:.0f} s "
-              f"({'optimal' if cpsat.optimal else 'not proven optimal'}; best schedule "
-              f"{cpsat.makespan_s or float('nan'):.0f} s, {cpsat.wall_s:.1f} s)")
-        if args.evaluator == "cpsat":
-            evaluator.use(cpsat)
+                                   park_idle=args.navigator == "scripted", **env_options)
+    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic, env_options)
+    workers = args.workers or (1 if args.ray is None else None)
     try:
-        if hasattr(evaluator, "bind"):
-            evaluator.bind(env)
-        navigator = make_navigator(args.navigator, env, args.deterministic)
-    except ValueError as err:
+        # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
+        with open_backend(_simulate_job, runner_args, workers, args.ray) as pool:
+            cpsat = None
+            if args.cpsat_s is not None or args.evaluator == "cpsat":
+                from agents.cpsat import DEFAULT_TIME_LIMIT_S, solve
+
+                cpsat = solve(case, args.cpsat_s or DEFAULT_TIME_LIMIT_S)
+                print(f"cmdp-simulate: CP-SAT schedule bound {cpsat.bound_s:.0f} s "
+                      f"({'optimal' if cpsat.optimal else 'not proven optimal'}; best schedule "
+                      f"{cpsat.makespan_s or float('nan'):.0f} s, {cpsat.wall_s:.1f} s)")
+                if args.evaluator == "cpsat":
+                    evaluator.use(cpsat)
+            try:
+                if hasattr(evaluator, "bind"):
+                    evaluator.bind(env)
+                navigator = make_navigator(args.navigator, env, args.deterministic)
+            except ValueError as err:
+                print(f"cmdp-simulate: {err}", file=sys.stderr)
+                return 2
+            spec = args.evaluator
+            if args.evaluator == "cpsat":  # the workers replay the plan solved here
+                from agents.cpsat import save_plan
+
+                spec = f"cpsat:{save_plan(args.out / 'cpsat_plan.json', case, cpsat)}"
+            from agents.episodes import check_worker
+
+            problems = [p for p in pool.check_each(check_worker, [spec], [args.navigator],
+                                                   args.deterministic) if p]
+            if problems:
+                print(f"cmdp-simulate: {problems[0]}; fix: put the file at the same path on "
+                      "every node (a shared file system), docs/ray.md", file=sys.stderr)
+                return 2
+            args.out.mkdir(parents=True, exist_ok=True)
+            write_json(args.out / "case.json", case.model_dump(mode="json"))
+            progress.out = args.out
+            print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, "
+                  f"{len(case.tasks)} tasks), lower bound {lb.lower_bound_s:.0f} s, evaluator "
+                  f"{args.evaluator}, navigator {args.navigator}"
+                  + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
+                  flush=True)
+            rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, env,
+                                               navigator, pool, progress)
+    except BackendError as err:
         print(f"cmdp-simulate: {err}", file=sys.stderr)
         return 2
-    args.out.mkdir(parents=True, exist_ok=True)
-    write_json(args.out / "case.json", case.model_dump(mode="json"))
-    progress.out = args.out
-    print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, {len(case.tasks)} "
-          f"tasks), lower bound {lb.lower_bound_s:.0f} s, evaluator {args.evaluator}, "
-          f"navigator {args.navigator}", flush=True)
-    rows, finishes, failed = [], [], False
-    for k in range(args.episodes):
-        seed = args.seed + k
-        folder = args.out if args.episodes == 1 else args.out / f"seed-{seed}"
-        every = frame_interval(case, lb) if args.gif and k == 0 else None
-        progress.doing = f"in seed {seed}"
-        progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
-                           f"{args.episodes - k}" if args.episodes > 1 else "")
-        progress.engine = env.engine
-        # The GIF's frames go to a temporary file as they are drawn, renamed with the seed's
-        # other files; a crash or Ctrl-C deletes it (no half GIF, no frame held in memory).
-        gif, made_folder = None, not folder.exists()
-        if every is not None:
-            from media.charts import GifStream
-
-            gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
-        try:
-            try:
-                episode = run_episode(env, navigator, seed, args.stall_s, args.progress, every,
-                                      on_frame=gif.append if gif is not None else None)
-            except PolicyStuck as err:
-                print(f"cmdp-simulate: seed {seed}: {err}", file=sys.stderr)
-                return 1
-            progress.engine, progress.doing = None, f"while writing seed {seed}'s files"
-            # A Ctrl-C while a seed's files are written is held until all of them are: a
-            # seed's folder is either complete or not started.
-            interrupt.enter()
-            try:
-                data = write_outputs(env, episode, folder, args, case_label, lb, cpsat, gif)
-            finally:
-                interrupt.leave()
-        except BaseException:
-            if gif is not None:
-                gif.abort()
-                if made_folder and not any(folder.iterdir()):
-                    folder.rmdir()  # a seed's folder is complete or absent
-            raise
-        progress.kept.append(seed)
-        rows.append(data)
-        finishes.append(finish_times(env.log.events))
-        site = env.engine.site
-        if episode.stalled:
-            failed = True
-            print(f"cmdp-simulate: seed {seed}: STALLED at t = {site.time_s:.0f} s after "
-                  f"{episode.stalled['after_s']:.0f} s without progress:\n"
-                  + json.dumps(episode.stalled, indent=2), file=sys.stderr)
-        elif not site.done:
-            failed = True
-            print(f"cmdp-simulate: seed {seed}: time limit reached with "
-                  f"{site.tasks_ended}/{len(case.tasks)} tasks finished", file=sys.stderr)
-        else:
-            print(f"cmdp-simulate: seed {seed}: makespan {episode.makespan_s:.0f} s "
-                  f"({data['makespan_over_lower_bound']:.2f} x lower bound), "
-                  f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}", flush=True)
+    except _Stop as err:
+        print(f"cmdp-simulate: {err}", file=sys.stderr)
+        return 1
     progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
         stats = write_makespans(args.out, rows)
@@ -372,6 +409,98 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     what = "charts, summary" if args.charts else "summary"
     print(f"cmdp-simulate: {what}, schedule.csv and events.csv in {args.out}")
     return 1 if failed else 0
+
+
+def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, env, navigator,
+              pool, progress: Progress) -> tuple[list[dict], list[list[float]], bool]:
+    """Every seed, in seed order: the GIF's seed played on ``env`` here, the others on ``pool``
+    (the backend's results come back in job order, so seed folders are written in seed order
+    and a stopped run keeps seeds SEED ... K, each folder complete). Returns the summaries,
+    each seed's task finish times and whether any episode stalled or timed out."""
+    from tqdm import tqdm
+
+    from agents.episodes import WorkerLost, Workers
+    from agents.models import PolicyStuck
+    from cmdp_pymunk import interrupt
+    from cmdp_pymunk.rollout import run_episode
+    from cmdp_pymunk.schedule import finish_times
+
+    seeds = [args.seed + k for k in range(args.episodes)]
+    here = seeds[:1] if args.gif else []  # the GIF's seed: rendered in this process
+    # One episode in this process shows its tasks; several show one bar over the episodes.
+    in_process = isinstance(pool, Workers) and pool.workers == 1
+    task_bar = args.progress and args.episodes == 1
+    remote = pool.imap([(spec, args, case_label, lb, seed, task_bar and in_process)
+                        for seed in seeds[len(here):]])
+    bar = tqdm(total=args.episodes, unit="episode", mininterval=1.0, desc="cmdp-simulate",
+               disable=not args.progress or args.episodes == 1)
+    rows, finishes, failed = [], [], False
+    with bar:
+        for k, seed in enumerate(seeds):
+            folder = args.out if args.episodes == 1 else args.out / f"seed-{seed}"
+            progress.doing = f"in seed {seed}"
+            progress.resume = (f"; to finish, rerun with --seed {seed} --episodes "
+                               f"{args.episodes - k}" if args.episodes > 1 else "")
+            # The GIF's frames go to a temporary file as they are drawn, renamed with the
+            # seed's other files; a crash or Ctrl-C deletes it (no half GIF, no frame held in
+            # memory).
+            gif, made_folder = None, not folder.exists()
+            try:
+                if seed in here:
+                    from media.charts import GifStream
+
+                    gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
+                    progress.engine = env.engine
+                    try:
+                        episode = run_episode(env, navigator, seed, args.stall_s, task_bar,
+                                              frame_interval(case, lb), on_frame=gif.append)
+                        run = seed_run(env, episode, args, case_label, lb)
+                    except PolicyStuck as err:
+                        run = SeedRun(seed, None, [], str(err))
+                    progress.engine = None
+                else:
+                    try:
+                        run = next(remote)
+                    except WorkerLost:
+                        raise _Stop(f"seed {seed}: lost with its worker (it died twice); seeds "
+                                    f"before it are kept in {args.out}; to finish, rerun with "
+                                    f"--seed {seed} --episodes {args.episodes - k}") from None
+                if run.stuck:
+                    raise _Stop(f"seed {seed}: {run.stuck}")
+                progress.doing = f"while writing seed {seed}'s files"
+                # A Ctrl-C while a seed's files are written is held until all of them are: a
+                # seed's folder is either complete or not started.
+                interrupt.enter()
+                try:
+                    data = write_outputs(run, folder, args, case, cpsat, gif)
+                finally:
+                    interrupt.leave()
+            except BaseException:
+                if gif is not None:
+                    gif.abort()
+                if made_folder and folder.is_dir() and not any(folder.iterdir()):
+                    folder.rmdir()  # a seed's folder is complete or absent
+                raise
+            bar.update(1)
+            progress.kept.append(seed)
+            rows.append(data)
+            finishes.append(finish_times(run.events))
+            if data["stalled"]:
+                failed = True
+                bar.write(f"cmdp-simulate: seed {seed}: STALLED at t = {data['simulated_s']:.0f} s"
+                          f" after {data['stalled']['after_s']:.0f} s without progress:\n"
+                          + json.dumps(data["stalled"], indent=2), file=sys.stderr)
+            elif not data["all_finished"]:
+                failed = True
+                bar.write(f"cmdp-simulate: seed {seed}: time limit reached with "
+                          f"{data['tasks_finished']}/{len(case.tasks)} tasks finished",
+                          file=sys.stderr)
+            else:
+                bar.write(f"cmdp-simulate: seed {seed}: makespan {data['makespan_s']:.0f} s "
+                          f"({data['makespan_over_lower_bound']:.2f} x lower bound), "
+                          f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
+                          file=sys.stdout)
+    return rows, finishes, failed
 
 
 def write_makespans(out: Path, rows: list[dict]) -> dict:
