@@ -114,6 +114,66 @@ def check_address(address: str, timeout_s: float = 5.0) -> None:
                            "it printed, or use --ray alone for a Ray on this machine") from None
 
 
+def require_ray() -> None:
+    """ClusterError (one line: what to install) where Ray is not installed."""
+    if ray is None:
+        raise ClusterError("--ray needs Ray, which is not installed; fix: "
+                           "pip install -e '.[ray]' (docs/ray.md), or drop --ray")
+
+
+def connect(address: str, cpus: int | None = None) -> bool:
+    """Connect this process to Ray: ``address="local"`` starts one here with ``cpus`` CPUs
+    (None: every core), anything else joins that cluster (checked to answer first). True if
+    this call connected (the caller then calls ``ray.shutdown()``); False where this process
+    was connected already (a test's cluster). ClusterError, naming the fix, if it cannot."""
+    require_ray()
+    if ray.is_initialized():
+        return False
+    if address == "local":
+        from .episodes import default_workers
+
+        ray.init(num_cpus=cpus or default_workers(), include_dashboard=False,
+                 object_store_memory=LOCAL_OBJECT_STORE_BYTES, logging_level=logging.WARNING)
+        return True
+    check_address(address)
+    try:
+        ray.init(address=address, logging_level=logging.WARNING)
+    except (ConnectionError, RuntimeError) as err:  # RuntimeError: Ray versions differ
+        raise ClusterError(f"--ray {address}: cannot join the cluster ({err}); "
+                           "fix: check the address `ray start --head` printed, that "
+                           "this machine runs the cluster's Ray version "
+                           f"({ray.__version__} here) and has the cluster's token "
+                           "(~/.ray/auth_token or RAY_AUTH_TOKEN; docs/ray.md)") from None
+    return True
+
+
+def check_workers(found: list[dict], address: str) -> None:
+    """The answers of ``where()`` from every actor: ClusterError if one runs another version
+    of this package."""
+    import cmdp_pymunk
+
+    other = sorted({(w["host"], w["version"]) for w in found
+                    if w["version"] != cmdp_pymunk.__version__})
+    if other:
+        raise ClusterError(
+            f"--ray {address}: workers run another cmdp-pymunk ("
+            + ", ".join(f"{v} on {h}" for h, v in other)
+            + f"; {cmdp_pymunk.__version__} here); fix: install the same version on "
+            "every node")
+
+
+def cannot_run_here(address: str, err: BaseException) -> ClusterError:
+    """The error for actors that could not start: the workers lack this package."""
+    import cmdp_pymunk
+
+    return ClusterError(
+        f"--ray {address}: the Ray workers cannot run this package "
+        f"({str(err).strip().splitlines()[-1]}); fix: install cmdp-pymunk "
+        f"{cmdp_pymunk.__version__} on every node (pip install -e '.[ray]')"
+        + ("; if the cluster runs without Ray tokens, set RAY_AUTH_MODE=disabled here"
+           " too (this machine has a token and sent it)" if _TOKEN_SET_HERE else ""))
+
+
 class RayWorkers(Backend):
     """``job(runner, *args)`` on Ray actors, each with its own ``EpisodeRunner(*runner_args)``.
 
@@ -124,9 +184,7 @@ class RayWorkers(Backend):
 
     def __init__(self, job: Callable, runner_args: tuple | None, workers: int | None,
                  ray_address: str, retries: int = 1):
-        if ray is None:
-            raise ClusterError("--ray needs Ray, which is not installed; fix: "
-                               "pip install -e '.[ray]' (docs/ray.md), or drop --ray")
+        require_ray()
         self.job, self.runner_args, self.address = job, runner_args, ray_address
         self.workers, self.retries = workers, retries
         self._started = False
@@ -145,28 +203,9 @@ class RayWorkers(Backend):
         return self
 
     def _connect(self) -> None:
-        if ray.is_initialized():
-            return
-        if self.address == "local":
-            from .episodes import default_workers
-
-            ray.init(num_cpus=self.workers or default_workers(), include_dashboard=False,
-                     object_store_memory=LOCAL_OBJECT_STORE_BYTES,
-                     logging_level=logging.WARNING)
-        else:
-            check_address(self.address)
-            try:
-                ray.init(address=self.address, logging_level=logging.WARNING)
-            except (ConnectionError, RuntimeError) as err:  # RuntimeError: Ray versions differ
-                raise ClusterError(f"--ray {self.address}: cannot join the cluster ({err}); "
-                                   "fix: check the address `ray start --head` printed, that "
-                                   "this machine runs the cluster's Ray version "
-                                   f"({ray.__version__} here) and has the cluster's token "
-                                   "(~/.ray/auth_token or RAY_AUTH_TOKEN; docs/ray.md)") from None
-        self._started = True
+        self._started = connect(self.address, self.workers)
 
     def _start_actors(self) -> None:
-        import cmdp_pymunk
 
         cpus = int(ray.cluster_resources().get("CPU", 0))
         if cpus < 1:
@@ -183,21 +222,8 @@ class RayWorkers(Backend):
                                f"in {START_TIMEOUT_S:.0f} s; fix: give --workers at most the "
                                f"cluster's free CPUs ({cpus})") from None
         except (ray.exceptions.RayError, ImportError) as err:
-            raise ClusterError(
-                f"--ray {self.address}: the Ray workers cannot run this package "
-                f"({str(err).strip().splitlines()[-1]}); fix: install cmdp-pymunk "
-                f"{cmdp_pymunk.__version__} on every node (pip install -e '.[ray]')"
-                + ("; if the cluster runs without Ray tokens, set RAY_AUTH_MODE=disabled here"
-                   " too (this machine has a token and sent it)" if _TOKEN_SET_HERE else "")
-            ) from None
-        other = sorted({(w["host"], w["version"]) for w in found
-                        if w["version"] != cmdp_pymunk.__version__})
-        if other:
-            raise ClusterError(
-                f"--ray {self.address}: workers run another cmdp-pymunk ("
-                + ", ".join(f"{v} on {h}" for h, v in other)
-                + f"; {cmdp_pymunk.__version__} here); fix: install the same version on "
-                "every node")
+            raise cannot_run_here(self.address, err) from None
+        check_workers(found, self.address)
         self.hosts = sorted({w["host"] for w in found})
 
     def _new_actor(self):

@@ -73,9 +73,17 @@ def test_a_job_that_kills_every_worker_is_reported_not_lost():
 
 @pytest.mark.ray  # also in the Ray venv (make test-ray), where importing it would be possible
 def test_the_default_path_never_imports_ray(tmp_path):
+    """cmdp-evaluate and cmdp-simulate in worker processes, and stage 2's floors in worker
+    processes (``cmdp-train stage2`` without --ray), import no Ray."""
     argv = [*QUICK, "--seeds", "0-1", "--workers", "2", "--out", str(tmp_path)]
-    code = ("import sys; from training import evaluate; "
+    simulate = ["--case", TINY, "--episodes", "2", "--workers", "2", "--no-charts",
+                "--no-progress", "--out", str(tmp_path / "simulate")]
+    code = ("import sys; from training import evaluate, simulate, stage2; "
             f"assert evaluate.main({argv!r}) == 0; "
+            f"assert simulate.main({simulate!r}) == 0; "
+            f"config = stage2.Stage2Config(case={TINY!r}, n_envs=2, num_cpus=2); "
+            "venv = stage2.make_vec_env(config, stage2.training_case(config), 0); "
+            "venv.reset(); venv.close(); "
             "assert 'ray' not in sys.modules, 'ray was imported'")
     env = dict(os.environ, PYTHONPATH=str(ROOT), SDL_VIDEODRIVER="dummy")
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env,
@@ -94,6 +102,17 @@ def test_ray_without_ray_installed_is_one_clear_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("cmdp-evaluate: --ray needs Ray") and "pip install -e '.[ray]'" in err
     assert not (tmp_path / "episodes.jsonl").exists()
+    from training import simulate, train
+
+    out = tmp_path / "simulate"
+    assert simulate.main(["--case", TINY, "--episodes", "2", "--ray", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cmdp-simulate: --ray needs Ray") and not out.exists()
+    out = tmp_path / "train"
+    assert train.main(["stage2", "--ray", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cmdp-train: --ray needs Ray") and "\n" not in err
+    assert not out.exists()
 
 
 def test_episodes_stream_to_a_log_and_a_stopped_run_resumes(tmp_path):

@@ -231,3 +231,84 @@ def test_simulate_with_an_address_nobody_answers_at_is_one_line(tmp_path, capsys
     err = capsys.readouterr().err.strip()
     assert err.startswith("cmdp-simulate: --ray 127.0.0.1:9: no Ray cluster answers there")
     assert "\n" not in err and not out.exists()
+
+
+def stage2_config(**more):
+    from training import stage2
+
+    return stage2.Stage2Config(case=str(cmdp_pymunk.TINY_CASE), n_envs=3, num_cpus=2,
+                               central_critic=False, **more)
+
+
+def test_stage2_floors_on_ray_actors_decide_as_in_local_processes(cluster):
+    """``cmdp-train stage2 --ray``'s vector env: 3 floors on 2 actors (one per node) give the
+    observations, rewards, ends and end infos of the same floors in 2 local processes, for
+    the same seeds and actions, across the floors' resets."""
+    import numpy as np
+
+    from training import stage2
+    from training.ray_vec_env import RayGroupsVecEnv
+    from training.vec_env import ProcessGroupsVecEnv
+
+    config = stage2_config()
+    case = stage2.training_case(config)
+    here = stage2.make_vec_env(config, case, seed=4)
+    there = stage2.make_vec_env(config, case, seed=4, ray=cluster.address)
+    try:
+        assert isinstance(here.venv, ProcessGroupsVecEnv)
+        assert isinstance(there.venv, RayGroupsVecEnv) and len(there.venv.actors) == 2
+        np.testing.assert_array_equal(there.reset(), here.reset())
+        actions = np.random.default_rng(0).uniform(-1, 1, (40, 3, 2)).astype(np.float32)
+        ends = 0
+        for a in actions:
+            obs, rewards, dones, infos = here.step(a)
+            obs_r, rewards_r, dones_r, infos_r = there.step(a)
+            np.testing.assert_array_equal(obs_r, obs)
+            np.testing.assert_array_equal(rewards_r, rewards)
+            np.testing.assert_array_equal(dones_r, dones)
+            for info, info_r in zip(infos, infos_r, strict=True):
+                for key in ("makespan_s", "stalled"):
+                    assert info_r.get(key) == info.get(key), key
+                if "episode" in info:  # VecMonitor's return and length; its "t" is wall time
+                    assert info_r["episode"]["r"] == info["episode"]["r"]
+                    assert info_r["episode"]["l"] == info["episode"]["l"]
+            ends += int(dones.sum())
+        assert ends >= 2, "no floor ended: the resets were not compared"
+        assert there.get_attr("actor_size", [0]) == here.get_attr("actor_size", [0])
+    finally:
+        here.close()
+        there.close()
+    assert not ray.is_initialized()  # closing left the cluster as it found it
+
+
+@pytest.mark.slow
+def test_cmdp_train_stage2_on_ray_learns_the_same_weights(cluster, tmp_path):
+    """A short stage-2 run whose floors are on the cluster's actors trains the same weights
+    as one whose floors are in 2 local processes."""
+    import torch as th
+    from stable_baselines3 import PPO
+
+    from training.train import main
+
+    argv = ["stage2", "--no-progress", "--set", f"case={cmdp_pymunk.TINY_CASE}",
+            "--set", "n_envs=3", "--set", "num_cpus=2", "--set", "central_critic=false",
+            "--set", "total_steps=48", "--set", "n_steps=16", "--set", "batch_size=16",
+            "--set", "n_epochs=1", "--set", "bc_episodes=0", "--set", "eval_seeds=[2000]",
+            "--set", "eval_every_steps=48", "--set", "checkpoint_every_steps=48"]
+    assert main([*argv, "--out", str(tmp_path / "here")]) == 0
+    assert main([*argv, "--ray", cluster.address, "--out", str(tmp_path / "ray")]) == 0
+    a, b = (PPO.load(tmp_path / name / "final_model.zip") for name in ("here", "ray"))
+    assert a.num_timesteps == b.num_timesteps >= 48
+    for (name, x), (_, y) in zip(a.policy.state_dict().items(), b.policy.state_dict().items(),
+                                 strict=True):
+        assert th.equal(x, y), name
+
+
+def test_cmdp_train_with_an_address_nobody_answers_at_is_one_line(tmp_path, capsys):
+    from training.train import main
+
+    out = tmp_path / "run"
+    assert main(["stage2", "--ray", "127.0.0.1:9", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("cmdp-train: --ray 127.0.0.1:9: no Ray cluster answers there")
+    assert "\n" not in err and not out.exists()

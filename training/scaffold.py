@@ -206,15 +206,22 @@ def train_ppo(run: Run, make_venv: Callable[[], Any], new_model: Callable[[Any],
     return final
 
 
-def vec_env(env_fns: list[Callable[[], Any]], num_cpus: int, vectorize=None):
+def vec_env(env_fns: list[Callable[[], Any]], num_cpus: int, vectorize=None,
+            ray: str | None = None):
     """An SB3 vector env of ``len(env_fns)`` env copies stepped by ``num_cpus`` processes:
     all in this process for 1 (``vectorize(env_fns)``; default ``DummyVecEnv`` of Gymnasium
     envs), else that many worker processes, each stepping its share of the copies in one
-    ``vectorize`` (``vec_env.ProcessGroupsVecEnv``). Copy k is seeded ``seed + k`` by
-    ``venv.seed(seed)`` either way, so ``num_cpus`` changes no result."""
+    ``vectorize`` (``vec_env.ProcessGroupsVecEnv``). ``ray``: ``num_cpus`` Ray actors instead
+    of processes ("local": a Ray started here; else a cluster's address;
+    ``ray_vec_env.RayGroupsVecEnv``). Copy k is seeded ``seed + k`` by ``venv.seed(seed)``
+    every way, so neither ``num_cpus`` nor Ray changes a result."""
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     vectorize = vectorize or DummyVecEnv
+    if ray is not None:
+        from .ray_vec_env import RayGroupsVecEnv
+
+        return RayGroupsVecEnv(env_fns, num_cpus, ray, vectorize=vectorize)
     if num_cpus == 1:
         return vectorize(env_fns)
     from .vec_env import ProcessGroupsVecEnv

@@ -156,15 +156,16 @@ def make_floor(config: Stage2Config, case):
     return floor
 
 
-def make_vec_env(config: Stage2Config, case, seed: int):
-    """``n_envs`` floors stepped by ``num_cpus`` processes, each holding its share in one
-    ``FloorsVecEnv``; floor k gets ``seed + k``."""
+def make_vec_env(config: Stage2Config, case, seed: int, ray: str | None = None):
+    """``n_envs`` floors stepped by ``num_cpus`` processes (``ray``: Ray actors, "local" or a
+    cluster's address), each holding its share in one ``FloorsVecEnv``; floor k gets
+    ``seed + k``."""
     from stable_baselines3.common.vec_env import VecMonitor
 
     from .vec_env import FloorsVecEnv
 
     venv = scaffold.vec_env([partial(make_floor, config, case)] * config.n_envs,
-                            config.num_cpus, vectorize=FloorsVecEnv)
+                            config.num_cpus, vectorize=FloorsVecEnv, ray=ray)
     venv.seed(seed)
     return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
 
@@ -370,9 +371,10 @@ def best_makespan(result: dict) -> float | None:
 # -- main ---------------------------------------------------------------------------------------
 
 def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None,
-          progress_bar: bool = True, log=scaffold.say) -> Path:
+          progress_bar: bool = True, log=scaffold.say, ray: str | None = None) -> Path:
     """Train (or resume) a stage-2 run in ``run`` (``scaffold.train_ppo``); returns the final
-    model's path."""
+    model's path. ``ray``: the floors on ``num_cpus`` Ray actors ("local": a Ray started
+    here; else a cluster's address), the same decisions as in processes here."""
     from media.curves import draw_stage2_curve
 
     case = training_case(config)
@@ -396,7 +398,7 @@ def train(config: Stage2Config, run: Path, resume: Path | None = None, argv=None
         score=best_makespan, at_start=True)
     return scaffold.train_ppo(
         scaffold.Run(config, case, run, "decisions", resume, argv, progress_bar, log),
-        make_venv=lambda: make_vec_env(config, case, config.seed), new_model=new_model,
+        make_venv=lambda: make_vec_env(config, case, config.seed, ray), new_model=new_model,
         warm_start=(lambda model: warm_start(model, config, case, run, log))
         if config.bc_episodes > 0 and config.action == "desired_position" else None,
         skip_warm_start="bc_episodes=0", metrics=metrics_callback(), evaluation=evaluation,

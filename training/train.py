@@ -4,10 +4,16 @@
                       [--out runs/stage1] [--resume CHECKPOINT.zip] [--no-progress]
     cmdp-train stage2 [--config training/configs/stage2.toml] [--set key=value ...]
                       [--out runs/stage2] [--resume CHECKPOINT.zip] [--no-progress]
+                      [--ray [ADDRESS]]
 
 The settings are checked first (exit status 2 with one line for a bad one); the run is then
 ``training.stage1.train`` or ``training.stage2.train``. Ctrl-C: exit status 130 with one line
 saying what was saved and how to resume.
+
+``stage2 --ray`` steps the floors on ``num_cpus`` Ray actors (a Ray started here; ``--ray
+ADDRESS``: a cluster's) instead of worker processes, with the same decisions
+(``training.ray_vec_env``; docs/ray.md); the learner stays in this process. Ray missing, an
+address nobody answers at or workers without this package exit 2 with one line.
 """
 
 from __future__ import annotations
@@ -19,6 +25,7 @@ from pathlib import Path
 import cmdp_pymunk
 
 from . import stage1, stage2
+from .cli import add_ray_option
 from .scaffold import TrainingInterrupted
 
 STAGES = {"stage1": (stage1, stage1.Stage1Config, "the shared target-reaching policy "
@@ -41,6 +48,8 @@ def main(argv: list[str] | None = None) -> int:
                        help=f"run folder (default: runs/{stage})")
         p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
         p.add_argument("--no-progress", action="store_true", help="show no progress bar")
+        if stage == "stage2":  # stage 1's copies run in SuperSuit's own process pool
+            add_ray_option(p)
     args = parser.parse_args(argv)
     argv = argv if argv is not None else sys.argv[1:]
     module, config_class, _ = STAGES[args.stage]
@@ -51,15 +60,30 @@ def main(argv: list[str] | None = None) -> int:
 def start(config_class, default_config: Path, train_run, args, argv) -> Path | int:
     """Settings checked, then ``train_run``: the final model's path, or 2 with one line for
     bad settings (``main`` runs this under its Ctrl-C guard)."""
+    from agents.episodes import BackendError
+
+    ray = getattr(args, "ray", None)
     try:
         config = config_class.load(args.config or default_config, args.set)
         cmdp_pymunk.load_case(config.case)
         if args.resume is not None and not args.resume.is_file():
             raise ValueError(f"--resume {args.resume}: no such checkpoint")
+        if ray is not None:  # before the run folder: Ray missing, an address nobody answers
+            from agents.ray_backend import check_address, require_ray
+
+            require_ray()
+            if ray != "local":
+                check_address(ray)
     except (cmdp_pymunk.CaseError, ValueError, TypeError) as err:
         print(f"cmdp-train: {err}", file=sys.stderr)
         return 2
-    return train_run(config, args.out, args.resume, argv=argv, progress_bar=not args.no_progress)
+    extra = {"ray": ray} if ray is not None else {}
+    try:
+        return train_run(config, args.out, args.resume, argv=argv,
+                         progress_bar=not args.no_progress, **extra)
+    except BackendError as err:  # Ray's actors could not start: before any training
+        print(f"cmdp-train: {err}", file=sys.stderr)
+        return 2
 
 
 def run_guarded(start) -> int:
