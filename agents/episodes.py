@@ -97,6 +97,7 @@ class EpisodeRunner:
         self.deterministic = deterministic
         self.env_options = env_options or {}
         self._cache: dict = {}
+        self.playing = None  # the env of the episode under way in ``play`` (for its time)
 
     def _env(self, evaluator, navigator_spec: str):
         key = (evaluator if isinstance(evaluator, str) else "<object>", navigator_spec)
@@ -123,6 +124,7 @@ class EpisodeRunner:
         """One seed played on the cached env: ``(env, Episode)``, the env left at the
         episode's end for whoever reads its log; ``PolicyStuck`` passes through."""
         env, navigator = self._env(evaluator, navigator_spec)
+        self.playing = env
         return env, run_episode(env, navigator, seed, self.stall_s, progress=progress)
 
 
@@ -254,6 +256,11 @@ class Workers(Backend):
     def _new_pool(self):
         ctx = multiprocessing.get_context("spawn")  # no forked torch or pygame state
         return ProcessPoolExecutor(self.workers, ctx, _init_worker, (self.runner_args, self.job))
+
+    @property
+    def runner(self) -> EpisodeRunner | None:
+        """The runner of this process when the jobs run here (``workers=1``), else None."""
+        return self._runner
 
     def __enter__(self) -> Workers:
         if self.workers == 1:

@@ -273,13 +273,17 @@ class Progress:
 
     doing: str = "while starting"
     engine: object = None  # the engine of the episode under way, for its time
+    runner: object = None  # the runner playing the episodes in this process (its env's time)
     out: Path | None = None
     kept: list[int] = field(default_factory=list)  # seeds whose folders are complete
     resume: str = ""
 
     def interrupted(self) -> str:
         doing = self.doing
-        site = self.engine.site if self.engine is not None else None
+        engine = self.engine
+        if engine is None and self.runner is not None and self.runner.playing is not None:
+            engine = self.runner.playing.engine
+        site = engine.site if engine is not None else None
         if site is not None:
             doing += f" at t = {site.time_s:,.0f} s"
         if not self.kept:
@@ -429,6 +433,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
     here = seeds[:1] if args.gif else []  # the GIF's seed: rendered in this process
     # One episode in this process shows its tasks; several show one bar over the episodes.
     in_process = isinstance(pool, Workers) and pool.workers == 1
+    progress.runner = pool.runner if in_process else None
     task_bar = args.progress and args.episodes == 1
     remote = pool.imap([(spec, args, case_label, lb, seed, task_bar and in_process)
                         for seed in seeds[len(here):]])
@@ -461,6 +466,8 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                 else:
                     try:
                         run = next(remote)
+                        if in_process:  # its episode is over: no time under way to report
+                            pool.runner.playing = None
                     except WorkerLost:
                         raise _Stop(f"seed {seed}: lost with its worker (it died twice); seeds "
                                     f"before it are kept in {args.out}; to finish, rerun with "
