@@ -14,25 +14,31 @@ workers. CP-SAT is solved only when asked for: the ``cpsat`` strategy (solved on
 Without it the bound columns use the cheap lower bound (``cmdp_pymunk.bounds``) alone and
 the outputs say so. Writes into DIR:
 
-- ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish:
-  a stopped run (Ctrl-C, a lost worker) keeps them, and ``--resume`` runs only the others
-  (with the same settings and the saved CP-SAT plan);
+- ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish,
+  with ``task_end_times_s`` (when each task ended, seconds): a stopped run (Ctrl-C, a lost
+  worker) keeps them, and ``--resume`` runs only the others (with the same settings and the
+  saved CP-SAT plan);
 - ``episodes.csv``: one row per episode: makespan, reaching steps, idle steps by cause (with
   the crew-seconds each kind of disruption kept crews from working), crane waits, reach
   rate, whether it stalled or timed out (and why), wall seconds;
-- ``summary.md`` and ``summary.csv``: per strategy and low level, the mean makespan with its
-  95 % interval, its P80 (the makespan 80 % of the finished episodes stay within), over
-  the lower bound and over CP-SAT's bound (empty when CP-SAT was not solved), the paired
-  difference to the
-  priority heuristic on the same seeds (95 % interval) and the ratio of means, reaching steps,
-  idle steps by cause, crane waits; stalled and timed-out episodes are counted and listed;
+- ``summary.md``, ``summary.csv`` and ``summary.json``: per strategy and low level, the mean
+  makespan with its 95 % interval, its P50/P80/P90 (the makespans 50, 80 and 90 % of the
+  finished episodes stay within), over the lower bound and over CP-SAT's bound (empty when
+  CP-SAT was not solved), the paired difference to the priority heuristic on the same seeds
+  (95 % interval) and the ratio of means, reaching steps, idle steps by cause, crane waits;
+  stalled and timed-out episodes are counted and listed;
 - ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``: box
   and strip plots per strategy with the mean, its 95 % interval and (Fig. 12) the bounds;
   with ``--per-seed`` the paper's lines over the seeds (``media/comparison.py``);
+- ``makespan_histogram.png`` (one panel per strategy, its P50/P80/P90 marked) and
+  ``s_curve.png`` (tasks ended over time, one colour per strategy: the median over the seeds
+  and the 10-90 % band), ``media/episodes.py``;
 - ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer (null when not solved),
-  versions and the command.
+  versions and the command; ``resume.json``, what ``--resume`` checks; with the ``cpsat``
+  strategy ``cpsat_plan.json``, the plan replayed.
 
-The files above ``episodes.jsonl`` are written at the end, each atomically: a stopped run
+``resume.json`` and ``cpsat_plan.json`` are written before the first episode; ``episodes.csv``,
+the summaries, the figures and ``settings.json`` at the end, each atomically: a stopped run
 leaves none of them half-written. Exit status 1 if any episode stalled, timed out or was lost
 with its worker, 2 for bad arguments, a bad case or a Ray that cannot run the episodes (before
 any episode), 130 on Ctrl-C.
@@ -365,9 +371,11 @@ def _main(args: EvaluateArgs) -> int:
                      json.dumps(settings, indent=2, default=str) + "\n")
         if args.figures:
             from media.comparison import draw_comparison
+            from media.episodes import draw_strategy_episodes
 
             draw_comparison(rows, args.out, summary, lb.lower_bound_s,
                             cpsat.bound_s if cpsat else None, args.per_seed)
+            draw_strategy_episodes(args.out, rows, summary, len(case.tasks), lb.lower_bound_s)
     finally:
         interrupt.leave()
     print(table, end="")
