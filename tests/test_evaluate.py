@@ -198,6 +198,17 @@ def test_bad_strategy_fails_before_any_episode(tmp_path, capsys):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize("option, typo, fix", [("--strategies", "priorty", "priority"),
+                                               ("--navigators", "scriptd", "scripted")])
+def test_a_misspelt_name_is_blamed_on_our_option_with_the_closest_name(tmp_path, capsys,
+                                                                       option, typo, fix):
+    assert evaluate.main(["--case", TINY, option, typo, "--out", str(tmp_path / "x"),
+                          "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert f"cmdp-evaluate: {option} {typo!r}: no such model file; did you mean {fix!r}?" in err
+    assert not (tmp_path / "x").exists()
+
+
 @pytest.mark.slow
 def test_two_workers_give_the_same_episodes(tmp_path):
     outs = []

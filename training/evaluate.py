@@ -49,7 +49,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -181,10 +181,24 @@ def check_specs(case, strategies: list[str], navigators: list[str],
     """Build every evaluator and low level once on the case: a missing file or a model or
     priority file that does not fit the case fails here, before any episode."""
     for spec in strategies:
-        make_env(case, make_evaluator(spec), "scripted")
+        with _named_as("--evaluator", "--strategies"):
+            make_env(case, make_evaluator(spec), "scripted")
     for spec in navigators:
         env = make_env(case, make_evaluator("priority"), spec)
-        make_navigator(spec, env, deterministic)
+        with _named_as("--navigator", "--navigators"):
+            make_navigator(spec, env, deterministic)
+
+
+@contextmanager
+def _named_as(option: str, ours: str):
+    """A spec's error names ``cmdp-simulate``'s option (``agents.specs``): name ours."""
+    try:
+        yield
+    except ValueError as err:
+        text = str(err)
+        if text.startswith(option + " "):
+            raise type(err)(ours + text[len(option):]) from None
+        raise
 
 
 def _check_worker(runner: EpisodeRunner, strategies: list[str], navigators: list[str],
