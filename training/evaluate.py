@@ -67,7 +67,7 @@ from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, add_ray_option, positive_int, positive_seconds
+from training.cli import OneLineParser, add_ray_option, plain, positive_int, positive_seconds
 from training.comparison import csv_text, markdown_table, summarize
 
 DEFAULT_STRATEGIES = ("priority", "nearest")  # CP-SAT (about 20 s on the built-in floor) on request
@@ -123,7 +123,14 @@ class EvaluateArgs:
 
 
 def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
-    p = OneLineParser(prog="cmdp-evaluate", description=__doc__.splitlines()[0])
+    p = OneLineParser(prog="cmdp-evaluate", description=plain(__doc__), epilog=(
+        "Writes into --out: episodes.jsonl (each episode as it ends, with its task end "
+        "times), episodes.csv, summary.md, summary.csv, summary.json (mean with 95 % "
+        "interval, P50/P80/P90, paired difference to priority), fig12_makespan.png, "
+        "fig13_reaching_steps.png, fig14_idle_task_area.png, makespan_histogram.png, "
+        "s_curve.png, settings.json, resume.json (cpsat: cpsat_plan.json). Exit status 1 if "
+        "an episode stalled, timed out or was lost, 2 for bad options, 130 on Ctrl-C. "
+        "docs/comparing.md"))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),
@@ -133,7 +140,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "CP-SAT here, --cpsat-s), cpsat:PATH, student:PATH, lookahead[:...], "
                         "replan[:...], a stage-2 model .zip (default: priority,nearest)")
     p.add_argument("--navigators", type=spec_list, default=["scripted"],
-                   help="comma-separated low levels: scripted, a stage-1 model .zip")
+                   help="comma-separated low levels: scripted, a stage-1 model .zip "
+                        "(default: scripted)")
     p.add_argument("--workers", type=positive_int, default=None,
                    help="worker processes, or Ray actors with --ray (default: every core; "
                         "with --ray ADDRESS, every CPU of the cluster)")
@@ -155,7 +163,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "strategy or --cpsat-bound asks for it (default 20)")
     p.add_argument("--deterministic", action="store_true",
                    help="model navigators take their argmax action instead of sampling")
-    p.add_argument("--no-figures", action="store_true", help="write no figures")
+    p.add_argument("--no-figures", action="store_true",
+                   help="write no figures (Figs. 12-14, the histogram, the S-curve)")
     p.add_argument("--per-seed", action="store_true",
                    help="Figs. 12-14 as the paper's lines over the seeds instead of box and "
                         "strip plots per strategy")

@@ -31,7 +31,8 @@ STAGES = {"stage1": (stage1, stage1.Stage1Config, "the shared target-reaching po
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(parser)
-    sub = parser.add_subparsers(dest="stage", required=True)
+    sub = parser.add_subparsers(dest="stage", required=True,
+                                help="which policy to train (cmdp-train STAGE --help)")
     for stage, (_, _, what) in STAGES.items():
         p = sub.add_parser(
             stage, help=f"train {what}",
