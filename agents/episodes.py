@@ -2,10 +2,11 @@
 ``cmdp-evaluate`` share.
 
 ``episode_row`` sums up one finished (or stopped) episode: makespan, reaching steps, idle
-steps by cause, crane waits, whether it stalled or timed out. ``EpisodeRunner`` holds one env
-and low level per (evaluator, navigator) pair and runs seeds on them; ``Workers`` maps jobs
-over worker processes (each with its own runner, one torch thread) or in this process for
-``workers=1``, in job order either way, so results do not depend on the number of workers.
+steps by cause, crane waits, whether it stalled or timed out, and when each task ended.
+``EpisodeRunner`` holds one env and low level per (evaluator, navigator) pair and runs seeds
+on them; ``Workers`` maps jobs over worker processes (each with its own runner, one torch
+thread) or in this process for ``workers=1``, in job order either way, so results do not
+depend on the number of workers.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from concurrent.futures.process import BrokenProcessPool
 import cmdp_pymunk
 from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
+from cmdp_pymunk.schedule import finish_times
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
 
 from .models import PolicyStuck
@@ -32,6 +34,15 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
               "crane_wait_s", "reach_rate", "wall_s", "stall_reason",
               # crew-seconds a disruption kept crews from working (``disruptions``), by kind
               *DISRUPTION_IDLE_FIELDS)
+# Beside ROW_FIELDS, in every row (episodes.jsonl) but not in episodes.csv (a list per cell):
+# the simulated second each task ended, in increasing order, for the S-curve of a comparison.
+TASK_END_TIMES = "task_end_times_s"
+
+
+def task_end_times(floor) -> list[float]:
+    """When each task ended (``schedule.finish_times`` of the floor's event log), in seconds,
+    rounded to the millisecond to keep ``episodes.jsonl`` short."""
+    return [round(t, 3) for t in finish_times(engine_of(floor).log.events)]
 
 
 def episode_row(floor, episode: Episode | None, stall_reason: str = "") -> dict:
@@ -64,6 +75,7 @@ def episode_row(floor, episode: Episode | None, stall_reason: str = "") -> dict:
         "stall_reason": stall_reason,
         **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)
            for c in DISRUPTION_CAUSES},
+        TASK_END_TIMES: task_end_times(floor),
     }
 
 

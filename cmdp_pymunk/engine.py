@@ -180,9 +180,15 @@ class Engine:
     def step(self, actions) -> Second:
         """One simulated second in the paper's order (see the module doc); ``actions[i]``:
         crew i's reaching action, used only if it moves."""
+        if self.site is None:
+            raise RuntimeError("step: the engine has no episode yet; call reset(seed) first")
         if self.clock:
             self.clock.start()
         crews = self.site.crews
+        if len(actions) != len(crews):
+            raise ValueError(f"step: {len(actions)} reaching actions for {len(crews)} crews; "
+                             "fix: give one action per crew, in the case's crew order (a crew "
+                             f"that does not move ignores its own, e.g. {move.STAND_STILL})")
         moving = [c.moving for c in crews]
         had_target = [c.moving and bool(c.scope) for c in crews]
         quiet = self.quiet()

@@ -64,6 +64,24 @@ def velocity_limits(crew: CrewState, congestion: float, lateral_m_s: float,
             congested_velocity(turning_rad_s, c, congestion, turn_floor))
 
 
+def reaching_action(action, crew: CrewState) -> tuple[int, int, int]:
+    """The three indices of a ``MultiDiscrete(ACTION_NVEC)`` action (forward, lateral, turn);
+    a ValueError names the crew and what was expected for anything else (a negative index
+    would otherwise pick from the end of the table without a word)."""
+    try:
+        if len(action) != 3:
+            raise ValueError
+        f, s, t = int(action[0]), int(action[1]), int(action[2])
+    except (TypeError, ValueError):
+        f = s = t = -1
+    if not (0 <= f < 4 and 0 <= s < 3 and 0 <= t < 3):
+        raise ValueError(f"{crew.id} (crew {crew.index}): reaching action {action!r} is not "
+                         f"three whole numbers in MultiDiscrete({list(ACTION_NVEC)}) "
+                         "(forward 0-3, lateral 0-2, turn 0-2); fix: give one such triple per "
+                         f"crew, e.g. {STAND_STILL} to stand still")
+    return f, s, t
+
+
 def apply_reaching_actions(world: Physics, site: Site, actions) -> None:
     """Set each moving crew's desired velocity from its action; every other crew stands."""
     sim = site.case.simulation
@@ -73,10 +91,11 @@ def apply_reaching_actions(world: Physics, site: Site, actions) -> None:
         if action is None:
             world.drive(crew.index, 0.0, 0.0, 0.0)
             continue
+        f, s, t = reaching_action(action, crew)
         x, y, angle = world.pose(crew.index)
         v_f, v_l, v_tu = velocity_limits(crew, congestion_index(site, x, y), lateral, turning)
-        forward = FORWARD_FRACTIONS[int(action[0])] * v_f
-        side = SIDE_SIGNS[int(action[1])] * v_l
+        forward = FORWARD_FRACTIONS[f] * v_f
+        side = SIDE_SIGNS[s] * v_l
         cos_a, sin_a = math.cos(angle), math.sin(angle)
         world.drive(crew.index, forward * cos_a - side * sin_a, forward * sin_a + side * cos_a,
-                    SIDE_SIGNS[int(action[2])] * v_tu)
+                    SIDE_SIGNS[t] * v_tu)

@@ -6,6 +6,9 @@
   thick, the band between the 10th and 90th percentile over episodes at each time, and the
   P50/P80/P90 makespans where the curves reach the total.
 - :func:`draw_episodes` draws both into a run folder.
+- :func:`draw_strategy_episodes` draws the same two for a comparison (``cmdp-evaluate``):
+  the histograms one panel per strategy on a shared time axis, the S-curves one colour per
+  strategy on one axis, so a planner reads which strategy ends the floor sooner and surer.
 
 Times in seconds in, hours on the axes. Rendered off-screen and written atomically, like
 ``media.charts``.
@@ -29,11 +32,11 @@ CURVE_POINTS = 400
 PERCENTILE_STYLE = {50: "-", 80: "--", 90: ":"}
 
 
-def _mark_percentiles(ax, stats: dict) -> None:
+def _mark_percentiles(ax, stats: dict, color: str = "black") -> None:
     for q in PERCENTILES:
         value = stats.get(f"p{q}_s")
         if value is not None:
-            ax.axvline(value / HOUR_S, color="black", linestyle=PERCENTILE_STYLE[q],
+            ax.axvline(value / HOUR_S, color=color, linestyle=PERCENTILE_STYLE[q],
                        linewidth=1.1, label=f"P{q} {value:,.0f} s")
 
 
@@ -106,3 +109,116 @@ def draw_episodes(folder: str | Path, stats: dict, finishes: Sequence[Sequence[f
     folder = Path(folder)
     return [makespan_histogram(stats, folder / EPISODE_FILES[0]),
             s_curve(finishes, total_tasks, folder / EPISODE_FILES[1], stats)]
+
+
+def strategy_stats(entry: dict) -> dict:
+    """P50/P80/P90 of a ``training.comparison.summarize`` entry under ``_mark_percentiles``'s
+    keys (``p50_s`` ...)."""
+    return {f"p{q}_s": entry.get(f"makespan_p{q}_s") for q in PERCENTILES}
+
+
+def _strategy_groups(rows: Sequence[dict], summary: Sequence[dict]) -> list[tuple]:
+    """(label, rows, summary entry) per (strategy, low level), in the summary's order; the low
+    level is named only when the comparison has more than one."""
+    navigators = {e["navigator"] for e in summary}
+    out = []
+    for e in summary:
+        group = [r for r in rows
+                 if (r["strategy"], r["navigator"]) == (e["strategy"], e["navigator"])]
+        label = e["strategy"] if len(navigators) == 1 else f"{e['strategy']} / {e['navigator']}"
+        out.append((label, group, e))
+    return out
+
+
+def strategy_histograms(rows: Sequence[dict], summary: Sequence[dict], path: str | Path,
+                        lower_bound_s: float | None = None) -> Path:
+    """The finished episodes' makespans, one panel per strategy (and low level) on one shared
+    time axis, each with its P50/P80/P90 from ``summary`` and the lower bound.
+
+    Args:
+        rows: ``cmdp-evaluate``'s episode rows (``strategy``, ``navigator``, ``makespan_s``,
+            ``finished``).
+        summary: ``training.comparison.summarize`` of the same rows.
+        path: the PNG to write.
+        lower_bound_s: drawn as a grey dashed line when given.
+    """
+    groups = _strategy_groups(rows, summary)
+    fig = Figure(figsize=(8, 1.2 + 1.9 * len(groups)), layout="constrained")
+    axes = fig.subplots(len(groups), 1, sharex=True, squeeze=False)[:, 0]
+    done_all = [r["makespan_s"] for r in rows if r["finished"] and r["makespan_s"]]
+    edges = np.histogram_bin_edges(np.array(done_all, dtype=float) / HOUR_S, bins="auto") \
+        if done_all else None
+    for i, (ax, (label, group, entry)) in enumerate(zip(axes, groups, strict=True)):
+        colour = f"C{i % 10}"
+        done = np.array([r["makespan_s"] for r in group if r["finished"] and r["makespan_s"]],
+                        dtype=float)
+        if len(done):
+            ax.hist(done / HOUR_S, bins=edges, color=colour, alpha=0.45, edgecolor=colour)
+            _mark_percentiles(ax, strategy_stats(entry), colour)
+        else:
+            ax.text(0.5, 0.5, "no episode finished", ha="center", va="center",
+                    transform=ax.transAxes)
+        if lower_bound_s:
+            ax.axvline(lower_bound_s / HOUR_S, color="#777777", linestyle="-.", linewidth=1,
+                       label=f"lower bound {lower_bound_s:,.0f} s")
+        ax.set_title(f"{label}: {len(done)} of {len(group)} episodes finished", fontsize=9,
+                     loc="left")
+        ax.set_ylabel("episodes")
+        ax.yaxis.get_major_locator().set_params(integer=True)
+        ax.grid(axis="y", alpha=0.3)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7, loc="upper right")
+    axes[-1].set_xlabel("makespan (h)")
+    fig.suptitle("Makespan per strategy, P50 / P80 / P90 marked", fontsize=11)
+    return save_png(fig, path)
+
+
+def strategy_s_curves(rows: Sequence[dict], summary: Sequence[dict], total_tasks: int,
+                      path: str | Path) -> Path:
+    """Tasks ended over time, one colour per strategy (and low level): the median over its
+    episodes as a line, the 10-90 % band over its episodes at each time shaded.
+
+    Args:
+        rows: ``cmdp-evaluate``'s episode rows with ``task_end_times_s`` (rows without it,
+            from a run before the field existed, are left out).
+        summary: ``training.comparison.summarize`` of the same rows (order and labels).
+        total_tasks: the case's number of tasks (a horizontal line).
+        path: the PNG to write.
+    """
+    key = "task_end_times_s"
+    groups = [(label, [r[key] for r in group if r.get(key) is not None], entry)
+              for label, group, entry in _strategy_groups(rows, summary)]
+    end_s = max((f[-1] for _, finishes, _ in groups for f in finishes if len(f)), default=1.0)
+    times = np.linspace(0.0, end_s, CURVE_POINTS)
+    hours = times / HOUR_S
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
+    ax = fig.add_subplot()
+    for i, (label, finishes, entry) in enumerate(groups):
+        if not finishes:
+            continue
+        colour = f"C{i % 10}"
+        ended = tasks_ended(finishes, times)
+        low, high = np.percentile(ended, BAND, axis=0)
+        ax.fill_between(hours, low, high, color=colour, alpha=0.18, linewidth=0)
+        p80 = entry.get("makespan_p80_s")
+        ax.plot(hours, np.median(ended, axis=0), color=colour, linewidth=2.0,
+                label=f"{label}: median of {len(finishes)} seed{'s' if len(finishes) > 1 else ''}"
+                      + (f", P80 {p80:,.0f} s" if p80 is not None else ""))
+    ax.axhline(total_tasks, color="#444444", linewidth=0.8)
+    ax.set_xlim(0, hours[-1] * 1.01)
+    ax.set_ylim(0, total_tasks * 1.04)
+    ax.set_xlabel("simulated time (h)")
+    ax.set_ylabel(f"tasks ended (of {total_tasks})")
+    ax.set_title(f"Tasks ended over time per strategy (line: median; band: {BAND[0]}-{BAND[1]} "
+                 "% of episodes)", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    return save_png(fig, path)
+
+
+def draw_strategy_episodes(folder: str | Path, rows: Sequence[dict], summary: Sequence[dict],
+                           total_tasks: int, lower_bound_s: float | None = None) -> list[Path]:
+    """``makespan_histogram.png`` and ``s_curve.png`` of a comparison into ``folder``."""
+    folder = Path(folder)
+    return [strategy_histograms(rows, summary, folder / EPISODE_FILES[0], lower_bound_s),
+            strategy_s_curves(rows, summary, total_tasks, folder / EPISODE_FILES[1])]

@@ -54,3 +54,30 @@ def test_citation_and_license_files():
     assert f"\nversion: {cmdp_pymunk.__version__}\n" in cff  # bump both together
     assert "Construction Process" in cff and "family-names: Xiao" in cff
     assert (ROOT / "LICENSE").read_text(encoding="utf-8").startswith("MIT License")
+
+
+# cmdp-train's stages are parsers of their own
+HELP_ARGV = {"training.train": (["--help"], ["stage1", "--help"], ["stage2", "--help"])}
+
+
+@pytest.mark.parametrize("module", console_scripts())
+def test_help_is_complete(module, capsys, monkeypatch):
+    """Every command's --help names the command, has a description without RST marks, and
+    a help text for every option (a new option without one fails here)."""
+    import argparse
+
+    shown = []
+    real = argparse.ArgumentParser.print_help
+    monkeypatch.setattr(argparse.ArgumentParser, "print_help",
+                        lambda self, file=None: shown.append(self) or real(self, file))
+    main = importlib.import_module(module).main
+    for argv in HELP_ARGV.get(module, (["--help"],)):
+        with pytest.raises(SystemExit) as stop:
+            main(argv)
+        assert stop.value.code == 0
+        out = capsys.readouterr().out
+        assert out.startswith("usage: cmdp-"), out[:60]
+        assert "``" not in out, argv
+        parser = shown[-1]
+        assert parser.description, argv
+        assert [a.dest for a in parser._actions if not a.help] == [], argv

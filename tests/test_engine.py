@@ -44,6 +44,25 @@ def test_one_second_and_advance_until(tiny_case):
     assert not run.terminated and not run.truncated
 
 
+def test_bad_reaching_actions_are_refused_naming_what_was_expected(tiny_case):
+    engine = Engine(tiny_case, evaluator=NearestFirstEvaluator())
+    with pytest.raises(RuntimeError, match="reset"):
+        engine.step([STAND_STILL] * len(tiny_case.crews))
+    engine.reset(seed=0)
+    n = len(tiny_case.crews)
+    with pytest.raises(ValueError, match=f"1 reaching actions for {n} crews"):
+        engine.step([STAND_STILL])
+    moving = next(c for c in engine.site.crews if c.moving)
+    for bad in [(4, 1, 1), (-1, 1, 1), (0, 1), (0, 1, 1, 0), "abc"]:
+        actions = [STAND_STILL] * n
+        actions[moving.index] = bad
+        with pytest.raises(ValueError, match=rf"{moving.id} .*MultiDiscrete\(\[4, 3, 3\]\)"):
+            engine.step(actions)
+    actions = [STAND_STILL] * n
+    actions[moving.index] = np.array([3, 2, 0])  # numpy's integers are whole numbers too
+    engine.step(actions)
+
+
 def test_the_time_limit_cuts_an_advance(tiny_case):
     engine = Engine(tiny_case, evaluator=NearestFirstEvaluator(), max_time_s=3.0)
     engine.reset(seed=0)

@@ -3,6 +3,8 @@
 import argparse
 import csv
 import json
+import re
+from pathlib import Path
 
 import pytest
 
@@ -13,9 +15,22 @@ from training import evaluate
 from training.comparison import mean_ci, paired
 
 TINY = str(cmdp_pymunk.TINY_CASE)
-FILES = ("episodes.csv", "summary.csv", "summary.md", "summary.json", "settings.json",
-         "cpsat_plan.json", "fig12_makespan.png", "fig13_reaching_steps.png",
-         "fig14_idle_task_area.png")
+FILES = ("episodes.jsonl", "episodes.csv", "summary.csv", "summary.md", "summary.json",
+         "settings.json", "resume.json", "cpsat_plan.json", "fig12_makespan.png",
+         "fig13_reaching_steps.png", "fig14_idle_task_area.png", "makespan_histogram.png",
+         "s_curve.png")
+DOCS = Path(__file__).resolve().parents[1] / "docs" / "comparing.md"
+
+
+def documented_outputs() -> set[str]:
+    """Every file named in the first column of docs/comparing.md's "What cmdp-evaluate writes"
+    table."""
+    text = DOCS.read_text().split("## What `cmdp-evaluate` writes", 1)[1]
+    names = set()
+    for line in text.splitlines():
+        if line.startswith("| `"):
+            names |= set(re.findall(r"`([\w.-]+\.\w+)`", line.split("|")[1]))
+    return names
 
 
 def test_seed_list():
@@ -68,6 +83,9 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
                           str(out), "--cpsat-s", "5", "--no-progress"]) == 0
     for name in FILES:
         assert (out / name).stat().st_size > 0, name
+    documented = documented_outputs()
+    assert "s_curve.png" in documented and "episodes.jsonl" in documented
+    assert documented <= set(FILES), "docs/comparing.md names a file no test checks"
     rows = list(csv.DictReader((out / "episodes.csv").open()))
     assert len(rows) == 8 and {r["strategy"] for r in rows} == {"priority", "nearest",
                                                                 f"ga:{ga}", "cpsat"}
@@ -83,6 +101,42 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
     # announced with its time limit before it runs, and before its answer
     assert printed.index("solving CP-SAT for the cpsat strategy, time limit 5 s") < \
         printed.index("CP-SAT bound")
+
+
+def hand_percentile(values: list[float], q: float) -> float:
+    """q-th percentile, linear between order statistics: rank q/100 * (n - 1) from 0."""
+    x = sorted(values)
+    rank = q / 100 * (len(x) - 1)
+    lo = int(rank)
+    return x[lo] + (rank - lo) * (x[min(lo + 1, len(x) - 1)] - x[lo])
+
+
+def test_histogram_and_s_curve_inputs_match_the_episodes(tmp_path):
+    """The makespan histogram's P50/P80/P90 (summary.json) are the percentiles of the
+    episodes' makespans, worked out here by hand; the S-curve's input, each episode's task
+    end times, ends at its makespan and counts its tasks."""
+    out = tmp_path / "cmp"
+    assert evaluate.main(["--case", TINY, "--seeds", "0-2", "--strategies", "priority",
+                          "--workers", "1", "--out", str(out), "--no-progress"]) == 0
+    for name in ("makespan_histogram.png", "s_curve.png"):
+        assert (out / name).stat().st_size > 1000, name
+    rows = evaluate.read_log(out / "episodes.jsonl")
+    makespans = [r["makespan_s"] for r in rows]
+    assert len(makespans) == 3 and len(set(makespans)) > 1  # three seeds, not all alike
+    entry = json.loads((out / "summary.json").read_text())[0]
+    # three values a <= b <= c: P50 rank 1 -> b; P80 rank 1.6 -> b + 0.6 (c - b);
+    # P90 rank 1.8 -> b + 0.8 (c - b)
+    a, b, c = sorted(makespans)
+    assert entry["makespan_p50_s"] == pytest.approx(b) == hand_percentile(makespans, 50)
+    assert entry["makespan_p80_s"] == pytest.approx(b + 0.6 * (c - b))
+    assert entry["makespan_p90_s"] == pytest.approx(b + 0.8 * (c - b))
+    n_tasks = len(cmdp_pymunk.load_case(TINY).tasks)
+    for r in rows:
+        ends = r["task_end_times_s"]
+        assert len(ends) == r["tasks_finished"] == n_tasks and ends == sorted(ends)
+        assert ends[-1] == r["makespan_s"] and ends[0] > 0
+    # the list stays in episodes.jsonl: episodes.csv keeps one number per cell
+    assert "task_end_times_s" not in (out / "episodes.csv").read_text().splitlines()[0]
 
 
 def test_cpsat_is_solved_only_when_asked_for(tmp_path, capsys, monkeypatch):
@@ -144,6 +198,17 @@ def test_bad_strategy_fails_before_any_episode(tmp_path, capsys):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.parametrize("option, typo, fix", [("--strategies", "priorty", "priority"),
+                                               ("--navigators", "scriptd", "scripted")])
+def test_a_misspelt_name_is_blamed_on_our_option_with_the_closest_name(tmp_path, capsys,
+                                                                       option, typo, fix):
+    assert evaluate.main(["--case", TINY, option, typo, "--out", str(tmp_path / "x"),
+                          "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert f"cmdp-evaluate: {option} {typo!r}: no such model file; did you mean {fix!r}?" in err
+    assert not (tmp_path / "x").exists()
+
+
 @pytest.mark.slow
 def test_two_workers_give_the_same_episodes(tmp_path):
     outs = []
@@ -153,7 +218,10 @@ def test_two_workers_give_the_same_episodes(tmp_path):
                               "priority,nearest", "--workers", w, "--out", str(out),
                               "--cpsat-s", "5", "--no-progress", "--no-figures"]) == 0
         rows = list(csv.DictReader((out / "episodes.csv").open()))
-        outs.append([{k: v for k, v in r.items() if k != "wall_s"} for r in rows])
+        # episodes.jsonl is in the order they finish: compare it by episode
+        ends = {(r["strategy"], r["seed"]): r["task_end_times_s"]
+                for r in evaluate.read_log(out / "episodes.jsonl")}
+        outs.append(([{k: v for k, v in r.items() if k != "wall_s"} for r in rows], ends))
     assert outs[0] == outs[1]
 
 

@@ -40,3 +40,33 @@ def test_every_task_row_carries_its_id(tmp_path, monkeypatch):
     charts.gantt_tasks(make_events(sorted(rows)), tmp_path / "g.png")
     labels = [t.get_text() for t in figures[0].axes[0].get_yticklabels()]
     assert labels == [f"T-{i:02d}" for i in range(90)]  # by start time, the first on top
+
+
+def test_a_comparisons_histograms_and_s_curves(tmp_path, monkeypatch):
+    """One histogram panel per strategy with its own P50/P80/P90 from the summary, one
+    S-curve colour per strategy; an episode from before ``task_end_times_s`` is left out of
+    the S-curve, a strategy with no finished episode still gets its panel."""
+    import media.episodes as episodes
+    from training.comparison import summarize
+
+    def row(strategy, seed, makespan, ends):
+        r = {"strategy": strategy, "navigator": "scripted", "seed": seed, "stalled": False,
+             "finished": makespan is not None, "timed_out": makespan is None,
+             "makespan_s": makespan}
+        return r if ends is None else {**r, "task_end_times_s": ends}
+
+    rows = [row("priority", s, f[-1], f) for s, f in enumerate(FINISHES[:2])]
+    rows += [row("priority", 2, 700.0, None),  # an old row: no end times
+             row("nearest", 0, None, FINISHES[2])]
+    summary = summarize(rows, 100.0, None)
+    figures = []
+    monkeypatch.setattr(episodes, "save_png", lambda fig, path: figures.append(fig) or path)
+    episodes.draw_strategy_episodes(tmp_path, rows, summary, 4, 100.0)
+    hist, curve = figures
+    assert [ax.get_title(loc="left") for ax in hist.axes] == [
+        "priority: 3 of 3 episodes finished", "nearest: 0 of 1 episodes finished"]
+    # priority's 500, 610, 700: P50 610; P80 rank 1.6 -> 610 + 0.6 * 90 = 664
+    labels = hist.axes[0].get_legend_handles_labels()[1]
+    assert labels[:2] == ["P50 610 s", "P80 664 s"]
+    lines = curve.axes[0].get_legend_handles_labels()[1]
+    assert lines == ["priority: median of 2 seeds, P80 664 s", "nearest: median of 1 seed"]

@@ -79,6 +79,38 @@ def test_episodes_write_percentiles_histogram_and_s_curve(tmp_path, capsys):
     assert f"P80 {stats['p80_s']:.0f} s" in capsys.readouterr().out
 
 
+def documented_files(heading: str) -> list[list[str]]:
+    """The files named in the first column of each table under ``heading`` in
+    docs/simulating.md, one list per table."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "simulating.md").read_text()
+    section = text.split(heading, 1)[1].split("\n## ", 1)[0]
+    tables, rows = [], []
+    for line in section.splitlines() + [""]:
+        if line.startswith("| `"):
+            rows.append(re.findall(r"`([\w.-]+\.\w+)`", line.split("|")[1])[0])
+        elif rows:
+            tables.append(rows)
+            rows = []
+    return tables
+
+
+def test_every_documented_file_is_written(tmp_path):
+    """docs/simulating.md's "What it writes": the first table per seed (case.json in the run
+    folder), the second in the run folder of --episodes N."""
+    per_seed, per_run = documented_files("## What it writes")
+    assert "schedule.csv" in per_seed and "s_curve.png" in per_run
+    out = tmp_path / "docs"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "2", "--gif",
+                          "--no-progress"]) == 0
+    for name in per_seed:
+        assert (out / "seed-0" / name).is_file() or (out / name).is_file(), name
+    for name in per_run:
+        assert (out / name).is_file(), name
+
+
 def test_gif_is_written(tmp_path):
     out = tmp_path / "gif"
     assert simulate.main(["--case", TINY, "--out", str(out), "--gif", "--no-charts",

@@ -13,6 +13,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 
+def plain(doc: str) -> str:
+    """A module docstring's first line as a ``--help`` description: no RST marks."""
+    return " ".join(doc.strip().splitlines()[0].replace("``", "").split())
+
+
 class OneLineParser(argparse.ArgumentParser):
     """``argparse.ArgumentParser`` whose errors are one line on stderr, exit status 2."""
 

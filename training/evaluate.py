@@ -14,25 +14,31 @@ workers. CP-SAT is solved only when asked for: the ``cpsat`` strategy (solved on
 Without it the bound columns use the cheap lower bound (``cmdp_pymunk.bounds``) alone and
 the outputs say so. Writes into DIR:
 
-- ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish:
-  a stopped run (Ctrl-C, a lost worker) keeps them, and ``--resume`` runs only the others
-  (with the same settings and the saved CP-SAT plan);
+- ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish,
+  with ``task_end_times_s`` (when each task ended, seconds): a stopped run (Ctrl-C, a lost
+  worker) keeps them, and ``--resume`` runs only the others (with the same settings and the
+  saved CP-SAT plan);
 - ``episodes.csv``: one row per episode: makespan, reaching steps, idle steps by cause (with
   the crew-seconds each kind of disruption kept crews from working), crane waits, reach
   rate, whether it stalled or timed out (and why), wall seconds;
-- ``summary.md`` and ``summary.csv``: per strategy and low level, the mean makespan with its
-  95 % interval, its P80 (the makespan 80 % of the finished episodes stay within), over
-  the lower bound and over CP-SAT's bound (empty when CP-SAT was not solved), the paired
-  difference to the
-  priority heuristic on the same seeds (95 % interval) and the ratio of means, reaching steps,
-  idle steps by cause, crane waits; stalled and timed-out episodes are counted and listed;
+- ``summary.md``, ``summary.csv`` and ``summary.json``: per strategy and low level, the mean
+  makespan with its 95 % interval, its P50/P80/P90 (the makespans 50, 80 and 90 % of the
+  finished episodes stay within), over the lower bound and over CP-SAT's bound (empty when
+  CP-SAT was not solved), the paired difference to the priority heuristic on the same seeds
+  (95 % interval) and the ratio of means, reaching steps, idle steps by cause, crane waits;
+  stalled and timed-out episodes are counted and listed;
 - ``fig12_makespan.png``, ``fig13_reaching_steps.png``, ``fig14_idle_task_area.png``: box
   and strip plots per strategy with the mean, its 95 % interval and (Fig. 12) the bounds;
   with ``--per-seed`` the paper's lines over the seeds (``media/comparison.py``);
+- ``makespan_histogram.png`` (one panel per strategy, its P50/P80/P90 marked) and
+  ``s_curve.png`` (tasks ended over time, one colour per strategy: the median over the seeds
+  and the 10-90 % band), ``media/episodes.py``;
 - ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer (null when not solved),
-  versions and the command.
+  versions and the command; ``resume.json``, what ``--resume`` checks; with the ``cpsat``
+  strategy ``cpsat_plan.json``, the plan replayed.
 
-The files above ``episodes.jsonl`` are written at the end, each atomically: a stopped run
+``resume.json`` and ``cpsat_plan.json`` are written before the first episode; ``episodes.csv``,
+the summaries, the figures and ``settings.json`` at the end, each atomically: a stopped run
 leaves none of them half-written. Exit status 1 if any episode stalled, timed out or was lost
 with its worker, 2 for bad arguments, a bad case or a Ray that cannot run the episodes (before
 any episode), 130 on Ctrl-C.
@@ -43,7 +49,7 @@ from __future__ import annotations
 import json
 import sys
 import time
-from contextlib import nullcontext
+from contextlib import contextmanager, nullcontext
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -53,15 +59,15 @@ from agents.episodes import (
     BackendError,
     EpisodeRunner,
     WorkerLost,
-    check_specs,
     check_worker,
     open_backend,
 )
+from agents.episodes import check_specs as check_episode_specs
 from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, add_ray_option, positive_int, positive_seconds
+from training.cli import OneLineParser, add_ray_option, plain, positive_int, positive_seconds
 from training.comparison import csv_text, markdown_table, summarize
 
 DEFAULT_STRATEGIES = ("priority", "nearest")  # CP-SAT (about 20 s on the built-in floor) on request
@@ -117,7 +123,14 @@ class EvaluateArgs:
 
 
 def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
-    p = OneLineParser(prog="cmdp-evaluate", description=__doc__.splitlines()[0])
+    p = OneLineParser(prog="cmdp-evaluate", description=plain(__doc__), epilog=(
+        "Writes into --out: episodes.jsonl (each episode as it ends, with its task end "
+        "times), episodes.csv, summary.md, summary.csv, summary.json (mean with 95 % "
+        "interval, P50/P80/P90, paired difference to priority), fig12_makespan.png, "
+        "fig13_reaching_steps.png, fig14_idle_task_area.png, makespan_histogram.png, "
+        "s_curve.png, settings.json, resume.json (cpsat: cpsat_plan.json). Exit status 1 if "
+        "an episode stalled, timed out or was lost, 2 for bad options, 130 on Ctrl-C. "
+        "docs/comparing.md"))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),
@@ -127,7 +140,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "CP-SAT here, --cpsat-s), cpsat:PATH, student:PATH, lookahead[:...], "
                         "replan[:...], a stage-2 model .zip (default: priority,nearest)")
     p.add_argument("--navigators", type=spec_list, default=["scripted"],
-                   help="comma-separated low levels: scripted, a stage-1 model .zip")
+                   help="comma-separated low levels: scripted, a stage-1 model .zip "
+                        "(default: scripted)")
     p.add_argument("--workers", type=positive_int, default=None,
                    help="worker processes, or Ray actors with --ray (default: every core; "
                         "with --ray ADDRESS, every CPU of the cluster)")
@@ -149,7 +163,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "strategy or --cpsat-bound asks for it (default 20)")
     p.add_argument("--deterministic", action="store_true",
                    help="model navigators take their argmax action instead of sampling")
-    p.add_argument("--no-figures", action="store_true", help="write no figures")
+    p.add_argument("--no-figures", action="store_true",
+                   help="write no figures (Figs. 12-14, the histogram, the S-curve)")
     p.add_argument("--per-seed", action="store_true",
                    help="Figs. 12-14 as the paper's lines over the seeds instead of box and "
                         "strip plots per strategy")
@@ -168,6 +183,30 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
     return runner.run(spec, navigator, seed)
+
+
+def check_specs(case, strategies: list[str], navigators: list[str],
+                deterministic: bool) -> None:
+    """``agents.episodes.check_specs``, before any episode, its errors naming this command's
+    options."""
+    for spec in strategies:
+        with _named_as("--evaluator", "--strategies"):
+            check_episode_specs(case, [spec], [], deterministic)
+    for spec in navigators:
+        with _named_as("--navigator", "--navigators"):
+            check_episode_specs(case, [], [spec], deterministic)
+
+
+@contextmanager
+def _named_as(option: str, ours: str):
+    """A spec's error names ``cmdp-simulate``'s option (``agents.specs``): name ours."""
+    try:
+        yield
+    except ValueError as err:
+        text = str(err)
+        if text.startswith(option + " "):
+            raise type(err)(ours + text[len(option):]) from None
+        raise
 
 
 LOG = "episodes.jsonl"
@@ -341,9 +380,11 @@ def _main(args: EvaluateArgs) -> int:
                      json.dumps(settings, indent=2, default=str) + "\n")
         if args.figures:
             from media.comparison import draw_comparison
+            from media.episodes import draw_strategy_episodes
 
             draw_comparison(rows, args.out, summary, lb.lower_bound_s,
                             cpsat.bound_s if cpsat else None, args.per_seed)
+            draw_strategy_episodes(args.out, rows, summary, len(case.tasks), lb.lower_bound_s)
     finally:
         interrupt.leave()
     print(table, end="")

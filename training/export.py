@@ -207,7 +207,8 @@ def export(model_path: str | Path, onnx_path: str | Path) -> Path:
 def main(argv: list[str] | None = None) -> int:
     import cmdp_pymunk
 
-    parser = argparse.ArgumentParser(description=" ".join(__doc__.split("\n\n")[0].split()))
+    parser = argparse.ArgumentParser(prog="cmdp-export",
+                                     description=" ".join(__doc__.split("\n\n")[0].split()))
     cmdp_pymunk.add_version_flag(parser)
     parser.add_argument("model", type=Path, help="a stable-baselines3 PPO .zip, or a masked-choice "
                         "MaskablePPO .zip (cmdp-train stage2 with action = candidate)")

@@ -19,7 +19,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from training.cli import OneLineParser
+from training.cli import OneLineParser, plain
 
 PROG = "cmdp-import-ifc"
 
@@ -38,7 +38,7 @@ class ImportArgs:
 def parse_args(argv: list[str] | None = None) -> ImportArgs:
     import cmdp_pymunk
 
-    p = OneLineParser(prog=PROG, description=__doc__.splitlines()[0])
+    p = OneLineParser(prog=PROG, description=plain(__doc__))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("model", type=Path, help="the IFC model (IFC2X3, IFC4 or IFC4X3)")
     p.add_argument("--storey", help="the IfcBuildingStorey to import, by Name or GlobalId")

@@ -48,7 +48,9 @@ class PPOSettings(RunConfig):
 
     case: str | None = None  # case file; None: the built-in case
     seed: CountOrZero = 0
-    total_steps: Count  # the stage's, in its unit: agent-steps (stage 1) or decisions (stage 2)
+    # the stage's, in its unit: agent-steps (stage 1) or decisions (stage 2); rounded up to
+    # whole rollouts (n_steps x envs), which is what PPO runs
+    total_steps: Count
     n_envs: Count  # the stage's: env copies
     num_cpus: Count  # the stage's: processes stepping the copies (1: all in this process)
     torch_threads: Count = 1
@@ -347,8 +349,22 @@ def wandb_run(run: Run):
         session.finish()
 
 
+def whole_rollouts(steps: int, rollout: int) -> int:
+    """``steps`` rounded up to whole rollouts of ``rollout`` steps: what PPO runs when asked
+    for ``steps`` (``learn`` collects ``n_steps`` per env before each update and stops only
+    between rollouts). 0 stays 0.
+
+    Args:
+        steps: the steps still wanted, in the stage's unit.
+        rollout: steps per rollout, ``n_steps * n_envs`` (stage 1: every crew of every env
+            copy is an env).
+    """
+    return -(-steps // rollout) * rollout
+
+
 def learn(model, run: Run, callbacks) -> Path:
-    """PPO up to ``total_steps``, logging to ``progress{suffix}.csv`` and ``tb/``, then
+    """PPO up to ``total_steps`` rounded up to whole rollouts (``whole_rollouts``; the
+    progress bar counts to that), logging to ``progress{suffix}.csv`` and ``tb/``, then
     ``final_model.zip``; Ctrl-C saves ``checkpoints/interrupted.zip`` and raises
     ``TrainingInterrupted`` saying how to resume."""
     import signal
@@ -358,8 +374,15 @@ def learn(model, run: Run, callbacks) -> Path:
     folder = run.folder
     model.set_logger(Logger(None, [CSVOutputFormat(str(folder / f"progress{run.suffix}.csv")),
                                    TensorBoardOutputFormat(str(folder / "tb"))]))
-    steps = max(0, run.config.total_steps - model.num_timesteps)
-    run.log(f"PPO: {steps:,} {run.unit} to go (Ctrl-C saves a checkpoint to resume from)")
+    wanted = max(0, run.config.total_steps - model.num_timesteps)
+    rollout = model.n_steps * model.n_envs
+    # PPO collects whole rollouts, so it runs past a total that is not a multiple of one:
+    # ask for the rounded total, so that the progress bar's total is what runs.
+    steps = whole_rollouts(wanted, rollout)
+    rounded = (f" ({wanted:,} rounded up to whole rollouts of n_steps {model.n_steps} x "
+               f"{model.n_envs} envs = {rollout:,})" if steps != wanted else "")
+    run.log(f"PPO: {steps:,} {run.unit} to go{rounded}; Ctrl-C saves a checkpoint to resume "
+            "from")
     try:
         model.learn(steps, callback=callbacks, reset_num_timesteps=run.resume is None,
                     progress_bar=run.progress_bar)

@@ -47,6 +47,7 @@ from training.cli import (
     OneLineParser,
     add_ray_option,
     non_negative_int,
+    plain,
     positive_int,
     positive_seconds,
 )
@@ -83,7 +84,12 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     import cmdp_pymunk
     from agents.specs import EVALUATOR_HELP
 
-    p = OneLineParser(prog="cmdp-simulate", description=__doc__.splitlines()[0])
+    p = OneLineParser(prog="cmdp-simulate", description=plain(__doc__), epilog=(
+        "Writes into --out: summary.json, events.csv, schedule.csv, case.json, "
+        "gantt_agents.png, gantt_tasks.png, trajectories.png (--gif: rollout.gif); with "
+        "--episodes N each seed in seed-K/, and makespans.csv, makespans.json, "
+        "makespan_histogram.png and s_curve.png in --out. Exit status 1 if an episode "
+        "stalled or timed out, 2 for a bad case or option. docs/simulating.md"))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--evaluator", default="priority",

@@ -7,8 +7,9 @@
                       [--ray [ADDRESS]]
 
 The settings are checked first (exit status 2 with one line for a bad one); the run is then
-``training.stage1.train`` or ``training.stage2.train``. Ctrl-C: exit status 130 with one line
-saying what was saved and how to resume.
+``training.stage1.train`` or ``training.stage2.train``. ``total_steps`` is rounded up to whole
+PPO rollouts (n_steps x envs), which is what runs and what the progress bar counts to.
+Ctrl-C: exit status 130 with one line saying what was saved and how to resume.
 
 ``stage2 --ray`` steps the floors on ``num_cpus`` Ray actors (a Ray started here; ``--ray
 ADDRESS``: a cluster's) instead of worker processes, with the same decisions
@@ -37,13 +38,20 @@ STAGES = {"stage1": (stage1, stage1.Stage1Config, "the shared target-reaching po
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="cmdp-train", description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(parser)
-    sub = parser.add_subparsers(dest="stage", required=True)
+    sub = parser.add_subparsers(dest="stage", required=True,
+                                help="which policy to train (cmdp-train STAGE --help)")
     for stage, (_, _, what) in STAGES.items():
-        p = sub.add_parser(stage, help=f"train {what}")
+        p = sub.add_parser(
+            stage, help=f"train {what}",
+            description=f"cmdp-train {stage}: train {what}. Settings from --config, each "
+                        f"overridable with --set (the settings: docs/training-{stage}.md); "
+                        "writes checkpoints, progress.csv, TensorBoard logs and "
+                        "final_model.zip into --out; Ctrl-C saves a checkpoint to --resume from.")
         p.add_argument("--config", type=Path, default=None,
                        help=f"TOML settings (default: training/configs/{stage}.toml)")
         p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                       help="override a config setting (repeatable)")
+                       help="override a config setting (repeatable); total_steps is "
+                            "rounded up to whole PPO rollouts (n_steps x envs), what runs")
         p.add_argument("--out", type=Path, default=Path(f"runs/{stage}"),
                        help=f"run folder (default: runs/{stage})")
         p.add_argument("--resume", type=Path, default=None, help="a checkpoint .zip to resume")
