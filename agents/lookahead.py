@@ -8,7 +8,9 @@ the end of the floor, and the candidate with the lowest mean makespan over the b
 futures (scenario keys: the paces of tasks not yet started are redrawn, those already drawn
 are kept), so the comparison is paired. ``futures=0`` branches into the floor's own future:
 the lookahead then sees the true durations, an optimistic bound on what one step of
-lookahead can gain (issue 17's headroom measurement).
+lookahead can gain (issue 17's headroom measurement). ``futures=expected`` branches once per
+candidate into the certainty-equivalent future (``streams.EXPECTED``: every task not yet
+started at its expected pace): the cost of one sampled future without its sampling noise.
 
 The chosen target is put on top of the base rule's values by swapping it with the base's
 first choice, so the values stay the base's set. A crew holds a choice that overrode the base
@@ -30,6 +32,7 @@ import time
 from dataclasses import dataclass
 
 from cmdp_pymunk.state import ScopeKind
+from cmdp_pymunk.streams import EXPECTED
 
 from .navigator import Navigator
 from .priority import PriorityEvaluator
@@ -42,6 +45,8 @@ class LookaheadSettings:
     Attributes:
         candidates: how many of the base rule's best targets are tried (1: the base rule).
         futures: sampled futures per candidate (0: the floor's own, true durations).
+        expected_paces: instead of sampled futures, one branch per candidate in which every
+            task not yet started works at its expected pace (``futures`` must then be 1).
         unfinished_penalty_s: added to the time reached by a branch that stalls or hits the
             time limit, so that it always loses to one that finishes.
         workers: processes that run the branches of a decision side by side (1: in this
@@ -50,6 +55,7 @@ class LookaheadSettings:
 
     candidates: int = 3
     futures: int = 1
+    expected_paces: bool = False
     unfinished_penalty_s: float = 100_000.0
     workers: int = 1
 
@@ -62,6 +68,9 @@ class LookaheadSettings:
         if not (isinstance(self.futures, int) and self.futures >= 0):
             raise ValueError(f"lookahead futures must be an int >= 0 (0: the floor's own "
                              f"future), not {self.futures!r}")
+        if self.expected_paces and self.futures != 1:
+            raise ValueError(f"lookahead with expected paces branches once per candidate: "
+                             f"futures must be 1, not {self.futures!r}")
 
 
 @dataclass
@@ -160,6 +169,8 @@ class LookaheadEvaluator:
     def scenarios(self) -> list[int | None]:
         """The futures of this decision: the same for every candidate, new for each decision."""
         k = self.settings.futures
+        if self.settings.expected_paces:
+            return [EXPECTED]
         if k == 0:
             return [None]
         first = len(self.decisions) * k
@@ -225,7 +236,8 @@ class LookaheadEvaluator:
         d = self.decisions
         return {"decisions": len(d), "overrides": sum(x.choice != x.base_choice for x in d),
                 "wall_s": round(math.fsum(x.wall_s for x in d), 2),
-                "candidates": self.settings.candidates, "futures": self.settings.futures}
+                "candidates": self.settings.candidates,
+                "futures": "expected" if self.settings.expected_paces else self.settings.futures}
 
 
 def run_branch(branch: tuple, base, i: int, values: dict[int, float], target: int,

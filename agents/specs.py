@@ -18,7 +18,8 @@ from .navigator import Navigator
 EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority file, e.g. made by "
                   "cmdp-ga), cpsat (replay a CP-SAT plan solved for the case), cpsat:PATH (a "
                   "saved plan), lookahead or lookahead:candidates=3+futures=1+base=priority "
-                  "(branch the floor at each decision; futures=0 sees the true durations), "
+                  "(branch the floor at each decision; futures=0 sees the true durations, "
+                  "futures=expected the expected paces), "
                   "replan or replan:limit=1+overhead=150 (CP-SAT re-solves the rest of the "
                   "floor at each decision), "
                   "student:PATH (Eq. 9 plus a residual: fitted to the lookahead, or a "
@@ -69,12 +70,14 @@ def make_lookahead(options: str):
         key, sep, value = item.partition("=")
         if key == "base" and sep:
             base = value
+        elif key == "futures" and value == "expected":
+            settings["expected_paces"] = True
         elif key in ("candidates", "futures", "workers") and sep and value.isdigit():
             settings[key] = int(value)
         else:
             raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
-                             f"candidates=INT, futures=INT, workers=INT, base=SPEC (joined by "
-                             f"+); e.g. "
+                             f"candidates=INT, futures=INT or expected, workers=INT, base=SPEC "
+                             f"(joined by +); e.g. "
                              f"lookahead:candidates=3+futures=1+base=priority")
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "

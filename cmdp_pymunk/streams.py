@@ -8,7 +8,11 @@ does not reshuffle every later duration (one generator drawn in task-start order
 
 A *scenario* is a sampled future of a floor (``Engine.clone(scenario=k)``): the paces of tasks
 not yet started come from (seed, "pace", k, task) instead; tasks already started keep the
-pace they drew. Scenario None is the floor's own future.
+pace they drew. Scenario None is the floor's own future. Scenario ``EXPECTED`` is the
+certainty-equivalent future: every task not yet started works at its expected pace (a normal
+draw of Table 3 gives its mean), so one branch stands for the average future without the
+noise of sampling one (other sources, e.g. disruptions, keep drawing from a stream of their own
+for it).
 
 Disruptions (``disruptions``) draw from (seed, kind, entry): each kind of disruption its own
 source, so adding one leaves every task's pace, and every other kind's draws, unchanged.
@@ -26,6 +30,17 @@ LATE_DELIVERY = 3
 ABSENCE = 4
 WEATHER = 5
 
+# The scenario of expected paces (``RandomStreams.with_scenario``): not a sampled future.
+EXPECTED = -1
+
+
+class ExpectedDraws:
+    """Stands in for a task's pace generator in the ``EXPECTED`` scenario: a normal draw is
+    its mean (``construct.draw_pace`` then gives the expected pace of Table 3)."""
+
+    def normal(self, loc: float = 0.0, scale: float = 1.0) -> float:
+        return float(loc)
+
 
 class RandomStreams:
     """The streams of one episode: ``pace(task)`` gives the generator of a task's pace.
@@ -33,7 +48,8 @@ class RandomStreams:
     Args:
         seed: the episode's seed (an int >= 0), or None for fresh OS entropy (then
             ``entropy`` says which, so the episode can be replayed).
-        scenario: None for the floor's own future, or an int >= 0 naming a sampled one.
+        scenario: None for the floor's own future, an int >= 0 naming a sampled one, or
+            ``EXPECTED`` (every task not yet started at its expected pace).
     """
 
     def __init__(self, seed: int | None, scenario: int | None = None):
@@ -46,9 +62,10 @@ class RandomStreams:
 
     def with_scenario(self, scenario: int | None) -> RandomStreams:
         """Switch the future to scenario ``scenario`` (in place; returns self)."""
-        if scenario is not None and (not isinstance(scenario, (int, np.integer)) or scenario < 0):
-            raise ValueError(f"scenario must be an int >= 0 or None (the floor's own future), "
-                             f"not {scenario!r}")
+        if scenario is not None and (not isinstance(scenario, (int, np.integer))
+                                     or (scenario < 0 and scenario != EXPECTED)):
+            raise ValueError(f"scenario must be an int >= 0, None (the floor's own future) or "
+                             f"streams.EXPECTED ({EXPECTED}: expected paces), not {scenario!r}")
         self.scenario = None if scenario is None else int(scenario)
         return self
 
@@ -56,12 +73,17 @@ class RandomStreams:
         """The SeedSequence key of one item of one source under the current scenario."""
         if self.scenario is None:
             return [self.entropy, source, item]
+        if self.scenario == EXPECTED:
+            return [self.entropy, source, item, 2]
         return [self.entropy, source, item, 1, self.scenario]
 
     def generator(self, source: int, item: int) -> np.random.Generator:
         return np.random.Generator(np.random.PCG64(np.random.SeedSequence(self.key(source,
                                                                                     item))))
 
-    def pace(self, task: int) -> np.random.Generator:
-        """The generator a task's pace is drawn from (``construct.draw_pace``)."""
+    def pace(self, task: int) -> np.random.Generator | ExpectedDraws:
+        """The generator a task's pace is drawn from (``construct.draw_pace``); in the
+        ``EXPECTED`` scenario, draws that give the mean."""
+        if self.scenario == EXPECTED:
+            return ExpectedDraws()
         return self.generator(PACE, task)

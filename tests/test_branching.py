@@ -9,7 +9,7 @@ from agents.priority import PriorityEvaluator
 from cmdp_pymunk.construct import draw_pace
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import NearestFirstEvaluator
-from cmdp_pymunk.streams import RandomStreams
+from cmdp_pymunk.streams import EXPECTED, ExpectedDraws, RandomStreams
 from cmdp_pymunk.world import STORAGE
 
 
@@ -89,6 +89,28 @@ def test_scenarios_change_only_the_paces_of_tasks_not_yet_started():
         if task.id in later:
             stream = RandomStreams(0, scenario=1).pace(task.index)
             assert task.pace == draw_pace(stream, site.crews[task.crew], task)
+
+
+def test_the_expected_scenario_gives_the_tasks_not_yet_started_their_mean_pace():
+    env, navigator = floor()
+    run(env, navigator, 4000.0)
+    started = paces(env)
+    _, branch, nav = env.engine.clone(scenario=EXPECTED, companions=(env, navigator))
+    run(branch, nav, 9000.0)
+    site = branch.engine.site
+    later = paces(branch).keys() - started.keys()
+    assert len(later) >= 3 and all(paces(branch)[t] == started[t] for t in started)
+    for task in site.tasks:
+        if task.id in later:
+            spec = site.crews[task.crew].spec
+            if spec.by_duration:  # one unit of work in the mean duration, by hand
+                assert task.pace == 1.0 / (spec.duration_mean_min * 60.0)
+            else:                 # the mean efficiency per minute, per second
+                assert task.pace == spec.efficiency_mean_per_min / 60.0
+    # e.g. a crew type of 11.8 min by duration: pace 1 / 708 work per second
+    assert ExpectedDraws().normal(11.8, 1.2) == 11.8
+    with pytest.raises(ValueError, match="EXPECTED"):
+        RandomStreams(0, scenario=-2)
 
 
 def test_clone_refuses_an_episode_not_started_or_finished(tiny_case):

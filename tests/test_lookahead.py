@@ -11,6 +11,7 @@ import cmdp_pymunk
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings, promote, ranked
 from agents.priority import PriorityEvaluator
 from agents.specs import make_evaluator
+from cmdp_pymunk.streams import EXPECTED
 
 
 def test_promote_swaps_the_chosen_target_with_the_best():
@@ -57,6 +58,17 @@ def test_candidates_meet_the_same_sampled_futures(tiny_case):
         assert d.makespans_s[d.candidates.index(d.choice)] == min(d.makespans_s)
 
 
+def test_expected_paces_branch_once_per_candidate_into_the_same_future(tiny_case):
+    lookahead = Recording(settings=LookaheadSettings(candidates=2, expected_paces=True))
+    env = play_floor(lookahead, tiny_case)
+    assert env.engine.site.done and lookahead.decisions
+    assert {scenario for *_, scenario in lookahead.calls} == {EXPECTED}
+    per_decision = [sum(1 for d, *_ in lookahead.calls if d == k)
+                    for k in range(len(lookahead.decisions))]
+    assert per_decision == [2] * len(lookahead.decisions)  # one branch per candidate
+    assert lookahead.summary()["futures"] == "expected"
+
+
 def test_the_true_future_branch_replays_the_floor(tiny_case):
     # futures=0 branches into the floor's own future: the branch that takes the base rule's
     # choice is the base rule's floor itself
@@ -72,8 +84,13 @@ def test_lookahead_specs_and_their_errors():
     assert isinstance(ev, LookaheadEvaluator) and ev.settings == LookaheadSettings(2, 0)
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
     assert make_evaluator("lookahead").settings == LookaheadSettings()
-    with pytest.raises(ValueError, match="candidates=INT, futures=INT, workers=INT, base=SPEC"):
+    with pytest.raises(ValueError,
+                       match="candidates=INT, futures=INT or expected, workers=INT, base=SPEC"):
         make_evaluator("lookahead:cands=2")
+    expected = make_evaluator("lookahead:futures=expected")
+    assert expected.settings == LookaheadSettings(futures=1, expected_paces=True)
+    with pytest.raises(ValueError, match="futures must be 1"):
+        LookaheadSettings(futures=2, expected_paces=True)
     with pytest.raises(ValueError, match="branch inside branches"):
         make_evaluator("lookahead:base=lookahead")
     with pytest.raises(ValueError, match="candidates must be an int >= 1"):
