@@ -27,6 +27,7 @@ import statistics
 import time
 
 import numpy as np
+from bench_ray import commit  # the benchmarks' folder is the script's: sys.path[0]
 
 import cmdp_pymunk
 from training import scaffold, stage2
@@ -65,16 +66,6 @@ def learn(venv, config, decisions: int) -> float:
     start, done = time.perf_counter(), model.num_timesteps
     model.learn(decisions, reset_num_timesteps=False)
     return (model.num_timesteps - done) / (time.perf_counter() - start)
-
-
-def commit() -> str:
-    import subprocess
-
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
 
 
 def main(argv: list[str] | None = None) -> None:
