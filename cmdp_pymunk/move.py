@@ -69,16 +69,16 @@ def reaching_action(action, crew: CrewState) -> tuple[int, int, int]:
     a ValueError names the crew and what was expected for anything else (a negative index
     would otherwise pick from the end of the table without a word)."""
     try:
-        if len(action) != 3:
-            raise ValueError
-        f, s, t = int(action[0]), int(action[1]), int(action[2])
+        f, s, t = action
+        f, s, t = int(f), int(s), int(t)
     except (TypeError, ValueError):
-        f = s = t = -1
-    if not (0 <= f < 4 and 0 <= s < 3 and 0 <= t < 3):
+        f = -1
+    nf, ns, nt = ACTION_NVEC
+    if not (0 <= f < nf and 0 <= s < ns and 0 <= t < nt):
         raise ValueError(f"{crew.id} (crew {crew.index}): reaching action {action!r} is not "
                          f"three whole numbers in MultiDiscrete({list(ACTION_NVEC)}) "
-                         "(forward 0-3, lateral 0-2, turn 0-2); fix: give one such triple per "
-                         f"crew, e.g. {STAND_STILL} to stand still")
+                         f"(forward 0-{nf - 1}, lateral 0-{ns - 1}, turn 0-{nt - 1}); fix: give "
+                         f"one such triple per crew, e.g. {STAND_STILL} to stand still")
     return f, s, t
 
 
