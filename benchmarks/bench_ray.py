@@ -27,6 +27,7 @@ import time
 
 import cmdp_pymunk
 from agents.episodes import open_backend
+from cmdp_pymunk.rollout import versions
 from training.distill import _label_job
 from training.evaluate import _episode_job
 
@@ -76,16 +77,6 @@ def compare(title: str, unit: str, job: str, runner_args, jobs, cpus: int, round
     return {name: statistics.median(v) for name, v in speed.items()}
 
 
-def commit() -> str:
-    import subprocess
-
-    try:
-        return subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                              text=True, check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(p)
@@ -101,7 +92,8 @@ def main(argv: list[str] | None = None) -> None:
     start = time.perf_counter()
     ray.init(num_cpus=a.cpus, include_dashboard=False, object_store_memory=200 * 1024**2,
              logging_level="WARNING")
-    print(f"commit {commit()}, {len(os.sched_getaffinity(0))} cores, load "
+    commit = (versions()["commit"] or "unknown")[:7]
+    print(f"commit {commit}, {len(os.sched_getaffinity(0))} cores, load "
           f"{os.getloadavg()[0]:.1f}", flush=True)
     print(f"Ray {ray.__version__} started here with {a.cpus} CPUs in "
           f"{time.perf_counter() - start:.1f} s", flush=True)

@@ -27,9 +27,9 @@ import statistics
 import time
 
 import numpy as np
-from bench_ray import commit  # the benchmarks' folder is the script's: sys.path[0]
 
 import cmdp_pymunk
+from cmdp_pymunk.rollout import versions
 from training import scaffold, stage2
 
 
@@ -82,7 +82,8 @@ def main(argv: list[str] | None = None) -> None:
     from agents.ray_backend import connect, ray
 
     torch.set_num_threads(1)
-    print(f"commit {commit()}, {len(os.sched_getaffinity(0))} cores, load "
+    commit = (versions()["commit"] or "unknown")[:7]
+    print(f"commit {commit}, {len(os.sched_getaffinity(0))} cores, load "
           f"{os.getloadavg()[0]:.1f}", flush=True)
     start = time.perf_counter()
     connect("local", a.cpus)
