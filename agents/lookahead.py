@@ -17,6 +17,11 @@ first choice, so the values stay the base's set. A crew holds a choice that over
 until it reaches a target or the target leaves its scope; a choice equal to the base's is not
 held, so with ``candidates=1`` the floor runs exactly as the base rule (a test checks it).
 
+With an ``acting`` evaluator (DAgger's labelling, ``training.distill label --acting``) the
+lookahead only labels: it values the base's candidates at every decision as above, records the
+decision, and returns the acting evaluator's values, so the floor goes where that policy takes
+it (the student's own states) while the labels say what one step of lookahead would pick there.
+
 It is an evaluator like the others (``--evaluator lookahead`` in ``cmdp-simulate`` and
 ``cmdp-evaluate``), asked between whole seconds (``evaluate.BranchingEvaluator``), and it
 branches the low level with the floor when it is bound to one (``bind_low_level``).
@@ -107,9 +112,13 @@ class LookaheadEvaluator:
 
     between_seconds = True
 
-    def __init__(self, base=None, settings: LookaheadSettings | None = None):
+    def __init__(self, base=None, settings: LookaheadSettings | None = None, acting=None):
         self.base = base if base is not None else PriorityEvaluator()
         self.settings = settings or LookaheadSettings()
+        if acting is not None and getattr(acting, "between_seconds", False):
+            raise ValueError("the lookahead's acting policy must be a plain evaluator (a rule "
+                             "or a model), not one that branches the floor")
+        self.acting = acting  # None: the lookahead acts; else it only labels (module doc)
         self.env = None
         self.navigator = None
         self.decisions: list[Decision] = []
@@ -137,16 +146,29 @@ class LookaheadEvaluator:
             self._episode, self._held, self.decisions = site, {}, []
         crew = site.crews[i]
         values = self.base.target_values(crew, site, engine.positions[i])
+        if self.acting is not None:
+            self._decide(engine, i, values)
+            return self.acting.target_values(crew, site, engine.positions[i])
         held = self._held.get(i)
         if held is not None:
             target, reaches = held
             if target in values and crew.stats.reaches == reaches:
                 return promote(values, target)
             del self._held[i]
+        decision = self._decide(engine, i, values)
+        if decision is None or decision.choice == decision.base_choice:
+            return values
+        self._held[i] = (decision.choice, crew.stats.reaches)
+        return promote(values, decision.choice)
+
+    def _decide(self, engine, i: int, values: dict[int, float]) -> Decision | None:
+        """Branch the base's best candidates for crew i and record the decision (None where
+        there is nothing to choose: not a task scope, or a single target)."""
+        site = engine.site
         order = ranked(values)
         candidates = order[:self.settings.candidates]
-        if crew.scope_kind != ScopeKind.TASKS or len(candidates) < 2:
-            return values
+        if site.crews[i].scope_kind != ScopeKind.TASKS or len(candidates) < 2:
+            return None
         start = time.perf_counter()
         if self.settings.workers > 1:
             makespans = self._parallel_makespans(engine, i, values, candidates)
@@ -159,10 +181,7 @@ class LookaheadEvaluator:
         self.decisions.append(decision)
         if self.on_decision is not None:
             self.on_decision(engine, i, values, decision)
-        if choice == order[0]:
-            return values
-        self._held[i] = (choice, crew.stats.reaches)
-        return promote(values, choice)
+        return decision
 
     # -- branches ------------------------------------------------------------------------------
 

@@ -90,3 +90,72 @@ def test_a_bad_student_file_says_what_to_do(tmp_path):
     with pytest.raises(ValueError, match="expected 11"):
         StudentEvaluator({"FC": [1.0, 2.0]})
     assert distill.main(["fit", str(tmp_path)]) == 2
+
+
+def test_choice_rows_pad_clip_and_mask_by_hand():
+    # two decisions of a 2-candidate label set, shown to a policy of 3 rows: V' stays (inside
+    # [-1, 1.5]), a feature of 1.7 is clipped to 1, a missing candidate and the pad are zeros
+    f = len(FEATURE_NAMES)
+    values = np.array([[1.2, 0.4], [0.9, np.nan]])
+    features = np.zeros((2, 2, f))
+    features[0, 1, 0] = 1.7
+    features[1, 1, 0] = 0.5  # behind a NaN value: not a candidate
+    flat, mask = distill.choice_rows({"values": values, "features": features}, cap=3)
+    rows = flat.reshape(2, 3, f + 1)
+    assert mask.tolist() == [[True, True, False], [True, False, False]]
+    assert rows[0, :, 0].tolist() == pytest.approx([1.2, 0.4, 0.0])
+    assert rows[0, 1, 1] == 1.0 and rows[1, 1].tolist() == [0.0] * (f + 1)
+    with pytest.raises(ValueError, match="--candidates 2"):
+        distill.choice_rows({"values": values, "features": features}, cap=1)
+
+
+def test_fit_model_learns_a_feature_the_teacher_follows_and_loads_as_an_evaluator(tmp_path):
+    from agents.candidates import CandidateModelEvaluator
+
+    rng = np.random.default_rng(1)
+    n, k, f = 400, 3, len(FEATURE_NAMES)
+    values = np.sort(rng.random((n, k)), axis=1)[:, ::-1] * 0.2  # Eq. 9 ranks candidate 0
+    features = rng.random((n, k, f))
+    tail = FEATURE_NAMES.index("tail")
+    data = {"values": values, "features": features,
+            "makespan_s": 30000.0 - 2000.0 * features[:, :, tail],
+            "row_seed": np.repeat(np.arange(10), n // 10)}
+    model, report = distill.fit_choice_model(data, cap=3, settings={"epochs": 200},
+                                             log=lambda *_: None)
+    assert report["validation_seeds"] == [8, 9]
+    assert report["agree_start_teacher_validation"] == report["agree_eq9_teacher_validation"]
+    assert report["agree_model_teacher_validation"] > \
+        report["agree_eq9_teacher_validation"] + 0.3
+    assert report["validation_loss"] < report["validation_loss_start"]
+    model.save(tmp_path / "m.zip")
+    evaluator = CandidateModelEvaluator(tmp_path / "m.zip")
+    assert evaluator.view.cap == 3
+
+
+def test_label_with_expected_paces_and_an_acting_policy_then_fit_model(tmp_path):
+    from training import simulate
+
+    labels, model = tmp_path / "labels", tmp_path / "m" / "model.zip"
+    tiny = str(cmdp_pymunk.TINY_CASE)
+    assert distill.main(["label", "--case", tiny, "--seeds", "0-1", "--candidates", "2",
+                         "--futures", "expected", "--out", str(labels)]) == 0
+    assert distill.main(["label", "--case", tiny, "--seeds", "2", "--candidates", "2",
+                         "--futures", "expected", "--acting", "nearest",
+                         "--out", str(labels)]) == 0
+    data = distill.load_labels(labels)
+    assert data["teachers"] == ["lookahead:candidates=2+futures=expected"] * 3
+    assert data["acting"] == ["", "", "nearest"]
+    assert distill.main(["fit-model", str(labels), "--out", str(model)]) == 0
+    meta = json.loads(model.with_suffix(".distill.json").read_text())
+    assert meta["label_seeds"] == [0, 1, 2] and meta["fit"]["validation_seeds"] == [2]
+    assert simulate.main(["--case", tiny, "--evaluator", str(model), "--out",
+                          str(tmp_path / "run"), "--no-charts", "--no-progress"]) == 0
+
+
+def test_bad_label_options_fail_before_any_floor(tmp_path, capsys):
+    assert distill.main(["label", "--futures", "many", "--out", str(tmp_path / "a")]) == 2
+    assert "--futures 'many'" in capsys.readouterr().err
+    assert distill.main(["label", "--acting", "student:missing.json",
+                         "--out", str(tmp_path / "b")]) == 2
+    assert "missing.json" in capsys.readouterr().err
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()

@@ -126,3 +126,17 @@ def test_worker_processes_choose_as_this_process_does(tiny_case):
     assert [(d.candidates, d.makespans_s, d.choice) for d in one.decisions] == \
         [(d.candidates, d.makespans_s, d.choice) for d in two.decisions]
     assert env_one.log.events == env_two.log.events
+
+
+def test_an_acting_policy_drives_the_floor_while_the_lookahead_labels(tiny_case):
+    # DAgger's labelling: the floor is the acting policy's own, and every decision with a
+    # choice is still branched and recorded
+    acting = make_evaluator("nearest")
+    lookahead = LookaheadEvaluator(settings=LookaheadSettings(2, 1, expected_paces=True),
+                                   acting=acting)
+    env = play_floor(lookahead, tiny_case)
+    alone = play_floor(make_evaluator("nearest"), tiny_case)
+    assert env.engine.site.done and env.log.events == alone.log.events
+    assert lookahead.decisions and all(len(d.makespans_s) == 2 for d in lookahead.decisions)
+    with pytest.raises(ValueError, match="plain evaluator"):
+        LookaheadEvaluator(acting=LookaheadEvaluator())

@@ -1,15 +1,20 @@
 """Distil the lookahead into a cheap evaluator: label decisions, then fit a residual over Eq. 9.
 
-    python -m training.distill label --seeds 0-19 --out runs/labels [--futures 0] [--workers 2]
-                                     [--ray [ADDRESS]]
+    python -m training.distill label --seeds 0-19 --out runs/labels [--futures 0|N|expected]
+                                     [--acting SPEC] [--workers 2] [--ray [ADDRESS]]
     python -m training.distill fit runs/labels --out models/student_priority.json
+    python -m training.distill fit-model runs/labels --out runs/distilled/model.zip
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
 decision with two or more candidates, the candidates' features (``agents.features``), their
 Eq. 9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per
 floor, written whole as soon as its floor is done, so a stopped run resumes where it stopped
 (seeds with a file are skipped). The floors run in worker processes, or on Ray actors with
-``--ray`` (docs/ray.md). ``fit`` fits the student (``agents.student``): per crew type a
+``--ray`` (docs/ray.md). ``--futures expected`` labels with the certainty-equivalent
+lookahead (every task not yet started at its expected pace: a choice that depends on the state
+alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
+evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
+its states. ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
 the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
 penalty; every weight 0 is Eq. 9 itself. The JSON it writes names the command, the label
@@ -29,16 +34,38 @@ FIT_DEFAULTS = {"tau_s": 300.0, "l2": 1.0}
 
 # -- labels -------------------------------------------------------------------------------------
 
-def label_floor(case_path: str | None, seed: int, candidates: int, futures: int) -> dict:
-    """One floor under the lookahead: its makespan and the arrays of its decisions."""
+def lookahead_settings(candidates: int, futures: int | str):
+    """``LookaheadSettings`` for ``--candidates`` and ``--futures`` (an int, or "expected")."""
+    from agents.lookahead import LookaheadSettings
+
+    if futures == "expected":
+        return LookaheadSettings(candidates, 1, expected_paces=True)
+    return LookaheadSettings(candidates, futures)
+
+
+def futures_option(text: str) -> int | str:
+    """``--futures``: "expected", or an int >= 0."""
+    if text == "expected":
+        return text
+    if text.isdigit():
+        return int(text)
+    raise ValueError(f"--futures {text!r}: give an int >= 0 (0: the floor's own durations) or "
+                     "expected (the expected paces)")
+
+
+def label_floor(case_path: str | None, seed: int, candidates: int, futures: int | str,
+                acting: str | None = None) -> dict:
+    """One floor under the lookahead (or under ``acting``, the lookahead labelling): its
+    makespan and the arrays of its decisions."""
     import cmdp_pymunk
     from agents.features import FloorFacts, candidate_features
-    from agents.lookahead import LookaheadEvaluator, LookaheadSettings
-    from agents.specs import make_navigator
+    from agents.lookahead import LookaheadEvaluator
+    from agents.specs import make_evaluator, make_navigator
     from cmdp_pymunk.evaluate import PriorityEvaluator
 
     case = cmdp_pymunk.load_case(case_path)
-    lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates, futures))
+    lookahead = LookaheadEvaluator(settings=lookahead_settings(candidates, futures),
+                                   acting=make_evaluator(acting) if acting else None)
     env = cmdp_pymunk.parallel_env(case=case, evaluator=lookahead, park_idle=True, blind=True,
                                    stall_s=3600.0)
     lookahead.bind(env)
@@ -65,7 +92,9 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int)
     while env.agents:
         env.step(navigator.actions(env, None))
     return {"seed": seed, "makespan_s": env.makespan_s, "rows": rows,
-            "wall_s": time.perf_counter() - start, "overrides": lookahead.summary()["overrides"]}
+            "wall_s": time.perf_counter() - start, "overrides": lookahead.summary()["overrides"],
+            "teacher": f"lookahead:candidates={candidates}+futures={futures}",
+            "acting": acting or ""}
 
 
 def save_labels(path: Path, result: dict, candidates: int) -> None:
@@ -84,12 +113,13 @@ def save_labels(path: Path, result: dict, candidates: int) -> None:
                         features=phi, makespan_s=makespan,
                         choice=np.array([r[4] for r in rows], dtype=np.int64),
                         seed=result["seed"], floor_makespan_s=result["makespan_s"] or np.nan,
-                        wall_s=result["wall_s"])
+                        wall_s=result["wall_s"], teacher=result.get("teacher", ""),
+                        acting=result.get("acting", ""))
     tmp.replace(path)
 
 
-def _label_job(runner, case_path, seed, candidates, futures):
-    return label_floor(case_path, seed, candidates, futures)
+def _label_job(runner, case_path, seed, candidates, futures, acting=None):
+    return label_floor(case_path, seed, candidates, futures, acting)
 
 
 def label(args) -> int:
@@ -98,13 +128,19 @@ def label(args) -> int:
     from agents.episodes import open_backend
     from training.evaluate import seed_list
 
+    futures = futures_option(args.futures)
+    lookahead_settings(args.candidates, futures)  # bad settings fail before any floor runs
+    if args.acting:
+        from agents.specs import make_evaluator
+
+        make_evaluator(args.acting)  # so does a missing or unreadable acting policy
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = [s for s in seed_list(args.seeds) if not (out / f"seed-{s}.npz").exists()]
     print(f"label: {len(seed_list(args.seeds)) - len(seeds)} seeds already labelled in {out}; "
-          f"{len(seeds)} to go (candidates {args.candidates}, futures {args.futures}, "
-          f"{args.workers} worker(s))", flush=True)
-    jobs = [(args.case, s, args.candidates, args.futures) for s in seeds]
+          f"{len(seeds)} to go (candidates {args.candidates}, futures {futures}, acting "
+          f"{args.acting or 'the lookahead'}, {args.workers} worker(s))", flush=True)
+    jobs = [(args.case, s, args.candidates, futures, args.acting) for s in seeds]
     # Floors in worker processes, or on Ray actors (--ray): each file is written here as its
     # floor arrives, so a stopped run keeps every finished floor.
     with tqdm(total=len(jobs), unit="floor", desc="label", file=sys.stderr) as bar, \
@@ -135,6 +171,10 @@ def load_labels(folder: Path) -> dict:
             "features": np.concatenate([p["features"] for p in parts]),
             "makespan_s": np.concatenate([p["makespan_s"] for p in parts]),
             "seeds": [int(p["seed"]) for p in parts],
+            "row_seed": np.concatenate([np.full(len(p["choice"]), int(p["seed"]))
+                                        for p in parts]),
+            "teachers": [str(p["teacher"]) if "teacher" in p else "" for p in parts],
+            "acting": [str(p["acting"]) if "acting" in p else "" for p in parts],
             "label_wall_s": [float(p["wall_s"]) for p in parts]}
 
 
@@ -205,6 +245,172 @@ def fit(args) -> int:
     return 0
 
 
+# -- fit-model: the masked-choice SB3 model by cross-entropy ------------------------------------
+
+MODEL_FIT_DEFAULTS = {"tau_s": 300.0, "epochs": 300, "patience": 30, "lr": 1e-3,
+                      "weight_decay": 1e-4, "validation": 0.2}
+
+
+def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
+    """The labels as the masked-choice policy sees its decisions (``agents.candidates``): one
+    flat row block per decision (V' then the features, clipped to the observation's bounds,
+    padded with zeros) and the mask of real candidates."""
+    from agents.candidates import CANDIDATE_COLUMNS, observation_bounds
+
+    values, features = data["values"], data["features"]
+    n, k = values.shape
+    if k > cap:
+        raise ValueError(f"labels of {k} candidates for a policy of {cap}; fix: --candidates {k}")
+    table = np.zeros((n, cap, len(CANDIDATE_COLUMNS)), np.float32)
+    mask = np.zeros((n, cap), bool)
+    mask[:, :k] = ~np.isnan(values)
+    table[:, :k, 0] = np.where(mask[:, :k], values, 0.0)
+    table[:, :k, 1:] = np.where(mask[:, :k, None], features, 0.0)
+    low, high = observation_bounds(cap)
+    flat = np.clip(table.reshape(n, -1), low, high)
+    return flat * np.repeat(mask, len(CANDIDATE_COLUMNS), axis=1), mask
+
+
+class _ChoiceSpaces:
+    """Only the spaces of a masked-choice floor (``training.candidates``), for building the
+    model without running floors."""
+
+    def __init__(self, cap: int):
+        import gymnasium
+        from gymnasium import spaces
+
+        from agents.candidates import observation_bounds
+
+        low, high = observation_bounds(cap)
+
+        class Spaces(gymnasium.Env):
+            observation_space = spaces.Box(low, high, dtype=np.float32)
+            action_space = spaces.Discrete(cap)
+
+            def reset(self, *, seed=None, options=None):
+                return self.observation_space.low.copy(), {}
+
+            def step(self, action):
+                raise RuntimeError("fit-model builds the model; it plays no floor")
+
+            def action_masks(self):
+                return np.ones(cap, bool)
+
+        self.env = Spaces
+
+
+def new_choice_model(cap: int, start_rule: str, seed: int):
+    """A fresh masked-choice MaskablePPO (``training.stage2``'s, from
+    ``training/configs/stage2_candidate.toml``) that starts as Eq. 9 or as ``start_rule``."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from training.stage2 import DEFAULT_CONFIG, Stage2Config, new_candidate_model
+
+    config = Stage2Config.load(DEFAULT_CONFIG.with_name("stage2_candidate.toml"),
+                               [f"candidates={cap}", f"start_rule={start_rule!r}".replace(
+                                   "'", '"'), f"seed={seed}"])
+    return new_candidate_model(config, DummyVecEnv([_ChoiceSpaces(cap).env]))
+
+
+def choice_agreement(logits: np.ndarray, mask: np.ndarray, target: np.ndarray) -> float:
+    """Share of decisions whose argmax (over real candidates) is the teacher's choice."""
+    pick = np.argmax(np.where(mask, logits, -np.inf), axis=1)
+    return float(np.mean(pick == np.argmax(target, axis=1)))
+
+
+def fit_choice_model(data: dict, cap: int, start_rule: str = "", seed: int = 0,
+                     settings: dict | None = None, log=print):
+    """Fit the masked-choice policy's scorer to the teacher's soft choices by cross-entropy
+    (Adam, early stopping on the label floors held back for validation: the last
+    ``validation`` share of the seeds); returns the model and a report."""
+    import torch
+
+    settings = {**MODEL_FIT_DEFAULTS, **(settings or {})}
+    torch.manual_seed(seed)
+    model = new_choice_model(cap, start_rule, seed)
+    scorer = model.policy.action_net
+    flat, mask = choice_rows(data, cap)
+    target = np.zeros(mask.shape)
+    target[:, :data["values"].shape[1]] = soft_targets(data["makespan_s"], settings["tau_s"])
+    seeds = np.asarray(data["row_seed"])
+    floors = sorted(int(s) for s in set(seeds))
+    held = floors[-max(1, round(settings["validation"] * len(floors))):]
+    val = np.isin(seeds, held)
+    if val.all():
+        raise ValueError("fit-model needs labels of at least 2 seeds (one is held for "
+                         "validation)")
+    x, m, p = (torch.as_tensor(a) for a in (flat, mask, target.astype(np.float32)))
+
+    def loss_and_logits(rows):
+        logits = scorer(x[rows]).masked_fill(~m[rows], -1e9)
+        logp = torch.log_softmax(logits, dim=1)
+        return -(p[rows] * logp.masked_fill(~m[rows], 0.0)).sum(1).mean(), logits
+
+    train_rows, val_rows = torch.as_tensor(~val), torch.as_tensor(val)
+    with torch.no_grad():
+        start_val = loss_and_logits(val_rows)[0]
+        start_logits = scorer(x).masked_fill(~m, -1e9).numpy()
+    optimizer = torch.optim.Adam(scorer.parameters(), lr=settings["lr"],
+                                 weight_decay=settings["weight_decay"])
+    best = (float(start_val), 0, {k: v.clone() for k, v in scorer.state_dict().items()})
+    for epoch in range(1, settings["epochs"] + 1):
+        optimizer.zero_grad()
+        loss, _ = loss_and_logits(train_rows)
+        loss.backward()
+        optimizer.step()
+        with torch.no_grad():
+            val_loss = float(loss_and_logits(val_rows)[0])
+        if val_loss < best[0] - 1e-5:
+            best = (val_loss, epoch, {k: v.clone() for k, v in scorer.state_dict().items()})
+        elif epoch - best[1] >= settings["patience"]:
+            break
+    scorer.load_state_dict(best[2])
+    with torch.no_grad():
+        logits = scorer(x).masked_fill(~m, -1e9).numpy()
+        eq9 = np.where(mask, flat.reshape(len(flat), cap, -1)[:, :, 0], -np.inf)
+    report = {"decisions": int(len(flat)), "validation_seeds": [int(s) for s in held],
+              "epochs_run": epoch, "best_epoch": best[1],
+              "validation_loss_start": round(float(start_val), 4),
+              "validation_loss": round(best[0], 4)}
+    for name, rows in (("train", ~val), ("validation", val)):
+        for who, scores in (("eq9", eq9), ("start", start_logits), ("model", logits)):
+            report[f"agree_{who}_teacher_{name}"] = round(
+                choice_agreement(scores[rows], mask[rows], target[rows]), 3)
+    log(f"fit-model: {report['decisions']} decisions, best epoch {best[1]} of {epoch}; "
+        f"validation seeds {held}: teacher agrees with Eq. 9 on "
+        f"{report['agree_eq9_teacher_validation']:.0%}, with the start on "
+        f"{report['agree_start_teacher_validation']:.0%}, with the model on "
+        f"{report['agree_model_teacher_validation']:.0%} (loss "
+        f"{report['validation_loss_start']} -> {report['validation_loss']})")
+    return model, report
+
+
+def fit_model(args) -> int:
+    import json
+
+    from cmdp_pymunk.events import write_atomic
+
+    data = load_labels(Path(args.labels))
+    cap = args.candidates or data["values"].shape[1]
+    settings = {k: getattr(args, k) for k in MODEL_FIT_DEFAULTS}
+    model, report = fit_choice_model(data, cap, args.start_rule or "", args.seed, settings)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.stem + ".tmp.zip")
+    model.save(tmp)
+    meta = {"command": "python -m training.distill " + " ".join(args.argv),
+            "labels": str(args.labels), "label_seeds": data["seeds"],
+            "teachers": sorted(set(data["teachers"])), "acting": sorted(set(data["acting"])),
+            "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
+            "candidates": cap, "start_rule": args.start_rule or "", "seed": args.seed,
+            "settings": settings, "fit": report}
+    write_atomic(out.with_suffix(".distill.json"), json.dumps(meta, indent=1) + "\n")
+    tmp.replace(out)
+    print(f"fit-model: wrote {out} (use it as --evaluator {out}) and "
+          f"{out.with_suffix('.distill.json')}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     from agents.episodes import BackendError
     from training.cli import OneLineParser, add_ray_option
@@ -216,8 +422,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--case", default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", default="0-19", help="training seeds, e.g. 0-19")
     p.add_argument("--candidates", type=int, default=3, help="top-k of Eq. 9 tried")
-    p.add_argument("--futures", type=int, default=0,
-                   help="sampled futures per candidate (0: the floor's own durations)")
+    p.add_argument("--futures", default="0",
+                   help="sampled futures per candidate (0: the floor's own durations), or "
+                        "expected (one branch at the expected paces)")
+    p.add_argument("--acting", default=None, metavar="SPEC",
+                   help="DAgger: the floor follows this evaluator (e.g. student:PATH or a "
+                        "masked-choice model .zip) and the lookahead only labels")
     p.add_argument("--workers", type=int, default=1,
                    help="worker processes, or Ray actors with --ray (0 with --ray ADDRESS: one "
                         "per CPU of the cluster)")
@@ -229,10 +439,25 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--tau-s", type=float, default=FIT_DEFAULTS["tau_s"],
                    help="temperature of the teacher's soft choice, in seconds of makespan")
     f.add_argument("--l2", type=float, default=FIT_DEFAULTS["l2"], help="weight penalty")
+    m = sub.add_parser("fit-model", help="fit the masked-choice SB3 model (MaskablePPO) to a "
+                       "label folder by cross-entropy")
+    m.add_argument("labels", help="label folder made by `label`")
+    m.add_argument("--out", default="runs/distilled/model.zip", help="model zip to write "
+                   "(and NAME.distill.json beside it: the command, the labels, the fit)")
+    m.add_argument("--candidates", type=int, default=0,
+                   help="the policy's candidate cap (default: the labels')")
+    m.add_argument("--start-rule", default="",
+                   help="start from this searched rule (cmdp-search-rule's rule.json) "
+                        "instead of Eq. 9")
+    m.add_argument("--seed", type=int, default=0, help="torch seed")
+    for key, value in MODEL_FIT_DEFAULTS.items():
+        m.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value,
+                       help=f"fit setting (default {value})")
     args = parser.parse_args(argv)
     args.argv = argv
+    commands = {"label": label, "fit": fit, "fit-model": fit_model}
     try:
-        return label(args) if args.command == "label" else fit(args)
+        return commands[args.command](args)
     except (ValueError, BackendError) as err:
         print(f"distill: {err}", file=sys.stderr)
         return 2
