@@ -92,6 +92,9 @@ def test_a_policy_started_from_a_rule_scores_as_the_rule(tmp_path):
     ({"action": "candidate", "central_critic": False, "start_rule": "nope.json"},
      "no such file"),
     ({"action": "candidate", "central_critic": False, "candidates": 1}, "candidates"),
+    ({"start_model": "m.zip"}, 'action = "candidate"'),
+    ({"action": "candidate", "central_critic": False, "start_model": "nope.zip"},
+     "no such file"),
 ])
 def test_bad_candidate_settings_are_refused_with_their_fix(override, message):
     with pytest.raises(ValueError, match=message):
@@ -159,3 +162,24 @@ def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
     assert total == pytest.approx(terms + 0.001 * makespan)
     assert terms + 0.001 * makespan == pytest.approx(terms - case.evaluation_reward.episode
                                                      * makespan)
+
+
+def test_a_run_can_start_from_a_distilled_model(tmp_path):
+    # PPO fine-tuning after distillation: the new model's scorer is the distilled one's
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from training import distill
+
+    distilled = distill.new_choice_model(3, "", seed=0)
+    with th.no_grad():
+        distilled.policy.action_net.linear.weight.fill_(0.25)
+    distilled.save(tmp_path / "d.zip")
+    venv = DummyVecEnv([distill._ChoiceSpaces(3).env])
+    config = Stage2Config(action="candidate", central_critic=False, candidates=3,
+                          net_arch=[128, 128], start_model=str(tmp_path / "d.zip"))
+    model = stage2.new_candidate_model(config, venv)
+    assert th.equal(model.policy.action_net.linear.weight,
+                    distilled.policy.action_net.linear.weight)
+    with pytest.raises(ValueError, match="same candidates"):
+        stage2.new_candidate_model(config.model_copy(update={"candidates": 4}),
+                                   DummyVecEnv([distill._ChoiceSpaces(4).env]))

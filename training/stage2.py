@@ -87,6 +87,9 @@ class Stage2Config(scaffold.PPOSettings):
     # the candidate policy starts as this searched rule (a student file of cmdp-search-rule,
     # one weight vector for every crew type) instead of Eq. 9; "" for Eq. 9
     start_rule: str = ""
+    # or from this masked-choice model's weights (e.g. `python -m training.distill fit-model`:
+    # PPO fine-tunes the distilled policy); "" for none
+    start_model: str = ""
     # reward: at a floor's end, R_e's makespan term against Eq. 9's makespan on the same seed
     # (training.candidates.terminal_term; candidate action only), and the training seeds
     # taken modulo seed_pool (0: any seed) so that Eq. 9 plays each seed once
@@ -102,6 +105,12 @@ class Stage2Config(scaffold.PPOSettings):
         if self.start_rule and self.action != "candidate":
             raise ValueError("start_rule is for action = \"candidate\"; fix: --set "
                              "action=candidate, or drop start_rule")
+        if self.start_model and (self.action != "candidate" or self.start_rule):
+            raise ValueError("start_model is for action = \"candidate\" without start_rule; "
+                             "fix: --set action=candidate and drop start_rule")
+        if self.start_model and not Path(self.start_model).is_file():
+            raise ValueError(f"start_model = {self.start_model!r}: no such file; fix: give a "
+                             "masked-choice model .zip (python -m training.distill fit-model)")
         if self.start_rule and not Path(self.start_rule).is_file():
             raise ValueError(f"start_rule = {self.start_rule!r}: no such file; fix: give the "
                              "rule.json of a cmdp-search-rule run")
@@ -150,7 +159,8 @@ def make_floor(config: Stage2Config, case):
     if config.action == "candidate":
         from .candidates import CandidateFloor
 
-        plain = config.model_copy(update={"action": "desired_position", "start_rule": ""})
+        plain = config.model_copy(update={"action": "desired_position", "start_rule": "",
+                                          "start_model": ""})
         reference = partial(make_floor, plain, case) if config.against_heuristic else None
         return CandidateFloor(floor, config.candidates, reference, config.seed_pool)
     return floor
@@ -430,6 +440,13 @@ def new_candidate_model(config: Stage2Config, venv):
     if config.start_rule:
         model.policy.action_net.start_from_rule(rule_vector(config.start_rule,
                                                             config.candidates))
+    if config.start_model:
+        try:
+            model.set_parameters(config.start_model, exact_match=True, device="cpu")
+        except (RuntimeError, ValueError, KeyError) as err:
+            raise ValueError(f"start_model = {config.start_model!r} does not fit this run's "
+                             f"policy ({str(err).splitlines()[0]}); fix: the same candidates and "
+                             "net_arch as the model's (its .distill.json or config)") from None
     return model
 
 
