@@ -392,6 +392,11 @@ def fit_model(args) -> int:
 
     data = load_labels(Path(args.labels))
     cap = args.candidates or data["values"].shape[1]
+    if args.start_rule and not args.candidates:
+        from agents.student import StudentEvaluator
+
+        # the rule's own candidate count (labels of fewer leave the other rows masked)
+        cap = max(cap, StudentEvaluator.load(args.start_rule).candidates)
     settings = {k: getattr(args, k) for k in MODEL_FIT_DEFAULTS}
     model, report = fit_choice_model(data, cap, args.start_rule or "", args.seed, settings)
     out = Path(args.out)
