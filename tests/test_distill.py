@@ -127,9 +127,20 @@ def test_fit_model_learns_a_feature_the_teacher_follows_and_loads_as_an_evaluato
     assert report["agree_model_teacher_validation"] > \
         report["agree_eq9_teacher_validation"] + 0.3
     assert report["validation_loss"] < report["validation_loss_start"]
+    assert report["regret_model_validation_s"] < report["regret_eq9_validation_s"]
+
     model.save(tmp_path / "m.zip")
     evaluator = CandidateModelEvaluator(tmp_path / "m.zip")
     assert evaluator.view.cap == 3
+
+
+def test_choice_regret_by_hand():
+    # the teacher's makespans 100 / 400 / missing and 250 / 50 / 75: picking row 1 both times
+    # loses 300 s, then 0 s (mean 150); a masked row is never picked
+    makespan = np.array([[100.0, 400.0, np.nan], [250.0, 50.0, 75.0]])
+    mask = ~np.isnan(makespan)
+    scores = np.array([[0.0, 1.0, 9.0], [0.0, 1.0, 0.5]])
+    assert distill.choice_regret_s(scores, mask, makespan) == pytest.approx(150.0)
 
 
 def test_label_with_expected_paces_and_an_acting_policy_then_fit_model(tmp_path):
