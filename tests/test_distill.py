@@ -65,7 +65,7 @@ def test_fit_finds_a_feature_the_teacher_follows():
 def test_label_fit_and_simulate_on_the_tiny_case(tmp_path):
     from training import simulate
 
-    labels, model = tmp_path / "labels", tmp_path / "student.json"
+    labels, model = tmp_path / "labels", tmp_path / "new" / "student.json"
     tiny = str(cmdp_pymunk.TINY_CASE)
     assert distill.main(["label", "--case", tiny, "--seeds", "0-2", "--candidates", "2",
                          "--out", str(labels)]) == 0

@@ -236,6 +236,7 @@ def fit(args) -> int:
             "labels": str(args.labels), "label_seeds": data["seeds"],
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
             "tau_s": args.tau_s, "l2": args.l2, "fit": report}
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     student.save(Path(args.out), meta)
     for crew_type, r in report.items():
         print(f"fit: {crew_type}: {r['decisions']} decisions, teacher agrees with Eq. 9 on "
