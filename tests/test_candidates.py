@@ -166,15 +166,13 @@ def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
 
 def test_a_run_can_start_from_a_distilled_model(tmp_path):
     # PPO fine-tuning after distillation: the new model's scorer is the distilled one's
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
     from training import distill
 
     distilled = distill.new_choice_model(3, "", seed=0)
     with th.no_grad():
         distilled.policy.action_net.linear.weight.fill_(0.25)
     distilled.save(tmp_path / "d.zip")
-    venv = DummyVecEnv([distill._ChoiceSpaces(3).env])
+    venv = distill.choice_venv(3)
     config = Stage2Config(action="candidate", central_critic=False, candidates=3,
                           net_arch=[128, 128], start_model=str(tmp_path / "d.zip"))
     model = stage2.new_candidate_model(config, venv)
@@ -182,4 +180,4 @@ def test_a_run_can_start_from_a_distilled_model(tmp_path):
                     distilled.policy.action_net.linear.weight)
     with pytest.raises(ValueError, match="same candidates"):
         stage2.new_candidate_model(config.model_copy(update={"candidates": 4}),
-                                   DummyVecEnv([distill._ChoiceSpaces(4).env]))
+                                   distill.choice_venv(4))

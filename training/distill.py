@@ -14,7 +14,8 @@ floor, written whole as soon as its floor is done, so a stopped run resumes wher
 lookahead (every task not yet started at its expected pace: a choice that depends on the state
 alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
 evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
-its states. ``fit`` fits the student (``agents.student``): per crew type a
+its states. ``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``)
+to the labels by cross-entropy. ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
 the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
 penalty; every weight 0 is Eq. 9 itself. The JSON it writes names the command, the label
@@ -35,12 +36,11 @@ FIT_DEFAULTS = {"tau_s": 300.0, "l2": 1.0}
 # -- labels -------------------------------------------------------------------------------------
 
 def lookahead_settings(candidates: int, futures: int | str):
-    """``LookaheadSettings`` for ``--candidates`` and ``--futures`` (an int, or "expected")."""
-    from agents.lookahead import LookaheadSettings
+    """``LookaheadSettings`` for ``--candidates`` and ``--futures`` (an int, or "expected"), as
+    ``--evaluator lookahead:candidates=K+futures=F`` reads them."""
+    from agents.specs import make_lookahead
 
-    if futures == "expected":
-        return LookaheadSettings(candidates, 1, expected_paces=True)
-    return LookaheadSettings(candidates, futures)
+    return make_lookahead(f"candidates={candidates}+futures={futures}").settings
 
 
 def futures_option(text: str) -> int | str:
@@ -248,8 +248,13 @@ def fit(args) -> int:
 
 # -- fit-model: the masked-choice SB3 model by cross-entropy ------------------------------------
 
-MODEL_FIT_DEFAULTS = {"tau_s": 300.0, "epochs": 300, "patience": 30, "lr": 1e-3,
+MODEL_FIT_DEFAULTS = {"tau_s": 300.0, "epochs": 1000, "patience": 30, "lr": 3e-3,
                       "weight_decay": 1e-4, "validation": 0.2}
+MODEL_FIT_HELP = {"tau_s": "temperature of the teacher's soft choice, in seconds of makespan",
+                  "epochs": "full-batch Adam steps at most",
+                  "patience": "stop after this many steps without a lower validation loss",
+                  "lr": "Adam's learning rate", "weight_decay": "Adam's weight decay",
+                  "validation": "share of the label floors (the highest seeds) held back"}
 
 
 def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
@@ -272,45 +277,42 @@ def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
     return flat * np.repeat(mask, len(CANDIDATE_COLUMNS), axis=1), mask
 
 
-class _ChoiceSpaces:
-    """Only the spaces of a masked-choice floor (``training.candidates``), for building the
-    model without running floors."""
+def choice_venv(cap: int):
+    """A vector env with only the spaces of a masked-choice floor (``training.candidates``):
+    enough to build the model without running floors."""
+    import gymnasium
+    from gymnasium import spaces
+    from stable_baselines3.common.vec_env import DummyVecEnv
 
-    def __init__(self, cap: int):
-        import gymnasium
-        from gymnasium import spaces
+    from agents.candidates import observation_bounds
 
-        from agents.candidates import observation_bounds
+    low, high = observation_bounds(cap)
 
-        low, high = observation_bounds(cap)
+    class ChoiceSpaces(gymnasium.Env):
+        observation_space = spaces.Box(low, high, dtype=np.float32)
+        action_space = spaces.Discrete(cap)
 
-        class Spaces(gymnasium.Env):
-            observation_space = spaces.Box(low, high, dtype=np.float32)
-            action_space = spaces.Discrete(cap)
+        def reset(self, *, seed=None, options=None):
+            return self.observation_space.low.copy(), {}
 
-            def reset(self, *, seed=None, options=None):
-                return self.observation_space.low.copy(), {}
+        def step(self, action):
+            raise RuntimeError("fit-model builds the model; it plays no floor")
 
-            def step(self, action):
-                raise RuntimeError("fit-model builds the model; it plays no floor")
+        def action_masks(self):
+            return np.ones(cap, bool)
 
-            def action_masks(self):
-                return np.ones(cap, bool)
-
-        self.env = Spaces
+    return DummyVecEnv([ChoiceSpaces])
 
 
 def new_choice_model(cap: int, start_rule: str, seed: int):
     """A fresh masked-choice MaskablePPO (``training.stage2``'s, from
     ``training/configs/stage2_candidate.toml``) that starts as Eq. 9 or as ``start_rule``."""
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
     from training.stage2 import DEFAULT_CONFIG, Stage2Config, new_candidate_model
 
-    config = Stage2Config.load(DEFAULT_CONFIG.with_name("stage2_candidate.toml"),
-                               [f"candidates={cap}", f"start_rule={start_rule!r}".replace(
-                                   "'", '"'), f"seed={seed}"])
-    return new_candidate_model(config, DummyVecEnv([_ChoiceSpaces(cap).env]))
+    settings = Stage2Config.load(DEFAULT_CONFIG.with_name("stage2_candidate.toml")).model_dump()
+    config = Stage2Config.model_validate({**settings, "candidates": cap,
+                                          "start_rule": start_rule, "seed": seed})
+    return new_candidate_model(config, choice_venv(cap))
 
 
 def choice_agreement(logits: np.ndarray, mask: np.ndarray, target: np.ndarray) -> float:
@@ -363,6 +365,7 @@ def fit_choice_model(data: dict, cap: int, start_rule: str = "", seed: int = 0,
     optimizer = torch.optim.Adam(scorer.parameters(), lr=settings["lr"],
                                  weight_decay=settings["weight_decay"])
     best = (float(start_val), 0, {k: v.clone() for k, v in scorer.state_dict().items()})
+    epoch = 0
     for epoch in range(1, settings["epochs"] + 1):
         optimizer.zero_grad()
         loss, _ = loss_and_logits(train_rows)
@@ -472,7 +475,7 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--seed", type=int, default=0, help="torch seed")
     for key, value in MODEL_FIT_DEFAULTS.items():
         m.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value,
-                       help=f"fit setting (default {value})")
+                       help=f"{MODEL_FIT_HELP[key]} (default {value})")
     args = parser.parse_args(argv)
     args.argv = argv
     commands = {"label": label, "fit": fit, "fit-model": fit_model}
