@@ -169,4 +169,34 @@ def test_bad_label_options_fail_before_any_floor(tmp_path, capsys):
     assert distill.main(["label", "--acting", "student:missing.json",
                          "--out", str(tmp_path / "b")]) == 2
     assert "missing.json" in capsys.readouterr().err
-    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+    assert distill.main(["label", "--case", str(tmp_path / "missing.toml"),
+                         "--out", str(tmp_path / "c")]) == 2
+    assert "missing.toml" in capsys.readouterr().err
+    assert not any((tmp_path / d).exists() for d in ("a", "b", "c"))
+
+
+def test_label_states_give_back_each_decisions_floor(tmp_path):
+    from agents.features import FloorFacts, candidate_features
+    from cmdp_pymunk.evaluate import PriorityEvaluator
+
+    tiny = str(cmdp_pymunk.TINY_CASE)
+    plain, kept = tmp_path / "plain", tmp_path / "kept"
+    for out, extra in ((plain, []), (kept, ["--states"])):
+        assert distill.main(["label", "--case", tiny, "--seeds", "0-1", "--candidates", "2",
+                             "--futures", "expected", "--out", str(out), *extra]) == 0
+    assert not list(plain.glob("*.states.pkl"))
+    for seed in (0, 1):
+        a, b = np.load(plain / f"seed-{seed}.npz"), np.load(kept / f"seed-{seed}.npz")
+        # keeping the states does not change the floor or its labels
+        for key in ("choice", "makespan_s", "features", "values", "floor_makespan_s"):
+            assert np.array_equal(a[key], b[key], equal_nan=True), key
+        states = distill.load_states(kept / f"seed-{seed}.states.pkl")
+        assert len(states) == len(b["choice"]) >= 1
+        engine, env, i, candidates = states[0]
+        site = engine.site
+        crew = site.crews[i]
+        priorities = PriorityEvaluator().priorities(crew, site, engine.positions[i])
+        phi = candidate_features(FloorFacts.of(site), crew, site, engine.positions[i],
+                                 candidates, priorities, engine.positions)
+        assert np.allclose(phi, b["features"][0, :len(candidates)])
+        assert [priorities[t] for t in candidates] == list(b["values"][0, :len(candidates)])

@@ -54,9 +54,10 @@ def futures_option(text: str) -> int | str:
 
 
 def label_floor(case_path: str | None, seed: int, candidates: int, futures: int | str,
-                acting: str | None = None) -> dict:
+                acting: str | None = None, states: bool = False) -> dict:
     """One floor under the lookahead (or under ``acting``, the lookahead labelling): its
-    makespan and the arrays of its decisions."""
+    makespan and the arrays of its decisions; with ``states``, each decision's floor too
+    (``decision_state``)."""
     import cmdp_pymunk
     from agents.features import FloorFacts, candidate_features
     from agents.lookahead import LookaheadEvaluator
@@ -73,6 +74,7 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
     rows: list[tuple] = []
     priority = PriorityEvaluator()
     facts: list = []
+    snapshots: list[bytes] = []
 
     def record(engine, i, values, decision) -> None:
         site = engine.site
@@ -84,6 +86,8 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
                                  decision.candidates, priorities, engine.positions)
         rows.append((crew.type, [priorities[t] for t in decision.candidates], phi,
                      decision.makespans_s, decision.candidates.index(decision.choice)))
+        if states:
+            snapshots.append(decision_state(engine, env, i, decision.candidates))
 
     lookahead.on_decision = record
     start = time.perf_counter()
@@ -94,7 +98,33 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
     return {"seed": seed, "makespan_s": env.makespan_s, "rows": rows,
             "wall_s": time.perf_counter() - start, "overrides": lookahead.summary()["overrides"],
             "teacher": f"lookahead:candidates={candidates}+futures={futures}",
-            "acting": acting or ""}
+            "acting": acting or "", "states": snapshots}
+
+
+def decision_state(engine, env, i: int, candidates: list[int]) -> bytes:
+    """A decision's floor as a pickle: (engine, env, crew i, candidates), the env valuing by
+    Eq. 9, its event log left out. What ``--states`` keeps, so that features the label files
+    lack can be computed on the teacher's own states later (``load_states``) without running
+    the teacher again. A pickle of this code's classes: read it with the same commit."""
+    import pickle
+
+    from cmdp_pymunk.evaluate import PriorityEvaluator
+
+    # A clone rebuilds the original's world as the lookahead's own branches do at this
+    # decision (a second rebuild from the same data changes nothing; tested).
+    branch_engine, branch_env = engine.clone(engine.streams.scenario, (env,), keep_log=False)
+    branch_env.evaluator = PriorityEvaluator()
+    return pickle.dumps((branch_engine, branch_env, i, list(candidates)),
+                        protocol=pickle.HIGHEST_PROTOCOL)
+
+
+def load_states(path: Path) -> list[tuple]:
+    """The decisions' floors of a ``seed-N.states.pkl`` (``decision_state``), in row order."""
+    import pickle
+
+    with open(path, "rb") as f:
+        blobs = pickle.load(f)
+    return [pickle.loads(b) for b in blobs]
 
 
 def save_labels(path: Path, result: dict, candidates: int) -> None:
@@ -108,6 +138,14 @@ def save_labels(path: Path, result: dict, candidates: int) -> None:
     for r, (_, values, features, makespans, _) in enumerate(rows):
         m = len(values)
         v[r, :m], phi[r, :m], makespan[r, :m] = values, features, makespans
+    if result.get("states"):
+        import pickle
+
+        from cmdp_pymunk.events import write_atomic
+
+        # written before the label file, whose presence marks the floor as done
+        write_atomic(path.with_name(path.name.replace(".npz", ".states.pkl")),
+                     pickle.dumps(result["states"], protocol=pickle.HIGHEST_PROTOCOL))
     tmp = path.with_name(path.name + ".tmp.npz")
     np.savez_compressed(tmp, crew_type=np.array([r[0] for r in rows], dtype="U8"), values=v,
                         features=phi, makespan_s=makespan,
@@ -118,8 +156,8 @@ def save_labels(path: Path, result: dict, candidates: int) -> None:
     tmp.replace(path)
 
 
-def _label_job(runner, case_path, seed, candidates, futures, acting=None):
-    return label_floor(case_path, seed, candidates, futures, acting)
+def _label_job(runner, case_path, seed, candidates, futures, acting=None, states=False):
+    return label_floor(case_path, seed, candidates, futures, acting, states)
 
 
 def label(args) -> int:
@@ -130,6 +168,9 @@ def label(args) -> int:
 
     futures = futures_option(args.futures)
     lookahead_settings(args.candidates, futures)  # bad settings fail before any floor runs
+    import cmdp_pymunk
+
+    cmdp_pymunk.load_case(args.case)  # and so does a bad case file
     if args.acting:
         from agents.specs import make_evaluator
 
@@ -140,7 +181,7 @@ def label(args) -> int:
     print(f"label: {len(seed_list(args.seeds)) - len(seeds)} seeds already labelled in {out}; "
           f"{len(seeds)} to go (candidates {args.candidates}, futures {futures}, acting "
           f"{args.acting or 'the lookahead'}, {args.workers} worker(s))", flush=True)
-    jobs = [(args.case, s, args.candidates, futures, args.acting) for s in seeds]
+    jobs = [(args.case, s, args.candidates, futures, args.acting, args.states) for s in seeds]
     # Floors in worker processes, or on Ray actors (--ray): each file is written here as its
     # floor arrives, so a stopped run keeps every finished floor.
     with tqdm(total=len(jobs), unit="floor", desc="label", file=sys.stderr) as bar, \
@@ -454,6 +495,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1,
                    help="worker processes, or Ray actors with --ray (0 with --ray ADDRESS: one "
                         "per CPU of the cluster)")
+    p.add_argument("--states", action="store_true",
+                   help="also keep each decision's floor (seed-N.states.pkl, pickled; about "
+                        "0.1 MB a decision) to compute new features on the teacher's states "
+                        "later without running it again (read with the same commit)")
     add_ray_option(p)
     p.add_argument("--out", default="runs/labels", help="label folder (resumes)")
     f = sub.add_parser("fit", help="fit the student to a label folder")
