@@ -177,7 +177,9 @@ def test_bad_label_options_fail_before_any_floor(tmp_path, capsys):
 
 def test_label_states_give_back_each_decisions_floor(tmp_path):
     from agents.features import FloorFacts, candidate_features
+    from agents.lookahead import run_branch
     from cmdp_pymunk.evaluate import PriorityEvaluator
+    from cmdp_pymunk.streams import EXPECTED
 
     tiny = str(cmdp_pymunk.TINY_CASE)
     plain, kept = tmp_path / "plain", tmp_path / "kept"
@@ -192,7 +194,7 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
             assert np.array_equal(a[key], b[key], equal_nan=True), key
         states = distill.load_states(kept / f"seed-{seed}.states.pkl")
         assert len(states) == len(b["choice"]) >= 1
-        engine, env, i, candidates = states[0]
+        engine, env, low_level, i, candidates = states[0]
         site = engine.site
         crew = site.crews[i]
         priorities = PriorityEvaluator().priorities(crew, site, engine.positions[i])
@@ -200,3 +202,9 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
                                  candidates, priorities, engine.positions)
         assert np.allclose(phi, b["features"][0, :len(candidates)])
         assert [priorities[t] for t in candidates] == list(b["values"][0, :len(candidates)])
+        # a branch from the kept floor is the teacher's own: the same makespan per candidate
+        values = PriorityEvaluator().target_values(crew, site, engine.positions[i])
+        for k, target in enumerate(candidates):
+            branch = engine.clone(EXPECTED, (env, low_level), keep_log=False)
+            assert run_branch(branch, PriorityEvaluator(), i, values, target,
+                              100_000.0) == b["makespan_s"][0, k]

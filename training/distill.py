@@ -4,6 +4,7 @@
                                      [--acting SPEC] [--workers 2] [--ray [ADDRESS]]
     python -m training.distill fit runs/labels --out models/student_priority.json
     python -m training.distill fit-model runs/labels --out runs/distilled/model.zip
+    python -m training.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
 decision with two or more candidates, the candidates' features (``agents.features``), their
@@ -15,7 +16,9 @@ lookahead (every task not yet started at its expected pace: a choice that depend
 alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
 evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
 its states. ``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``)
-to the labels by cross-entropy. ``fit`` fits the student (``agents.student``): per crew type a
+to the labels by cross-entropy. ``noise`` (``training.label_noise``) replays labelled
+decisions kept with ``--states`` in other sampled futures: how much of a label is the future's
+noise. ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
 the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
 penalty; every weight 0 is Eq. 9 itself. The JSON it writes names the command, the label
@@ -87,7 +90,7 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
         rows.append((crew.type, [priorities[t] for t in decision.candidates], phi,
                      decision.makespans_s, decision.candidates.index(decision.choice)))
         if states:
-            snapshots.append(decision_state(engine, env, i, decision.candidates))
+            snapshots.append(decision_state(engine, env, navigator, i, decision.candidates))
 
     lookahead.on_decision = record
     start = time.perf_counter()
@@ -101,20 +104,23 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
             "acting": acting or "", "states": snapshots}
 
 
-def decision_state(engine, env, i: int, candidates: list[int]) -> bytes:
-    """A decision's floor as a pickle: (engine, env, crew i, candidates), the env valuing by
-    Eq. 9, its event log left out. What ``--states`` keeps, so that features the label files
-    lack can be computed on the teacher's own states later (``load_states``) without running
-    the teacher again. A pickle of this code's classes: read it with the same commit."""
+def decision_state(engine, env, navigator, i: int, candidates: list[int]) -> bytes:
+    """A decision's floor as a pickle: (engine, env, low level, crew i, candidates), the env
+    valuing by Eq. 9, its event log left out. What ``--states`` keeps, so that features the
+    label files lack can be computed on the teacher's own states later (``load_states``)
+    without running the teacher again; a branch from it with the low level's copy is the
+    teacher's own branch (the scripted navigator keeps state: a fresh one walks differently).
+    A pickle of this code's classes: read it with the same commit."""
     import pickle
 
     from cmdp_pymunk.evaluate import PriorityEvaluator
 
     # A clone rebuilds the original's world as the lookahead's own branches do at this
     # decision (a second rebuild from the same data changes nothing; tested).
-    branch_engine, branch_env = engine.clone(engine.streams.scenario, (env,), keep_log=False)
+    branch_engine, branch_env, low_level = engine.clone(engine.streams.scenario,
+                                                        (env, navigator), keep_log=False)
     branch_env.evaluator = PriorityEvaluator()
-    return pickle.dumps((branch_engine, branch_env, i, list(candidates)),
+    return pickle.dumps((branch_engine, branch_env, low_level, i, list(candidates)),
                         protocol=pickle.HIGHEST_PROTOCOL)
 
 
@@ -124,7 +130,11 @@ def load_states(path: Path) -> list[tuple]:
 
     with open(path, "rb") as f:
         blobs = pickle.load(f)
-    return [pickle.loads(b) for b in blobs]
+    states = [pickle.loads(b) for b in blobs]
+    if any(len(s) != 5 for s in states):
+        raise ValueError(f"{path}: not (engine, env, low level, crew, candidates) per decision "
+                         "(written by an older commit); fix: label again with --states")
+    return states
 
 
 def save_labels(path: Path, result: dict, candidates: int) -> None:
@@ -521,9 +531,19 @@ def main(argv: list[str] | None = None) -> int:
     for key, value in MODEL_FIT_DEFAULTS.items():
         m.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value,
                        help=f"{MODEL_FIT_HELP[key]} (default {value})")
+    n = sub.add_parser("noise", help="how much of the teacher's labels holds in other "
+                       "futures (needs label --states; training/label_noise.py)")
+    n.add_argument("labels", help="label folder made by `label --states`")
+    n.add_argument("--every", type=int, default=5, help="replay every N-th decision")
+    n.add_argument("--futures", type=int, default=2,
+                   help="sampled futures per decision, shared by its candidates")
+    n.add_argument("--workers", type=int, default=1, help="worker processes")
+    n.add_argument("--out", default="", help="also write the report (JSON) here")
     args = parser.parse_args(argv)
     args.argv = argv
-    commands = {"label": label, "fit": fit, "fit-model": fit_model}
+    from training.label_noise import noise
+
+    commands = {"label": label, "fit": fit, "fit-model": fit_model, "noise": noise}
     try:
         return commands[args.command](args)
     except (ValueError, BackendError) as err:
