@@ -550,7 +550,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"distill: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("\ndistill: interrupted; finished seeds are kept (run again to resume)",
+        kept = {"label": "finished seeds are kept (run again to resume)"}
+        print(f"\ndistill: interrupted; {kept.get(args.command, 'no output is half-written')}",
               file=sys.stderr)
         return 130
 
