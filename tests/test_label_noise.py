@@ -26,6 +26,8 @@ def test_summarize_by_hand():
     # differences (second minus first): future 0 [60, -20], future 1 [-10, 20]
     assert r["difference_mean_s"] == [20.0, 5.0] and r["difference_sd_s"] == [40.0, 15.0]
     assert r["difference_correlation"] == -1.0 and r["signal_sd_s"] == 0.0
+    # over 500 s in both futures: none (row 0: 60 and -10; row 1: -20 and 20)
+    assert r["large_same_sign"] == r["large_opposite_sign"] == 0.0
     # (d0 - d1) = [70, -40]: sample variance 6,050, over 2: 3,025
     assert r["noise_sd_s"] == pytest.approx(55.0)
 
@@ -50,4 +52,5 @@ def test_noise_replays_the_teachers_branches_on_the_tiny_case(tmp_path, capsys):
     report = json.loads(out.read_text())
     assert report["seeds"] == [0, 1] and report["decisions"] == 2
     assert report["replayed_exactly"] == report["replayed_candidates"] == 4
-    assert report["branches"] == 2 * 2 * 3  # 2 decisions x 2 candidates x (teacher + 2)
+    assert report["branches"] == len(report["branches_s"]) == 2 * 2 * 3  # 2 decisions x 2
+    # candidates x (teacher + 2 futures)

@@ -10,6 +10,8 @@ candidate of a decision (paired, as the lookahead's), and reports:
 - how often two futures agree on the best candidate, and the teacher with each future;
 - the candidates' makespan minus the first's (Eq. 9's choice) in each future: mean, SD, and
   the correlation between futures;
+- how many differences exceed ``LARGE_S`` in two futures with the same sign, and with
+  opposite signs (clear mistakes every future shows would be the first);
 - the difference split into what every future shares (``signal_sd_s``: the square root of the
   covariance between two futures' differences) and what each future adds on its own
   (``noise_sd_s``: the SD of the two futures' differences minus each other, over sqrt 2).
@@ -29,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+LARGE_S = 500.0  # a candidate difference this large is a clear call in its future
 SCENARIO_BASE = 5_000_000  # far from the keys the lookahead draws (decision x futures)
 
 
@@ -136,8 +139,14 @@ def summarize(keys: list[tuple], makespans: list[float], labels: dict, futures: 
             cov = np.mean([np.cov(d[a], d[b])[0, 1] for a, b in pairs])
             corr = np.mean([np.corrcoef(d[a], d[b])[0, 1] for a, b in pairs])
         own = np.mean([np.var(d[a] - d[b], ddof=1) / 2 for a, b in pairs])
+        large = [(abs(d[a]) > LARGE_S) & (abs(d[b]) > LARGE_S) for a, b in pairs]
+        same = [x & (np.sign(d[a]) == np.sign(d[b]))
+                for x, (a, b) in zip(large, pairs, strict=True)]
         report.update({
             "agree_two_futures": round(float(np.mean(agree_futures)), 3),
+            "large_same_sign": round(float(np.mean([x.mean() for x in same])), 3),
+            "large_opposite_sign": round(float(np.mean(
+                [(x & ~y).mean() for x, y in zip(large, same, strict=True)])), 3),
             "difference_correlation": _finite(corr, 3),
             "signal_sd_s": round(math.sqrt(max(cov, 0.0)), 1),
             "noise_sd_s": round(math.sqrt(own), 1)})
@@ -167,8 +176,8 @@ def noise(args) -> int:
     report = {"command": "python -m training.distill " + " ".join(args.argv),
               "labels": str(args.labels), "seeds": sorted(labels),
               **summarize(keys, makespans, labels, args.futures)}
-    text = json.dumps(report, indent=1) + "\n"
-    if args.out:
-        write_atomic(Path(args.out), text)
-    print(text, end="")
+    print(json.dumps(report, indent=1))
+    if args.out:  # with every branch, for analyses the summary does not make
+        report["branches_s"] = [[*key, m] for key, m in zip(keys, makespans, strict=True)]
+        write_atomic(Path(args.out), json.dumps(report) + "\n")
     return 0
