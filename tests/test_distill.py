@@ -177,9 +177,9 @@ def test_bad_label_options_fail_before_any_floor(tmp_path, capsys):
 
 def test_label_states_give_back_each_decisions_floor(tmp_path):
     from agents.features import FloorFacts, candidate_features
-    from agents.lookahead import run_branch
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.streams import EXPECTED
+    from training import label_noise
 
     tiny = str(cmdp_pymunk.TINY_CASE)
     plain, kept = tmp_path / "plain", tmp_path / "kept"
@@ -195,6 +195,9 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
         states = distill.load_states(kept / f"seed-{seed}.states.pkl")
         assert len(states) == len(b["choice"]) >= 1
         engine, env, low_level, i, candidates = states[0]
+        # the teacher's low level comes with it, bound to the kept floor (a fresh scripted
+        # navigator can walk a branch differently: 1 of 67 on the built-in case, by 1,107 s)
+        assert type(low_level).__name__ == "Navigator" and low_level.env is env
         site = engine.site
         crew = site.crews[i]
         priorities = PriorityEvaluator().priorities(crew, site, engine.positions[i])
@@ -203,8 +206,6 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
         assert np.allclose(phi, b["features"][0, :len(candidates)])
         assert [priorities[t] for t in candidates] == list(b["values"][0, :len(candidates)])
         # a branch from the kept floor is the teacher's own: the same makespan per candidate
-        values = PriorityEvaluator().target_values(crew, site, engine.positions[i])
-        for k, target in enumerate(candidates):
-            branch = engine.clone(EXPECTED, (env, low_level), keep_log=False)
-            assert run_branch(branch, PriorityEvaluator(), i, values, target,
-                              100_000.0) == b["makespan_s"][0, k]
+        for k in range(len(candidates)):
+            assert label_noise.candidate_makespan(str(kept / f"seed-{seed}.states.pkl"), 0, k,
+                                                  EXPECTED) == b["makespan_s"][0, k]

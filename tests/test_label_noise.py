@@ -32,11 +32,20 @@ def test_summarize_by_hand():
     assert r["noise_sd_s"] == pytest.approx(55.0)
 
 
-def test_scenario_keys_are_distinct_and_fixed():
+def test_scenario_keys_are_distinct_and_not_the_expected_paces():
+    from cmdp_pymunk.streams import EXPECTED
+
     keys = {label_noise.scenario_key(s, r, f) for s in range(30) for r in range(200)
             for f in range(4)}
-    assert len(keys) == 30 * 200 * 4
-    assert label_noise.scenario_key(3, 7, 1) == label_noise.scenario_key(3, 7, 1)
+    assert len(keys) == 30 * 200 * 4 and EXPECTED not in keys
+
+
+def test_the_teachers_future_from_its_spec():
+    from cmdp_pymunk.streams import EXPECTED
+
+    assert label_noise.teacher_future("lookahead:candidates=3+futures=expected") == EXPECTED
+    assert label_noise.teacher_future("lookahead:candidates=3+futures=0") is None
+    assert label_noise.teacher_future("lookahead:candidates=2+futures=4") is False
 
 
 def test_noise_replays_the_teachers_branches_on_the_tiny_case(tmp_path, capsys):
@@ -50,6 +59,10 @@ def test_noise_replays_the_teachers_branches_on_the_tiny_case(tmp_path, capsys):
     assert distill.main(["noise", str(labels), "--every", "1", "--futures", "2",
                          "--out", str(out)]) == 0
     report = json.loads(out.read_text())
+    assert distill.main(["noise", str(labels), "--every", "1", "--futures", "2",
+                         "--out", str(tmp_path / "again.json")]) == 0
+    assert json.loads((tmp_path / "again.json").read_text())["branches_s"] == \
+        report["branches_s"]  # the same futures each run
     assert report["seeds"] == [0, 1] and report["decisions"] == 2
     assert report["replayed_exactly"] == report["replayed_candidates"] == 4
     assert report["branches"] == len(report["branches_s"]) == 2 * 2 * 3  # 2 decisions x 2

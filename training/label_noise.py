@@ -42,14 +42,15 @@ def scenario_key(seed: int, row: int, future: int) -> int:
 
 def teacher_future(teacher: str):
     """The future the teacher's branches ran in (``streams.EXPECTED`` or None: the floor's
-    own), or ``False`` for a sampled-futures teacher, whose branches cannot be replayed here."""
+    own), or ``False`` for a sampled-futures teacher, whose branches cannot be replayed here.
+    ``teacher``: a label file's spec, ``lookahead:candidates=K+futures=F``."""
+    from agents.specs import make_lookahead
     from cmdp_pymunk.streams import EXPECTED
 
-    if teacher.endswith("futures=expected"):
+    settings = make_lookahead(teacher.partition(":")[2]).settings
+    if settings.expected_paces:
         return EXPECTED
-    if teacher.endswith("futures=0"):
-        return None
-    return False
+    return None if settings.futures == 0 else False
 
 
 @functools.lru_cache(maxsize=2)  # a worker serves the rows of one floor in turn
@@ -62,14 +63,15 @@ def _states(path: str) -> list[tuple]:
 def candidate_makespan(path: str, row: int, k: int, scenario) -> float:
     """Candidate ``k`` of decision ``row`` of a ``.states.pkl``, played to the end by Eq. 9 in
     future ``scenario``, with the teacher's low level (``decision_state``)."""
-    from agents.lookahead import run_branch
+    from agents.lookahead import LookaheadSettings, run_branch
     from cmdp_pymunk.evaluate import PriorityEvaluator
 
     engine, env, low_level, i, candidates = _states(path)[row]
-    base = PriorityEvaluator()
+    base = PriorityEvaluator()  # the labelling lookahead's base (``distill.label_floor``)
     values = base.target_values(engine.site.crews[i], engine.site, engine.positions[i])
     branch = engine.clone(scenario, (env, low_level), keep_log=False)
-    return run_branch(branch, base, i, values, candidates[k], 100_000.0)
+    return run_branch(branch, base, i, values, candidates[k],
+                      LookaheadSettings().unfinished_penalty_s)
 
 
 def _job(runner, path, row, k, scenario):
