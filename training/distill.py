@@ -507,8 +507,9 @@ def main(argv: list[str] | None = None) -> int:
                         "per CPU of the cluster)")
     p.add_argument("--states", action="store_true",
                    help="also keep each decision's floor (seed-N.states.pkl, pickled; about "
-                        "0.1 MB a decision) to compute new features on the teacher's states "
-                        "later without running it again (read with the same commit)")
+                        "70 KB a decision on the built-in case) to compute new features on "
+                        "the teacher's states later without running it again (read with the "
+                        "same commit)")
     add_ray_option(p)
     p.add_argument("--out", default="runs/labels", help="label folder (resumes)")
     f = sub.add_parser("fit", help="fit the student to a label folder")
