@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values
+from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
 from cmdp_pymunk.state import ScopeKind
 
 from .features import FEATURE_NAMES, FloorFacts, candidate_features
@@ -99,7 +99,7 @@ class CandidateDecision:
         return promote(self.eq9_values, self.targets[choice])
 
 
-class CandidateModelEvaluator:
+class CandidateModelEvaluator(Evaluator):
     """A trained masked-choice model (``cmdp-train stage2 --set action=candidate``) as a
     target evaluator: the crew's rows, the policy's argmax over the real ones, its values."""
 
@@ -115,10 +115,12 @@ class CandidateModelEvaluator:
                              f"{len(CANDIDATE_COLUMNS)} columns; fix: retrain it with these "
                              "features")
 
-    def target_values(self, crew, site, position) -> dict[int, float]:
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        site = engine.site
+        crew = site.crews[i]
         if not has_choice(crew):
-            return self.view.base.target_values(crew, site, position)
-        decision = self.view.rows(crew, site, position, site.crew_xy)
+            return self.view.base.values_for(engine, i)
+        decision = self.view.rows(crew, site, engine.positions[i], engine.positions)
         action, _ = self.model.predict(decision.observation[None],
                                        action_masks=decision.mask[None], deterministic=True)
         return decision.values(int(action[0]))

@@ -234,10 +234,10 @@ class PlanEvaluator(TaskPriorityEvaluator):
         self.result = result
         self.priorities = plan_priorities(result)
 
-    def bind(self, env) -> None:
+    def prepare(self, case) -> None:
         if self.result is None:
-            self.use(solve(env.case, self.time_limit_s))
-        super().bind(env)  # a plan for another case: ValueError
+            self.use(solve(case, self.time_limit_s))
+        super().prepare(case)  # a plan for another case: ValueError
 
 
 def save_plan(path, case, result: CpsatResult):

@@ -3,7 +3,7 @@
 
 ``episode_row`` sums up one finished (or stopped) episode: makespan, reaching steps, idle
 steps by cause, crane waits, whether it stalled or timed out, and when each task ended.
-``EpisodeRunner`` holds one env and low level per (evaluator, navigator) pair and runs seeds
+``EpisodeRunner`` holds one engine and low level per (evaluator, navigator) pair and runs seeds
 on them; ``Workers`` maps jobs over worker processes (each with its own runner, one torch
 thread) or in this process for ``workers=1``, in job order either way, so results do not
 depend on the number of workers.
@@ -19,8 +19,7 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as futures_completed
 from concurrent.futures.process import BrokenProcessPool
 
-import cmdp_pymunk
-from cmdp_pymunk.engine import engine_of
+from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
 from cmdp_pymunk.schedule import finish_times
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
@@ -39,17 +38,17 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
 TASK_END_TIMES = "task_end_times_s"
 
 
-def task_end_times(floor) -> list[float]:
-    """When each task ended (``schedule.finish_times`` of the floor's event log), in seconds,
+def task_end_times(engine: Engine) -> list[float]:
+    """When each task ended (``schedule.finish_times`` of the engine's event log), in seconds,
     rounded to the millisecond to keep ``episodes.jsonl`` short."""
-    return [round(t, 3) for t in finish_times(engine_of(floor).log.events)]
+    return [round(t, 3) for t in finish_times(engine.log.events)]
 
 
-def episode_row(floor, episode: Episode | None, stall_reason: str = "") -> dict:
-    """One episode's numbers, summed over the crews (``ROW_FIELDS``), from ``floor`` (an
-    engine, or an env over one). ``episode`` None: the low level raised (``stall_reason`` says
-    what); the episode counts as stalled."""
-    site = engine_of(floor).site
+def episode_row(engine: Engine, episode: Episode | None, stall_reason: str = "") -> dict:
+    """One episode's numbers, summed over the crews (``ROW_FIELDS``), from ``engine``.
+    ``episode`` None: the low level raised (``stall_reason`` says what); the episode counts as
+    stalled."""
+    site = engine.site
     crews = site.crews
     idle = {cause: sum(c.stats.idle_steps[cause] for c in crews) for cause in (1, 2, 3)}
     stalled = episode is None or episode.stalled is not None
@@ -70,74 +69,70 @@ def episode_row(floor, episode: Episode | None, stall_reason: str = "") -> dict:
         "idle_steps": sum(idle.values()),
         "crane_waits": sum(c.stats.crane_waits for c in crews),
         "crane_wait_s": sum(c.stats.crane_wait_steps for c in crews),
-        "reach_rate": round(episode_reach_rate(floor), 4),
+        "reach_rate": round(episode_reach_rate(engine), 4),
         "wall_s": round(episode.wall_s, 3) if episode is not None else None,
         "stall_reason": stall_reason,
         **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)
            for c in DISRUPTION_CAUSES},
-        TASK_END_TIMES: task_end_times(floor),
+        TASK_END_TIMES: task_end_times(engine),
     }
 
 
-def make_env(case, evaluator, navigator_spec: str, max_time_s: float | None = None,
-             **env_options):
-    """The stage-2 env as ``cmdp-simulate`` builds it: the scripted navigator lets the env skip
-    parked crews' seconds (``park_idle``); a trained navigator decides for every crew.
-    ``env_options``: more arguments of ``cmdp_pymunk.parallel_env`` (``cmdp-simulate``'s
-    position log and ``blind``)."""
-    env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
-                                   max_time_s=max_time_s,
-                                   park_idle=navigator_spec == "scripted", **env_options)
-    if hasattr(evaluator, "bind"):
-        evaluator.bind(env)
-    return env
+def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None = None,
+                position_log_every_s: float | None = None) -> Engine:
+    """The stage-2 floor as ``cmdp-simulate`` builds it: the scripted navigator lets the engine
+    skip parked crews' seconds (``park_idle``); a trained navigator decides for every crew.
+    ``position_log_every_s``: moving crews' positions in the event log (trajectories)."""
+    return Engine(case, stage=2, evaluator=evaluator, max_time_s=max_time_s,
+                  park_idle=navigator_spec == "scripted",
+                  position_log_every_s=position_log_every_s)
 
 
 class EpisodeRunner:
-    """Envs and low levels kept per (evaluator, navigator) pair; ``run`` plays one seed.
+    """Engines and low levels kept per (evaluator, navigator) pair; ``run`` plays one seed.
 
     An evaluator is a spec (``agents.specs.make_evaluator``) or an evaluator object (the GA
-    passes its individuals); an object is swapped into a cached env of the same navigator.
-    ``env_options``: more arguments of the env (``make_env``).
+    passes its individuals); an object is swapped into a cached engine of the same navigator.
+    ``position_log_every_s``: see ``make_engine``.
     """
 
     def __init__(self, case, stall_s: float | None = 3600.0, max_time_s: float | None = None,
-                 deterministic: bool = False, env_options: dict | None = None):
+                 deterministic: bool = False, position_log_every_s: float | None = None):
         self.case = case
         self.stall_s = stall_s
         self.max_time_s = max_time_s
         self.deterministic = deterministic
-        self.env_options = env_options or {}
+        self.position_log_every_s = position_log_every_s
         self._cache: dict = {}
-        self.playing = None  # the env of the episode under way in ``play`` (for its time)
+        self.playing = None  # the engine of the episode under way in ``play`` (for its time)
 
-    def _env(self, evaluator, navigator_spec: str):
+    def _engine(self, evaluator, navigator_spec: str):
         key = (evaluator if isinstance(evaluator, str) else "<object>", navigator_spec)
         if key not in self._cache:
             ev = make_evaluator(evaluator) if isinstance(evaluator, str) else evaluator
-            env = make_env(self.case, ev, navigator_spec, self.max_time_s, **self.env_options)
-            self._cache[key] = (env, make_navigator(navigator_spec, env, self.deterministic))
-        env, navigator = self._cache[key]
+            engine = make_engine(self.case, ev, navigator_spec, self.max_time_s,
+                                 self.position_log_every_s)
+            self._cache[key] = (engine, make_navigator(navigator_spec, engine,
+                                                       self.deterministic))
+        engine, navigator = self._cache[key]
         if not isinstance(evaluator, str):
-            if hasattr(evaluator, "bind"):
-                evaluator.bind(env)
-            env.evaluator = evaluator
-        return env, navigator
+            engine.evaluator = evaluator
+        return engine, navigator
 
     def run(self, evaluator, navigator_spec: str, seed: int) -> dict:
-        env, navigator = self._env(evaluator, navigator_spec)
+        engine, navigator = self._engine(evaluator, navigator_spec)
         try:
-            episode = run_episode(env, navigator, seed, self.stall_s, progress=False)
+            episode = run_episode(engine, navigator, seed, self.stall_s, progress=False)
         except PolicyStuck as err:
-            return episode_row(env, None, str(err))
-        return episode_row(env, episode)
+            return episode_row(engine, None, str(err))
+        return episode_row(engine, episode)
 
     def play(self, evaluator, navigator_spec: str, seed: int, progress: bool = False):
-        """One seed played on the cached env: ``(env, Episode)``, the env left at the
+        """One seed played on the cached engine: ``(engine, Episode)``, the engine left at the
         episode's end for whoever reads its log; ``PolicyStuck`` passes through."""
-        env, navigator = self._env(evaluator, navigator_spec)
-        self.playing = env
-        return env, run_episode(env, navigator, seed, self.stall_s, progress=progress)
+        engine, navigator = self._engine(evaluator, navigator_spec)
+        self.playing = engine
+        return engine, run_episode(engine, navigator, seed, self.stall_s, progress=progress)
 
 
 def check_specs(case, strategies: list[str], navigators: list[str],
@@ -145,10 +140,9 @@ def check_specs(case, strategies: list[str], navigators: list[str],
     """Build every evaluator and low level once on the case: a missing file or a model or
     priority file that does not fit the case fails here, before any episode."""
     for spec in strategies:
-        make_env(case, make_evaluator(spec), "scripted")
+        make_engine(case, make_evaluator(spec), "scripted")
     for spec in navigators:
-        env = make_env(case, make_evaluator("priority"), spec)
-        make_navigator(spec, env, deterministic)
+        make_navigator(spec, make_engine(case, "priority", spec), deterministic)
 
 
 def check_worker(runner: EpisodeRunner, strategies: list[str], navigators: list[str],

@@ -23,8 +23,10 @@ decision, and returns the acting evaluator's values, so the floor goes where tha
 it (the student's own states) while the labels say what one step of lookahead would pick there.
 
 It is an evaluator like the others (``--evaluator lookahead`` in ``cmdp-simulate`` and
-``cmdp-evaluate``), asked between whole seconds (``evaluate.BranchingEvaluator``), and it
-branches the low level with the floor when it is bound to one (``bind_low_level``).
+``cmdp-evaluate``), asked between whole seconds (``between_seconds``: it branches the floor).
+Branches play on the engine alone (``Engine.clone``, then ``rollout.play``) with its own low
+level (the scripted navigator unless told another): a low level keeps its per-episode state in
+``engine.memory``, so the branch continues the plans of the one that drives the floor.
 """
 
 from __future__ import annotations
@@ -36,6 +38,9 @@ import signal
 import time
 from dataclasses import dataclass
 
+from cmdp_pymunk.evaluate import Evaluator
+from cmdp_pymunk.observe import ReachingObservations
+from cmdp_pymunk.rollout import play
 from cmdp_pymunk.state import ScopeKind
 from cmdp_pymunk.streams import EXPECTED
 
@@ -107,37 +112,33 @@ def ranked(values: dict[int, float]) -> list[int]:
     return sorted(values, key=lambda t: (-values[t], t))
 
 
-class LookaheadEvaluator:
-    """Rollout over a base rule (see the module doc)."""
+class LookaheadEvaluator(Evaluator):
+    """Rollout over a base rule (see the module doc). ``low_level``: what drives the branches
+    (default the scripted ``Navigator``; give the floor's own low level so that branches
+    continue its plans)."""
 
     between_seconds = True
 
-    def __init__(self, base=None, settings: LookaheadSettings | None = None, acting=None):
+    def __init__(self, base=None, settings: LookaheadSettings | None = None, acting=None,
+                 low_level=None):
         self.base = base if base is not None else PriorityEvaluator()
         self.settings = settings or LookaheadSettings()
-        if acting is not None and getattr(acting, "between_seconds", False):
+        if acting is not None and acting.between_seconds:
             raise ValueError("the lookahead's acting policy must be a plain evaluator (a rule "
                              "or a model), not one that branches the floor")
         self.acting = acting  # None: the lookahead acts; else it only labels (module doc)
-        self.env = None
-        self.navigator = None
+        self.low_level = low_level if low_level is not None else Navigator()
         self.decisions: list[Decision] = []
         self.on_decision = None  # f(engine, i, values, decision): labels for distillation
         self._pool = None
         self._episode = None
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
 
-    def bind(self, env) -> None:
-        """The env whose floor is branched (its engine is what ``values_for`` is given)."""
-        self.env = env
-
-    def bind_low_level(self, navigator) -> None:
-        """The low level that drives the floor: branches continue with a copy of it."""
-        self.navigator = navigator
-
-    def target_values(self, crew, site, position) -> dict[int, float]:
-        """The base rule's values (where a plain evaluator is asked)."""
-        return self.base.target_values(crew, site, position)
+    def prepare(self, case) -> None:
+        """The base, the acting policy and the branches' low level must fit the case."""
+        self.base.prepare(case)
+        if self.acting is not None:
+            self.acting.prepare(case)
 
     def values_for(self, engine, i: int) -> dict[int, float]:
         """V_Tar for crew i's scope: the base's values, with the lookahead's choice on top."""
@@ -145,10 +146,10 @@ class LookaheadEvaluator:
         if self._episode is not site:  # a new episode (reset builds a new site)
             self._episode, self._held, self.decisions = site, {}, []
         crew = site.crews[i]
-        values = self.base.target_values(crew, site, engine.positions[i])
+        values = self.base.values_for(engine, i)
         if self.acting is not None:
             self._decide(engine, i, values)
-            return self.acting.target_values(crew, site, engine.positions[i])
+            return self.acting.values_for(engine, i)
         held = self._held.get(i)
         if held is not None:
             target, reaches = held
@@ -203,27 +204,19 @@ class LookaheadEvaluator:
                         scenario: int | None) -> float:
         """The floor's makespan when crew i heads for ``target`` now and the base rule decides
         everything after, on a branch with future ``scenario``."""
-        branch = engine.clone(scenario, self._companions(engine), keep_log=False)
-        return run_branch(branch, self.base, i, values, target,
+        branch = engine.clone(scenario, keep_log=False)
+        return run_branch(branch, self.low_level, self.base, i, values, target,
                           self.settings.unfinished_penalty_s)
-
-    def _companions(self, engine) -> tuple:
-        env = self.env
-        if env is None or env.engine is not engine:
-            raise RuntimeError("LookaheadEvaluator: bind(env) to the env whose engine it "
-                               "values before running an episode")
-        return (env,) if self.navigator is None else (env, self.navigator)
 
     def _parallel_makespans(self, engine, i: int, values: dict[int, float],
                             candidates: list[int]) -> list[float]:
         """Every (candidate, future) branch in the worker processes: the floor is pickled
         once per decision (its event log left out) and each worker rebuilds it."""
-        branch = engine.clone(engine.streams.scenario, self._companions(engine),
-                              keep_log=False)
-        branch[1].evaluator = self.base  # so the pickle holds no lookahead (nor its pool)
+        branch = engine.clone(engine.streams.scenario, keep_log=False)
+        branch.evaluator = self.base  # so the pickle holds no lookahead (nor its pool)
         blob = pickle.dumps(branch, protocol=pickle.HIGHEST_PROTOCOL)
         futures = self.scenarios()
-        jobs = [(blob, i, values, target, scenario, self.base,
+        jobs = [(blob, self.low_level, i, values, target, scenario, self.base,
                  self.settings.unfinished_penalty_s)
                 for target in candidates for scenario in futures]
         results = self._workers().map(_branch_job, jobs, chunksize=1)
@@ -259,31 +252,28 @@ class LookaheadEvaluator:
                 "futures": "expected" if self.settings.expected_paces else self.settings.futures}
 
 
-def run_branch(branch: tuple, base, i: int, values: dict[int, float], target: int,
+def run_branch(branch, low_level, base, i: int, values: dict[int, float], target: int,
                unfinished_penalty_s: float) -> float:
-    """Play a branch (engine, env[, low level]) to its end: crew i heads for ``target``, the
-    other crews waiting for values get the base rule's, and the base rule decides after."""
-    branch_engine, branch_env, *rest = branch
-    navigator = rest[0] if rest else Navigator(branch_env)
-    branch_env.evaluator = base  # the branch follows the base rule from here on
-    branch_engine.set_target_values(i, promote(values, target))
-    for j in list(branch_engine.pending):
-        crew = branch_engine.site.crews[j]
-        branch_engine.set_target_values(j, base.target_values(
-            crew, branch_engine.site, branch_engine.positions[j]))
-    while branch_env.agents:
-        branch_env.step(navigator.actions(branch_env, None))
-    if branch_engine.makespan_s is not None:
-        return branch_engine.makespan_s
-    return branch_engine.site.time_s + unfinished_penalty_s
+    """Play a branch (an engine cloned at crew i's decision) to its end with ``low_level``:
+    crew i heads for ``target``, the other crews waiting for values get the base rule's, and
+    the base rule decides after."""
+    branch.evaluator = base  # the branch follows the base rule from here on
+    branch.set_target_values(i, promote(values, target))
+    for j in list(branch.pending):
+        branch.set_target_values(j, base.values_for(branch, j))
+    reaching = ReachingObservations(branch.case) if low_level.reads_rays else None
+    play(branch, low_level, reaching)
+    if branch.makespan_s is not None:
+        return branch.makespan_s
+    return branch.site.time_s + unfinished_penalty_s
 
 
 def _branch_job(args) -> float:
-    blob, i, values, target, scenario, base, penalty = args
+    blob, low_level, i, values, target, scenario, base, penalty = args
     branch = pickle.loads(blob)
     if scenario is not None:
-        branch[0].streams.with_scenario(scenario)
-    return run_branch(branch, base, i, values, target, penalty)
+        branch.streams.with_scenario(scenario)
+    return run_branch(branch, low_level, base, i, values, target, penalty)
 
 
 def _quiet_worker() -> None:

@@ -23,8 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from cmdp_pymunk.disruptions import feature_size as disruption_feature_size
-from cmdp_pymunk.engine import engine_of
-from cmdp_pymunk.evaluate import DesiredPositionEvaluator
+from cmdp_pymunk.evaluate import DesiredPositionEvaluator, desired_position_values
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.observe import (
     evaluation_bounds,
@@ -229,7 +228,8 @@ class PolicyNavigator:
 
     By default it samples its actions: the argmax policy can repeat the same blocked move
     forever (the committed stage-1 model did on seed 0). The samples come from a numpy
-    generator made by ``reset(seed)`` at every episode, so a run is still reproducible.
+    generator seeded by ``reset(seed)`` at every episode and kept in the engine's ``memory``
+    (so a clone of the floor samples on as the original would): a run is reproducible.
     ``deterministic=True`` takes the argmax and raises :class:`PolicyStuck` as soon as a crew
     has held a target for ``stuck_after_caps`` times the case's step cap
     (``reevaluate_after_steps``) without reaching one, instead of stalling for an hour.
@@ -237,13 +237,14 @@ class PolicyNavigator:
 
     stuck_after_caps = 3
     reads_rays = True
+    MEMORY = "policy_navigator"
 
     def __init__(self, path: str | Path, deterministic: bool = False):
         self.path = Path(path)
         self.model = load_model(path)
         self.actor = LeanActor.from_sb3(self.model)
         self.deterministic = deterministic
-        self.rng = np.random.default_rng(0)
+        self.seed = 0
 
     @classmethod
     def from_model(cls, model, deterministic: bool = False) -> PolicyNavigator:
@@ -253,24 +254,19 @@ class PolicyNavigator:
         navigator.path, navigator.model, navigator.deterministic = Path("<live>"), model, \
             deterministic
         navigator.actor = LeanActor.from_sb3(model)
-        navigator.rng = np.random.default_rng(0)
+        navigator.seed = 0
         return navigator
 
     def reset(self, seed: int) -> None:
-        self.rng = np.random.default_rng(seed)
+        """A new episode: its samples come from a generator seeded with ``seed``."""
+        self.seed = seed
 
-    def bind(self, env) -> None:
-        """Drive ``env`` (an engine or an env over one): check that the model reads this
-        case's reaching observation."""
-        _check_shape(self.model, ray_model(engine_of(env).case).size, self.path,
+    def bind(self, engine) -> None:
+        """Check that the model reads this engine's case's reaching observation."""
+        _check_shape(self.model, ray_model(engine.case).size, self.path,
                      "the reaching observation")
 
-    def actions(self, env, observations: dict) -> dict:
-        """Actions for every agent of a ``CMDPEnv``, from its observations by agent."""
-        acts = self.crew_actions(env.engine, [observations[a] for a in env.possible_agents])
-        return dict(zip(env.possible_agents, acts, strict=True))
-
-    def crew_actions(self, engine, observations: list) -> list:
+    def actions(self, engine, observations: list) -> list:
         """Every crew's action by crew index, from their reaching observations (in crew
         order): one batch of the moving crews' (the others stand still)."""
         crews = engine.site.crews
@@ -278,20 +274,22 @@ class PolicyNavigator:
         out = [STAND_STILL] * len(crews)
         if movers:
             batch = np.stack([observations[i] for i in movers])
+            rng = engine.memory.get(self.MEMORY)
+            if rng is None:
+                rng = engine.memory[self.MEMORY] = np.random.default_rng(self.seed)
             for i, act in zip(movers, self.actor.act(batch, self.deterministic,
-                                                     self.rng).tolist(), strict=True):
+                                                     rng).tolist(), strict=True):
                 out[i] = tuple(act)
         if self.deterministic:
             check_not_stuck(engine, self.stuck_after_caps)
         return out
 
 
-def check_not_stuck(floor, caps: int) -> None:
-    """Raise :class:`PolicyStuck` naming the first crew of ``floor`` (an engine, or an env over
-    one) that has held a target for ``caps`` step caps without reaching one."""
+def check_not_stuck(engine, caps: int) -> None:
+    """Raise :class:`PolicyStuck` naming the first crew of ``engine`` that has held a target
+    for ``caps`` step caps without reaching one."""
     from cmdp_pymunk.decide import target_id
 
-    engine = engine_of(floor)
     site = engine.site
     limit = caps * engine.case.simulation.reevaluate_after_steps
     for crew in site.crews:
@@ -309,9 +307,9 @@ class ModelEvaluator(DesiredPositionEvaluator):
     """A trained evaluation policy: its desired position values the targets by Eq. 4.
 
     The route of training (``cmdp_pymunk.highlevel``): O^e from
-    ``observe.evaluation_observation`` (clipped into the case's bounds), the actor's mean
-    action, and ``evaluate.desired_position_values`` (Eq. 4 as V_Tar). ``bind(env)``: the env
-    or engine whose crews it values (their headings are read there).
+    ``observe.evaluation_observation`` (clipped into the case's bounds, the crew's pose read
+    from the engine), the actor's mean action, and ``evaluate.desired_position_values`` (Eq. 4
+    as V_Tar). ``prepare(case)`` checks that the model reads this case's O^e.
     """
 
     def __init__(self, path: str | Path):
@@ -319,24 +317,23 @@ class ModelEvaluator(DesiredPositionEvaluator):
         self.path = Path(path)
         self.model = load_model(path)
         self.actor = LeanActor.from_sb3(self.model)
-        self.env = None
+        self.bounds = None
 
-    def bind(self, env) -> None:
-        size = evaluation_size(env.case)
+    def prepare(self, case) -> None:
+        size = evaluation_size(case)
         if self.actor.observation_size != size:
-            extra = disruption_feature_size(env.case)
+            extra = disruption_feature_size(case)
             why = (f" (of which {extra} say what is disrupted: the case has [disruptions], "
                    "which a model trained without them does not know)") if extra else ""
             raise ValueError(f"{self.path}: the model's actor reads {self.actor.observation_size} "
                              f"floats, but this case's evaluation observation has {size}{why}; "
                              "fix: use a stage-2 model trained on this case")
-        self.env = env
-        self.bounds = evaluation_bounds(env.case)
+        self.bounds = evaluation_bounds(case)
 
-    def desired_position(self, crew, site, position) -> np.ndarray:
-        if self.env is None:
-            raise RuntimeError(f"{self.path}: ModelEvaluator.bind(env) first (it reads the "
-                               "crews' headings there)")
-        heading = engine_of(self.env).pose(crew.index)[2]
-        obs = evaluation_observation(site, crew, position, heading, self.bounds)
-        return self.actor.act(obs[None], deterministic=True)[0]
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        site = engine.site
+        crew = site.crews[i]
+        heading = engine.pose(i)[2]
+        obs = evaluation_observation(site, crew, engine.positions[i], heading, self.bounds)
+        return desired_position_values(self.actor.act(obs[None], deterministic=True)[0], crew,
+                                       site)

@@ -29,7 +29,6 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.state import CrewStatus, ScopeKind
 
@@ -48,7 +47,7 @@ NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -
 class _Grid:
     """Free cells and their 8-connected edges for one crew radius."""
 
-    def __init__(self, nav: Navigator, radius: float):
+    def __init__(self, nav: _Plans, radius: float):
         self.radius = radius
         clearance = radius + nav.clearance_m
         cx, cy = nav.cx, nav.cy
@@ -82,6 +81,11 @@ class _Grid:
         self.n = n
         self.graphs: dict = {}
 
+    def __deepcopy__(self, memo):
+        # Shared by a floor and its clones: the free cells depend on the case alone, and the
+        # graph cache is a pure function of its key (the area state).
+        return self
+
     def graph(self, cost: np.ndarray, key=None) -> csr_matrix:
         """The weighted graph for these cell costs; cached under ``key`` (the area state) if
         given. Personal detours pass no key: a key made from an object's id could be reused
@@ -97,39 +101,44 @@ class _Grid:
 
 
 class Navigator:
-    """Scripted low level (``cmdp_pymunk.policy.LowLevel``) for an engine or a ``CMDPEnv``:
-    ``bind(env)`` (or ``Navigator(env)``), then ``crew_actions(engine)`` (by crew index) or
-    ``actions(env, observations)`` (by agent) every step. It reads the state, not the rays."""
+    """Scripted low level (``cmdp_pymunk.policy.LowLevel``): ``actions(engine)`` every second,
+    by crew index. It reads the state, not the rays; its plans for an episode live in
+    ``engine.memory["navigator"]`` (``_Plans``), so a clone of the floor carries them."""
 
     reads_rays = False
+    MEMORY = "navigator"
 
-    def __init__(self, env=None, cell_m: float = 0.5, clearance_m: float = -0.2):
-        self.env = env
+    def __init__(self, cell_m: float = 0.5, clearance_m: float = -0.2):
         self.cell_m = cell_m
         self.clearance_m = clearance_m
-        self._episode = None
+
+    def bind(self, engine) -> None:
+        """Fits every case (it plans on the engine's own plane)."""
 
     def reset(self, seed: int) -> None:
-        """A new episode: plans are rebuilt on the next ``actions`` (the navigator draws no
-        random numbers, so the seed is not used)."""
-        self._episode = None
+        """A new episode (after the engine's reset, which clears its plans): the navigator
+        draws no random numbers, so the seed is not used."""
 
-    def bind(self, env) -> None:
-        """Drive ``env`` from now on."""
-        self.env = env
-        self._episode = None
+    def plans(self, engine) -> _Plans:
+        """The episode's plans on ``engine`` (made on first use)."""
+        plans = engine.memory.get(self.MEMORY)
+        if plans is None:
+            plans = engine.memory[self.MEMORY] = _Plans(engine, self.cell_m, self.clearance_m)
+        return plans
 
-    @property
-    def engine(self):
-        """The engine of the floor it drives (bound to an env over one, or to the engine)."""
-        return engine_of(self.env)
+    def actions(self, engine, observations=None) -> list:
+        """Every crew's action, by crew index (the observations are not needed)."""
+        return self.plans(engine).actions()
 
-    # -- set-up per episode -------------------------------------------------------------------
 
-    def _setup(self) -> None:
-        engine = self.engine
+class _Plans:
+    """One episode's grids, cost-to-go fields and per-crew progress, for ``Navigator``."""
+
+    def __init__(self, engine, cell_m: float, clearance_m: float):
+        self.engine = engine
+        self.cell_m = cell_m
+        self.clearance_m = clearance_m
         self.site = engine.site
-        self._episode = engine.site
         self.half_w, self.half_h = engine.case.plane.half_extents
         self.nx = int(math.ceil(2 * self.half_w / self.cell_m))
         self.ny = int(math.ceil(2 * self.half_h / self.cell_m))
@@ -203,21 +212,13 @@ class Navigator:
 
     # -- acting -------------------------------------------------------------------------------
 
-    def actions(self, env, observations=None) -> dict:
-        """Actions for every agent of a ``CMDPEnv`` (the observations are not needed: it reads
-        the state)."""
-        return dict(zip(env.possible_agents, self.crew_actions(env.engine), strict=True))
-
-    def crew_actions(self, engine, observations=None) -> list:
-        """Every crew's action, by crew index, on the floor it is bound to (``engine``: its
-        engine); the observations are not needed."""
-        if self._episode is not engine.site:
-            self._setup()
+    def actions(self) -> list:
+        """Every crew's action, by crew index."""
         key = tuple(sorted(self.site.active_areas))
         if key != self.area_key:  # task areas appeared or vanished: re-plan everything
             self.area_key = key
             self.fields = {}
-        return [self.act(crew) for crew in engine.site.crews]
+        return [self.act(crew) for crew in self.site.crews]
 
     def _cell(self, x: float, y: float) -> tuple[int, int]:
         i = min(self.nx - 1, max(0, int((x + self.half_w) / self.cell_m)))

@@ -35,6 +35,7 @@ import time
 from dataclasses import dataclass
 
 from cmdp_pymunk.bounds import expected_duration_s
+from cmdp_pymunk.evaluate import Evaluator
 from cmdp_pymunk.precedence import Pool
 from cmdp_pymunk.state import ScopeKind
 
@@ -166,7 +167,7 @@ def solve_rest(site, settings: ReplanSettings, cliques: list[list[int]]) -> Plan
                 solver.StatusName(status).lower(), wall)
 
 
-class ReplanEvaluator:
+class ReplanEvaluator(Evaluator):
     """The re-planning solver as a target evaluator (see the module doc)."""
 
     def __init__(self, base=None, settings: ReplanSettings | None = None):
@@ -179,8 +180,13 @@ class ReplanEvaluator:
         self._cliques: tuple = (None, [])  # (case, its conflict cliques), made once per case
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
 
-    def target_values(self, crew, site, position) -> dict[int, float]:
-        values = self.base.target_values(crew, site, position)
+    def prepare(self, case) -> None:
+        self.base.prepare(case)
+
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        site = engine.site
+        crew = site.crews[i]
+        values = self.base.values_for(engine, i)
         if self._episode is not site:  # a new episode (reset builds a new site)
             self._episode, self._held, self.plans = site, {}, []
             self.decisions = self.overrides = 0

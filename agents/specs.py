@@ -112,20 +112,18 @@ def make_replan(options: str):
     return ReplanEvaluator(make_evaluator(base), ReplanSettings(**settings))
 
 
-def make_navigator(spec: str, env, deterministic: bool = False) -> LowLevel:
+def make_navigator(spec: str, engine=None, deterministic: bool = False) -> LowLevel:
     """``scripted`` (the navigator) or a stage-1 reaching model ``.zip``, which samples its
-    actions unless ``deterministic`` (argmax), bound to ``env``; ValueError for a missing file
-    or a model that does not fit the env's observation."""
+    actions unless ``deterministic`` (argmax), bound to ``engine`` if given; ValueError for a
+    missing file or a model that does not fit the engine's case."""
     if spec == "scripted":
         navigator = Navigator()
     else:
         from .models import PolicyNavigator
 
         navigator = PolicyNavigator(model_path(spec, "--navigator"), deterministic=deterministic)
-    navigator.bind(env)
-    evaluator = getattr(env, "evaluator", None)
-    if hasattr(evaluator, "bind_low_level"):  # the lookahead branches the low level too
-        evaluator.bind_low_level(navigator)
+    if engine is not None:
+        navigator.bind(engine)
     return navigator
 
 

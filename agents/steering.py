@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 
-from cmdp_pymunk.engine import engine_of
 from cmdp_pymunk.move import STAND_STILL
 
 
@@ -21,10 +20,8 @@ def best_target(crew) -> int:
     return max(crew.values, key=lambda t: (crew.values[t], -t))
 
 
-def steer(floor, i: int):
-    """The MultiDiscrete([4, 3, 3]) action for crew i of ``floor`` (an engine, or an env over
-    one)."""
-    engine = engine_of(floor)
+def steer(engine, i: int):
+    """The MultiDiscrete([4, 3, 3]) action for crew i of ``engine``."""
     crew = engine.site.crews[i]
     target = best_target(crew)
     if not crew.moving or target < 0:
@@ -38,6 +35,21 @@ def steer(floor, i: int):
     return (forward, 1, turn)
 
 
+class Steering:
+    """Greedy steering as a low level (``cmdp_pymunk.policy.LowLevel``): no plans, no state."""
+
+    reads_rays = False
+
+    def bind(self, engine) -> None:
+        """Fits every case."""
+
+    def reset(self, seed: int) -> None:
+        """Draws no random numbers."""
+
+    def actions(self, engine, observations=None) -> list:
+        return [steer(engine, i) for i in range(len(engine.site.crews))]
+
+
 def steer_all(env) -> dict:
-    """Actions for every live agent of a ``CMDPEnv`` (its names mapped to crew indices)."""
-    return {agent: steer(env.engine, env.agent_index[agent]) for agent in env.agents}
+    """Greedy actions for every agent of a ``CMDPEnv``, by agent name."""
+    return env.agent_actions(Steering(), None)

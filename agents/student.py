@@ -18,14 +18,14 @@ from pathlib import Path
 
 import numpy as np
 
-from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values
+from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
 from cmdp_pymunk.state import ScopeKind
 
 from .features import FEATURE_NAMES, FloorFacts, candidate_features
 from .lookahead import promote, ranked
 
 
-class StudentEvaluator:
+class StudentEvaluator(Evaluator):
     """Eq. 9 plus a learned residual over its top candidates (see the module doc).
 
     Args:
@@ -59,7 +59,9 @@ class StudentEvaluator:
             self._facts[key] = FloorFacts.of(site)
         return self._facts[key]
 
-    def target_values(self, crew, site, position) -> dict[int, float]:
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        site = engine.site
+        crew, position = site.crews[i], engine.positions[i]
         priorities = self.base.priorities(crew, site, position)
         values = as_target_values(priorities)  # Eq. 9's V_Tar, from V' computed once
         held = self._held.setdefault(site, {})
@@ -74,7 +76,7 @@ class StudentEvaluator:
         if crew.scope_kind != ScopeKind.TASKS or len(top) < 2 or w is None or not w.any():
             return values
         phi = candidate_features(self.facts(site), crew, site, position, top, priorities,
-                                 site.crew_xy)
+                                 engine.positions)
         scores = np.array([priorities[t] for t in top]) + phi @ w
         choice = top[int(np.argmax(scores))]  # ties: Eq. 9's order
         if choice == order[0]:

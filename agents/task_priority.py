@@ -34,7 +34,7 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from cmdp_pymunk.evaluate import PriorityEvaluator, as_target_values
+from cmdp_pymunk.evaluate import PriorityEvaluator, Rule, as_target_values
 from cmdp_pymunk.events import write_atomic
 
 FORMAT = "cmdp-task-priorities/1"
@@ -49,7 +49,7 @@ def task_priority_value(priority: float, distance: float, max_distance: float,
     return priority + distance_weight * closeness
 
 
-class TaskPriorityEvaluator:
+class TaskPriorityEvaluator(Rule):
     """V_Tar from one priority per task id (a GA individual or a replayed plan)."""
 
     def __init__(self, priorities: Mapping[str, float], distance_weight: float = 0.0,
@@ -91,8 +91,8 @@ class TaskPriorityEvaluator:
                              f"{case.case.name!r}; fix: give one priority per task id of the "
                              "case (make the file for this case, e.g. with cmdp-ga)")
 
-    def bind(self, env) -> None:
-        self.check_case(env.case)
+    def prepare(self, case) -> None:
+        self.check_case(case)
 
     def target_values(self, crew, site, position):
         dist = {t: math.dist(position, site.target_xy[t]) for t in crew.scope}

@@ -16,19 +16,22 @@ import time
 
 import cmdp_pymunk
 from agents.navigator import Navigator
+from cmdp_pymunk.engine import Engine
 
 
 def floor(seed: int):
-    env = cmdp_pymunk.parallel_env(seed=seed, evaluator="priority", park_idle=True, blind=True)
-    navigator = Navigator(env)
-    env.reset(seed=seed)
+    engine = Engine(cmdp_pymunk.load_case(None), evaluator="priority", park_idle=True)
+    navigator = Navigator()
+    engine.reset(seed)
     navigator.reset(seed)
-    return env, navigator
+    return engine, navigator
 
 
-def run_to(env, navigator, t: float) -> None:
-    while env.agents and env.engine.site.time_s < t:
-        env.step(navigator.actions(env, None))
+def run_to(engine, navigator, t: float) -> None:
+    while engine.site.time_s < t:
+        run = engine.advance(navigator.actions(engine), until=engine.decision_due)
+        if run.terminated or run.truncated:
+            return
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -41,15 +44,15 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'t (s)':>7} {'clone (ms)':>11} {'clone, no log':>14} {'replay (ms)':>12} "
           f"{'replay / clone':>15}")
     for t in (float(x) for x in args.at.split(",")):
-        env, navigator = floor(args.seed)
-        run_to(env, navigator, t)
+        engine, navigator = floor(args.seed)
+        run_to(engine, navigator, t)
         clones, lean, replays = [], [], []
         for _ in range(args.repeat):
             start = time.perf_counter()
-            env.engine.clone(companions=(env, navigator))
+            engine.clone()  # the navigator's plans come along (engine.memory)
             clones.append(time.perf_counter() - start)
             start = time.perf_counter()
-            env.engine.clone(companions=(env, navigator), keep_log=False)
+            engine.clone(keep_log=False)
             lean.append(time.perf_counter() - start)
             start = time.perf_counter()
             replay, replay_nav = floor(args.seed)

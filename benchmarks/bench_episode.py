@@ -20,45 +20,51 @@ import time
 
 import cmdp_pymunk
 from agents.navigator import Navigator
+from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import PriorityEvaluator
-from cmdp_pymunk.timing import StageClock
+from cmdp_pymunk.observe import ReachingObservations
+from cmdp_pymunk.timing import StageClock, clocked
 
 
 def run(seed: int, navigator_path: str | None, park: bool):
-    """One episode: (env, step calls, wall s, CPU s, stage clock)."""
-    env = cmdp_pymunk.parallel_env(seed=seed, evaluator=PriorityEvaluator(),
-                                   park_idle=park and navigator_path is None,
-                                   blind=navigator_path is None)  # it reads no rays
+    """One episode: (engine, step calls, wall s, CPU s, stage clock)."""
+    engine = Engine(cmdp_pymunk.load_case(None), evaluator=PriorityEvaluator(),
+                    park_idle=park and navigator_path is None)
     if navigator_path is None:
-        navigator = Navigator(env)
+        navigator = Navigator()
     else:
         from agents.models import PolicyNavigator
 
         navigator = PolicyNavigator(navigator_path, deterministic=False)
     clock = StageClock()
-    env.clock = clock
-    observations, _ = env.reset(seed=seed)
+    clocked(engine, clock)
+    engine.reset(seed)
     navigator.reset(seed)
-    calls = 0
+    reaching = ReachingObservations(engine.case) if navigator.reads_rays else None
+    n, calls = len(engine.case.crews), 0
     start, cpu = time.perf_counter(), time.process_time()
-    while env.agents:
+    while True:
         t0 = time.perf_counter()
-        actions = navigator.actions(env, observations)
-        clock.seconds["navigation"] += time.perf_counter() - t0
-        observations, *_ = env.step(actions)
+        observations = [reaching.crew(engine, i) for i in range(n)] if reaching else None
+        t1 = time.perf_counter()
+        actions = navigator.actions(engine, observations)
+        clock.seconds["rays (Eq. 3)"] += t1 - t0
+        clock.seconds["navigation"] += time.perf_counter() - t1
+        run = engine.advance(actions, until=engine.decision_due)
         calls += 1
-    return env, calls, time.perf_counter() - start, time.process_time() - cpu, clock
+        if run.terminated or run.truncated:
+            break
+    return engine, calls, time.perf_counter() - start, time.process_time() - cpu, clock
 
 
-def report(label: str, env, calls: int, wall: float, cpu: float, clock) -> float:
-    engine = env.engine
+def report(label: str, engine, calls: int, wall: float, cpu: float, clock) -> float:
     sim = engine.site.time_s
     end = f"makespan {engine.makespan_s:.0f}" if engine.makespan_s else f"stopped at {sim:.0f}"
     print(f"{label}: {end} simulated s, {calls} step calls for {engine.steps} simulated steps, "
           f"{wall:.2f} s wall, {cpu:.2f} s CPU")
     print(f"  speed: {sim / cpu:,.0f} x real time per CPU second ({sim / wall:,.0f} x wall)")
     accounted = sum(clock.seconds.values())
-    clock.seconds["other (env.step bookkeeping, infos)"] = wall - accounted
+    clock.seconds["other (advance, metrics)"] = wall - accounted
     for stage, seconds in sorted(clock.seconds.items(), key=lambda kv: -kv[1]):
         print(f"    {stage:38s} {seconds:6.2f} s  {100 * seconds / wall:5.1f} %")
     return sim / cpu

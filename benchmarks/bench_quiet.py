@@ -36,22 +36,23 @@ def main(argv: list[str] | None = None) -> int:
 
     Engine.step = timed_step
     try:
-        env = cmdp_pymunk.parallel_env(seed=args.seed, evaluator="priority", park_idle=True,
-                                       blind=True)
-        navigator = Navigator(env)
-        env.reset(seed=args.seed)
+        engine = Engine(cmdp_pymunk.load_case(None), evaluator="priority", park_idle=True)
+        navigator = Navigator()
+        engine.reset(args.seed)
         navigator.reset(args.seed)
         start, nav_s = time.process_time(), 0.0
-        while env.agents:
+        while True:
             t = time.process_time()
-            actions = navigator.actions(env, None)
+            actions = navigator.actions(engine)
             nav_s += time.process_time() - t
-            env.step(actions)
+            run = engine.advance(actions, until=engine.decision_due)
+            if run.terminated or run.truncated:
+                break
         total = time.process_time() - start
     finally:
         Engine.step = step
     (nq, quiet_s), (nm, moving_s) = acc["quiet"], acc["moving"]
-    print(f"seed {args.seed}: makespan {env.makespan_s:.0f} s, {total:.2f} CPU s in all")
+    print(f"seed {args.seed}: makespan {engine.makespan_s:.0f} s, {total:.2f} CPU s in all")
     print(f"  quiet seconds:  {nq:6d} ({nq / (nq + nm):.0%} of seconds), {quiet_s:.2f} CPU s "
           f"({quiet_s / total:.0%})")
     print(f"  moving seconds: {nm:6d}, {moving_s:.2f} CPU s ({moving_s / total:.0%})")

@@ -30,7 +30,7 @@ def count(env, navigator, seeds) -> tuple[int, int, int]:
             engine = env.engine
             crews = engine.site.crews
             deciding += sum(engine.needs_action(crews[env.agent_index[a]]) for a in env.agents)
-            observations, *_ = env.step(navigator.actions(env, observations))
+            observations, *_ = env.step(env.agent_actions(navigator, observations))
     return steps, samples, deciding
 
 
@@ -51,7 +51,7 @@ def main(argv=None) -> int:
         # stage 2 every reset (share 1, past the start), or never (share 0)
         kind = config.model_copy(update={"stage2_share": float(stage == 2)})
         env = MixedStageEnv(kind, case, start_steps=config.stage2_after_steps)
-        navigator.bind(env)
+        navigator.bind(env.engine)
         steps, samples, deciding = count(env, navigator, range(100, 100 + args.episodes))
         shares[stage] = (steps, 1.0 - deciding / samples)
         print(f"stage-{stage} episodes (cut at {env.max_time_s:,.0f} s): {steps} vector-env "

@@ -80,14 +80,12 @@ def play(env_id: str, spec: str, seed: int) -> dict:
     evaluator = make_strategy(spec, seed)
     env = pettingzoo.make("parallel", env_id, seed=seed, evaluator=evaluator, blind=True,
                           park_idle=True)
-    if hasattr(evaluator, "bind"):
-        evaluator.bind(env)
     observations, _ = env.reset(seed=seed)
-    navigator = Navigator(env)
+    navigator = Navigator()
     reaching = evaluation = 0.0
     start = time.perf_counter()
     while env.agents:
-        observations, rewards, _, _, infos = env.step(navigator.actions(env, observations))
+        observations, rewards, _, _, infos = env.step(env.agent_actions(navigator, observations))
         reaching += sum(rewards.values())
         evaluation += sum(i.get("evaluation_reward", 0.0) for i in infos.values())
     site = env.engine.site
@@ -108,8 +106,6 @@ def fits(env_id: str, spec: str) -> str:
     try:
         evaluator = make_strategy(spec, 0)
         env = pettingzoo.make("parallel", env_id, seed=0, evaluator=evaluator, blind=True)
-        if hasattr(evaluator, "bind"):
-            evaluator.bind(env)
         env.reset(seed=0)
     except (ValueError, OSError) as err:
         return str(err).splitlines()[0]

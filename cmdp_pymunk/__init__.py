@@ -1,35 +1,56 @@
-"""cmdp-pymunk: the Construction Markov Decision Process on pymunk, as a PettingZoo env."""
+"""cmdp-pymunk: the Construction Markov Decision Process on pymunk, as a PettingZoo env.
 
-from . import registry as _registry
+The simulation core (``engine``, ``case``, ``state``, ``decide``, ...) imports neither
+PettingZoo nor Gymnasium: ``import cmdp_pymunk.engine`` works without them. Where PettingZoo is
+installed, importing the package registers the env's variants (``pettingzoo.make("parallel",
+"cmdp/PrecastFloor-v1")``); ``CMDPEnv``, ``parallel_env`` and ``env`` load the adapter on use.
+"""
+
 from .case import BUILTIN_CASE, DISRUPTED_CASE, TINY_CASE, Case, CaseError, load_case
-from .env import CMDPEnv
 
 __version__ = "0.2.0"
+ENV_NAME = "cmdp_pymunk_v1"  # the PettingZoo env's name and version (CMDPEnv.metadata)
 
 
 def add_version_flag(parser) -> None:
     """``--version`` on a command-line parser: the package version and the env's name."""
-    from .env import CMDPEnv as _Env
-
     parser.add_argument("--version", action="version",
-                        version=f"%(prog)s {__version__} ({_Env.metadata['name']})")
+                        version=f"%(prog)s {__version__} ({ENV_NAME})")
 
 
-def parallel_env(**kwargs) -> CMDPEnv:
+def parallel_env(**kwargs):
     """The CMDP as a PettingZoo ParallelEnv; see ``cmdp_pymunk.env`` for its arguments."""
+    from .env import CMDPEnv
+
     return CMDPEnv(**kwargs)
 
 
+def __getattr__(name: str):
+    if name == "CMDPEnv":  # the adapter, loaded on use (it needs PettingZoo)
+        from .env import CMDPEnv
+
+        return CMDPEnv
+    raise AttributeError(f"module 'cmdp_pymunk' has no attribute {name!r}")
+
+
+try:  # the variants in PettingZoo's registry, as its users expect, where it is installed
+    import pettingzoo  # noqa: F401
+except ImportError:
+    pass
+else:
+    from . import registry as _registry
+
+    _registry.register_variants()
+
+
+# after the registration: importing the adapter module ``cmdp_pymunk.env`` sets the package's
+# attribute ``env`` to that module, and PettingZoo's users call ``cmdp_pymunk.env()``
 def env(**kwargs):
     """The CMDP as a PettingZoo AECEnv (``parallel_to_aec`` over ``parallel_env``)."""
     from pettingzoo.utils.conversions import parallel_to_aec
 
-    return parallel_to_aec(CMDPEnv(**kwargs))
-
-
-# The variants in PettingZoo's registry: pettingzoo.make("parallel", "cmdp/PrecastFloor-v1")
-_registry.register_variants()
+    return parallel_to_aec(parallel_env(**kwargs))
 
 
 __all__ = ["parallel_env", "env", "add_version_flag", "__version__", "CMDPEnv", "Case", "CaseError",
-           "load_case", "BUILTIN_CASE", "TINY_CASE", "DISRUPTED_CASE"]
+           "load_case", "BUILTIN_CASE", "TINY_CASE", "DISRUPTED_CASE", "ENV_NAME"]

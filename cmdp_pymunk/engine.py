@@ -6,7 +6,13 @@ what it needs from outside:
 
 - ``needs_action(crew)`` / ``action_needed``: which crews need a movement decision now;
 - ``pending``: which crews' target scopes wait for values, when no evaluator is injected
-  (``evaluator=None``); answer with ``set_target_values(i, values)``.
+  (``evaluator=None``: values come from outside, at every layer); answer with
+  ``set_target_values(i, values)``.
+
+Evaluators (``evaluate.TargetEvaluator``) are asked ``values_for(self, i)`` for each crew whose
+scope needs values: inside the second, or once it is whole for one that branches the floor
+(``between_seconds``). Low levels keep their per-episode state in ``memory`` (a dict by the low
+level's name), so that ``clone`` carries it and a branch continues as the original would.
 
 ``reset(seed)`` starts an episode (its random streams, ``streams``, keyed here: a task's pace
 by seed and task); ``step(actions)`` runs one simulated second and returns what happened
@@ -43,26 +49,16 @@ import copy
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 from . import construct, decide, disruptions, events, move, reward
 from .case_model import Case
-from .evaluate import (
-    TargetEvaluator,
-    asks_between_seconds,
-    assign_target_values,
-    crews_needing_values,
-    make_evaluator,
-)
+from .evaluate import TargetEvaluator, crews_needing_values, make_evaluator
 from .metrics import Counters
 from .physics import Physics
 from .state import CrewState, CrewStatus, Site, activity
 from .streams import RandomStreams
 from .world import World
-
-
-def engine_of(floor) -> Engine:
-    """The engine of a floor given as an engine or as an env over one (``env.engine``)."""
-    return getattr(floor, "engine", floor)
 
 
 @dataclass
@@ -111,7 +107,8 @@ class Engine:
                              f"CMDP), not {stage!r}")
         self.case = case
         self.stage = stage
-        self.evaluator = None if evaluator is None else make_evaluator(evaluator)
+        self._evaluator: TargetEvaluator | None = None
+        self.evaluator = evaluator  # checked against the case (``prepare``)
         sim = case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
         if not math.isfinite(self.max_time_s) or self.max_time_s <= 0:
@@ -127,14 +124,37 @@ class Engine:
         self.eta = reward.eta_by_kind(case.reaching_reward)
         self.streams = RandomStreams(seed)  # a task's pace by (seed, task): streams.py
         self.timeline: disruptions.Timeline | None = None  # the case's, drawn in reset
-        self.clock = None  # a timing.StageClock to split wall time by stage (benchmarks)
         self.physics = physics
+        # The episode's state: set by ``reset``, None or empty before the first one.
         self.site: Site | None = None
         self.world: Physics | None = None
         self.log = events.EventLog()
         self.metrics: Counters | None = None
-        self.pending: list[int] = []
-        self.action_needed = False
+        self.pending: list[int] = []  # crews whose scopes wait for values
+        self.action_needed = False  # some crew needs a movement decision
+        self.positions: list[tuple[float, float]] = []  # every crew's (x, y), crew order
+        self.activities: list[str] = []  # every crew's Gantt category (Fig. 9), as logged
+        self.steps = 0  # simulated seconds (steps) run this episode
+        self.memory: dict[str, Any] = {}  # the low levels' per-episode state (module doc)
+        self._last_logged: list = []
+        self._no_rewards: list[float] = []
+        self._progress_mark: tuple = (0.0, (0, 0.0))
+        self._terms: dict[str, float] = dict.fromkeys(reward.EVALUATION_TERMS, 0.0)
+        self._construct_logged = False
+
+    @property
+    def evaluator(self) -> TargetEvaluator | None:
+        """What values the crews' scopes (``evaluate.TargetEvaluator``); None: values come
+        from outside (``pending`` / ``set_target_values``). Set it to an evaluator or a name
+        of ``evaluate.EVALUATORS``: it is prepared for the case (a misfit raises here)."""
+        return self._evaluator
+
+    @evaluator.setter
+    def evaluator(self, value: TargetEvaluator | str | None) -> None:
+        if value is not None:
+            value = make_evaluator(value)
+            value.prepare(self.case)
+        self._evaluator = value
 
     # -- an episode ---------------------------------------------------------------------------
 
@@ -160,7 +180,7 @@ class Engine:
         self._last_logged = [None] * n
         self._no_rewards = [0.0] * n
         self.positions = [self.world.pose(i)[:2] for i in range(n)]
-        self.site.crew_xy = self.positions  # the same list: evaluators may read every crew's
+        self.memory = {}
         self.steps = 0
         self.stalled = None
         self._progress_mark = (0.0, self._task_progress())
@@ -182,8 +202,6 @@ class Engine:
         crew i's reaching action, used only if it moves."""
         if self.site is None:
             raise RuntimeError("step: the engine has no episode yet; call reset(seed) first")
-        if self.clock:
-            self.clock.start()
         crews = self.site.crews
         if len(actions) != len(crews):
             raise ValueError(f"step: {len(actions)} reaching actions for {len(crews)} crews; "
@@ -199,8 +217,7 @@ class Engine:
         # evaluation and R_r would change nothing, so they are skipped.
         skip = quiet and not disrupted and decide.only_execution_fires(ctx)
         if not skip:
-            decide.apply_decision_table(ctx)                            # Pi_cons, Table 1
-            self._evaluate()                                            # V_Tar, Eq. 4 or 9
+            self._decide(ctx)                           # Pi_cons, Table 1; V_Tar, Eq. 4 or 9
         # What the activities and R_e read (statuses, scopes, idle causes, tasks ended) changed
         # only if the table ran or P_cons logged a change (the crane wakes a waiting crew).
         changed = not skip or self._construct_logged
@@ -211,8 +228,6 @@ class Engine:
         if changed:                                                     # R_e's terms, Eq. 5
             self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
         self._tick_reach_clocks(moving, had_target)                     # section 3.6's clock
-        if self.clock:
-            self.clock.lap("rewards")
         return Second(moving, had_target, contacts, distance, rewards, self._terms)
 
     def advance(self, actions, until: Callable[[], bool] | None = None) -> Advance:
@@ -230,7 +245,7 @@ class Engine:
             out.add(second)
             truncated = self.site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
             if self.site.done or truncated or until is None or until() or self.pending:
-                break  # pending: a BranchingEvaluator values them between seconds
+                break  # pending: an evaluator asked between seconds values them
         self.metrics.close_window()
         out.terminated = self.site.done
         out.truncated = truncated
@@ -238,19 +253,18 @@ class Engine:
             self._value_between_seconds()
         return out
 
-    def clone(self, scenario: int | None = None, companions: tuple = (),
-              keep_log: bool = True) -> Engine | tuple:
+    def clone(self, scenario: int | None = None, keep_log: bool = True) -> Engine:
         """An independent episode at the same second: a branch of the floor.
 
-        Everything is copied (site, world, event log, counters, streams) but the case and
-        the injected evaluator, which are shared (an evaluator must keep no state of its
-        own per episode). ``scenario``: None keeps the floor's own future (the clone, given
-        the same actions and values, runs exactly as the original); an int draws the paces
-        of tasks not yet started from that sampled future (``streams``), keeping those
-        already drawn. ``companions``: objects that must branch with the engine and keep
-        their references to it (an env, a low level); then a tuple (engine, *companions)
-        is returned. ``keep_log`` False: the clone starts an empty event log (a lookahead
-        branch needs only the makespan; copying a long log costs more than the rest).
+        Everything is copied (site, world, event log, counters, streams, the low levels'
+        ``memory``) but the case and the injected evaluator, which are shared (an evaluator
+        must keep no state of its own per episode). ``scenario``: None keeps the floor's own
+        future (the clone, given the same actions and values, runs exactly as the original);
+        an int draws the paces of tasks not yet started from that sampled future
+        (``streams``), keeping those already drawn. A low level that keeps its per-episode
+        state in ``memory`` drives the clone as it would the original. ``keep_log`` False:
+        the clone starts an empty event log (a lookahead branch needs only the makespan;
+        copying a long log costs more than the rest).
 
         pymunk's contact cache cannot be copied, so the original's world is rebuilt from
         the same data as the clone's: both continue identically, and the original may
@@ -266,17 +280,13 @@ class Engine:
             memo[id(self.log)] = events.EventLog()
         if self.evaluator is not None:
             memo[id(self.evaluator)] = self.evaluator
-        clock, self.clock = self.clock, None
-        try:
-            copies = copy.deepcopy((self, *companions), memo)
-        finally:
-            self.clock = clock
+        branch = copy.deepcopy(self, memo)
         self.world.rebuild()
-        copies[0].streams.with_scenario(scenario if scenario is not None
-                                        else self.streams.scenario)
-        if scenario is not None and copies[0].timeline is not None:  # its own future's
-            copies[0].timeline.resample(copies[0].streams, self.site.time_s)  # disruptions
-        return copies if companions else copies[0]
+        branch.streams.with_scenario(scenario if scenario is not None
+                                     else self.streams.scenario)
+        if scenario is not None and branch.timeline is not None:  # its own future's
+            branch.timeline.resample(branch.streams, self.site.time_s)  # disruptions
+        return branch
 
     def quiet(self) -> bool:
         """The plane is at rest and no crew needs a movement decision: P_phy is void in the
@@ -359,8 +369,6 @@ class Engine:
         logged = len(self.log.events)
         self.site.time_s += self.case.simulation.step_s
         self.steps += 1
-        if self.clock:
-            self.clock.lap("physics")
         construct.advance(self.site, self.positions, self.log, self.case.simulation.step_s)
         self._construct_logged = len(self.log.events) != logged
         return self._context()
@@ -381,21 +389,26 @@ class Engine:
             self._log_activities()
         if any(moving):
             self._log_positions()
-        if self.clock:
-            self.clock.lap("decisions")
+
+    def _decide(self, ctx: decide.Context) -> None:
+        """Pi_cons (Table 1), then the target evaluation of the scopes it changed."""
+        decide.apply_decision_table(ctx)
+        self._evaluate()
 
     def _evaluate(self) -> None:
         """Target evaluation (section 3.6): by the injected evaluator, or left pending (no
         evaluator, or one that is asked between seconds)."""
-        if self.evaluator is None or asks_between_seconds(self.evaluator):
+        evaluator = self._evaluator
+        if evaluator is None or evaluator.between_seconds:
             self.pending = [c.index for c in crews_needing_values(self.site)]
         else:
-            assign_target_values(self.site, self.evaluator, self.positions)
+            for crew in crews_needing_values(self.site):
+                crew.values = dict(evaluator.values_for(self, crew.index))
 
     def _value_between_seconds(self) -> None:
-        """A ``BranchingEvaluator`` values the pending scopes once the second is whole (it may
-        clone the engine meanwhile)."""
-        if self.evaluator is None or not asks_between_seconds(self.evaluator):
+        """An evaluator asked between seconds values the pending scopes once the second is
+        whole (it may clone the engine meanwhile)."""
+        if self._evaluator is None or not self._evaluator.between_seconds:
             return
         while self.pending:
             i = self.pending[0]

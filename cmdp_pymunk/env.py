@@ -34,9 +34,11 @@ Stages (section 4.2)
 Arguments
     ``case``: a ``Case``, a path to a case file, or ``None`` for the built-in case.
     ``stage``: 1 or 2. ``seed``: seeds the episode generator (``reset(seed)`` re-seeds it,
-    ``reset()`` keeps it). ``evaluator``: fills V_Tar; an object with ``target_values`` (GA
-    priorities, the stage-2 model, ...) or a name of ``evaluate.EVALUATORS``; default
-    ``"priority"``, the priority heuristic (Eq. 9), as for ``pettingzoo.make``.
+    ``reset()`` keeps it). ``evaluator``: fills V_Tar; an ``evaluate.TargetEvaluator`` (GA
+    priorities, the stage-2 model, the lookahead, ...) or a name of ``evaluate.EVALUATORS``;
+    default ``"priority"``, the priority heuristic (Eq. 9), as for ``pettingzoo.make``.
+    ``None``: values come from outside, as for the engine (``env.engine.pending`` and
+    ``set_target_values`` before each step).
     ``render_mode``: ``None`` or ``"rgb_array"``. ``jump_idle``: when no crew needs a
     movement decision (all tasking, fetching, waiting or gone), one ``step`` call runs on to
     the next second at which one does; ``infos[agent]["elapsed_s"]`` says how far.
@@ -58,8 +60,12 @@ Arguments
     ``blind``: no rays are cast; every observation is all zeros. For a low level that reads
     the state instead of the rays (the scripted navigator): the ray casts are a fifth of such
     a floor's time. The schedule is the same (rays change nothing but observations). Default
-    False. ``renderer``: draws ``render()``'s frame from the env (default
-    ``media.render.draw_frame``).
+    False. ``renderer``: draws ``render()``'s frame from the engine and the rays,
+    ``renderer(engine, rays)`` (default ``media.render.draw_frame``).
+
+Low levels
+    A ``policy.LowLevel`` answers by crew index on the engine; ``agent_actions(low_level,
+    observations)`` is the one place its answer becomes a dict by agent name.
 
 Global state
     ``state()`` and ``state_space``: one fixed-size float32 vector (578 floats in the built-in
@@ -86,33 +92,35 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from . import move, observe
+from . import ENV_NAME, move, observe
 from .case import Case, as_case
 from .engine import Engine
-from .evaluate import TargetEvaluator, make_evaluator
+from .evaluate import DEFAULT_EVALUATOR, TargetEvaluator
 from .global_state import global_state, state_bounds
+from .policy import LowLevel
 
 # The renderer used when none is injected: named, not imported (the core imports no pygame).
 DEFAULT_RENDERER = "media.render:draw_frame"
 
 
 class CMDPEnv(ParallelEnv):
-    metadata = {"name": "cmdp_pymunk_v1", "render_modes": ["rgb_array"], "render_fps": 10,
+    metadata = {"name": ENV_NAME, "render_modes": ["rgb_array"], "render_fps": 10,
                 "is_parallelizable": True}
 
     def __init__(self, case: Case | str | Path | None = None, stage: int = 2,
-                 seed: int | None = None, evaluator: TargetEvaluator | str | None = None,
+                 seed: int | None = None,
+                 evaluator: TargetEvaluator | str | None = DEFAULT_EVALUATOR,
                  render_mode: str | None = None, jump_idle: bool = True,
                  max_time_s: float | None = None, position_log_every_s: float | None = None,
                  park_idle: bool = False, lean_infos: bool = False,
                  stall_s: float | None = None,
-                 renderer: Callable[[CMDPEnv], np.ndarray] | None = None,
+                 renderer: Callable[..., np.ndarray] | None = None,
                  blind: bool = False):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f'render_mode must be None or "rgb_array", not {render_mode!r}')
         case = as_case(case)
-        self.engine = Engine(case, stage, make_evaluator(evaluator), seed, max_time_s, park_idle,
-                             stall_s, position_log_every_s)
+        self.engine = Engine(case, stage, evaluator, seed, max_time_s, park_idle, stall_s,
+                             position_log_every_s)
         self.render_mode = render_mode
         self.renderer = renderer
         self.jump_idle = jump_idle
@@ -139,7 +147,6 @@ class CMDPEnv(ParallelEnv):
     # -- the episode --------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None, options: dict | None = None):
-        # the agents first: a BranchingEvaluator may branch the env inside engine.reset
         self.agents = list(self.possible_agents)
         self._reaching.reset()
         self.engine.reset(seed)                           # Pi_cons and V_Tar for t = 0
@@ -170,17 +177,17 @@ class CMDPEnv(ParallelEnv):
     def _observe(self) -> dict[str, np.ndarray]:
         """Rays are cast only for crews that need a movement decision
         (``observe.ReachingObservations``)."""
-        engine = self.engine
-        if engine.clock:
-            engine.clock.start()
         if self.blind:
-            out = {agent: self._reaching.idle.copy() for agent in self.agents}
-        else:
-            out = {agent: self._reaching.crew(engine, self.agent_index[agent])
-                   for agent in self.agents}
-        if engine.clock:
-            engine.clock.lap("rays")
-        return out
+            return {agent: self._reaching.idle.copy() for agent in self.agents}
+        return {agent: self._reaching.crew(self.engine, self.agent_index[agent])
+                for agent in self.agents}
+
+    def agent_actions(self, low_level: LowLevel, observations: dict | None) -> dict:
+        """A low level's actions (by crew index, on the engine) as a dict by agent name, from
+        the observations by agent name (passed on only if it ``reads_rays``)."""
+        obs = [observations[a] for a in self.possible_agents] \
+            if low_level.reads_rays and observations is not None else None
+        return dict(zip(self.possible_agents, low_level.actions(self.engine, obs), strict=True))
 
     def _info(self, i: int, terms: dict, eval_reward: float, elapsed: int,
               time_limit: bool) -> dict:
@@ -229,7 +236,7 @@ class CMDPEnv(ParallelEnv):
         if self.renderer is None:
             module, name = DEFAULT_RENDERER.split(":")
             self.renderer = getattr(importlib.import_module(module), name)
-        return self.renderer(self)
+        return self.renderer(self.engine, self.rays)
 
     def close(self) -> None:
         pass
@@ -243,16 +250,15 @@ class CMDPEnv(ParallelEnv):
     makespan_s = property(lambda self: self.engine.makespan_s,
                           doc="Simulated seconds until the last task ended, once every task has.")
 
-    # settable: training (``MixedStageEnv``) switches stage and time limit between episodes,
-    # ``rollout.run_episode`` sets the stall guard, benchmarks a clock
+    # settable: training (``MixedStageEnv``) switches stage and time limit between episodes
     @property
-    def evaluator(self) -> TargetEvaluator:
-        """Values the targets (section 3.6)."""
+    def evaluator(self) -> TargetEvaluator | None:
+        """Values the targets (section 3.6); None: values from outside."""
         return self.engine.evaluator
 
     @evaluator.setter
-    def evaluator(self, value: TargetEvaluator | str) -> None:
-        self.engine.evaluator = make_evaluator(value)
+    def evaluator(self, value: TargetEvaluator | str | None) -> None:
+        self.engine.evaluator = value
 
     @property
     def stage(self) -> int:
@@ -277,11 +283,3 @@ class CMDPEnv(ParallelEnv):
     @stall_s.setter
     def stall_s(self, value: float | None) -> None:
         self.engine.stall_s = value
-
-    @property
-    def clock(self):
-        return self.engine.clock
-
-    @clock.setter
-    def clock(self, value) -> None:
-        self.engine.clock = value

@@ -1,11 +1,22 @@
 """Target evaluation: V_Tar for every target in a crew's scope.
 
-The evaluator is injected into the env: the stage-2 policy's desired position (Eq. 4), the
-priority heuristic (Eq. 9, the default), GA priorities, or a simple one below. An evaluator
-is any object with ``target_values(crew, site, position) -> dict[target, V]``, or one of the
-names in ``EVALUATORS`` (``make_evaluator``).
-The env calls it when a crew's scope changes and after ``reevaluate_after_steps`` steps
-without reaching a target (section 3.6).
+The evaluator is injected into the engine: the stage-2 policy's desired position (Eq. 4), the
+priority heuristic (Eq. 9, the default of every env), GA priorities, the lookahead, or a simple
+one below. Every evaluator meets the engine at one protocol, ``TargetEvaluator``:
+
+- ``values_for(engine, i) -> {target: V}``: V_Tar for crew i's scope, read from the engine (the
+  site, ``engine.pose(j)`` and ``engine.positions`` of every crew, the streams);
+- ``prepare(case)``: called once the evaluator is given to an engine for a case: check that it
+  fits (a ``ValueError`` naming the fix) and do what is done once (a plan solved);
+- ``between_seconds``: False for an evaluator the engine asks inside a second, as the paper's
+  process does; True for one that branches the floor (``Engine.clone``) to decide, which the
+  engine asks once the second is whole (the lookahead).
+
+The engine asks when a crew's scope changes and after ``reevaluate_after_steps`` steps without
+reaching a target (section 3.6). Eqs. 4 and 9 stay pure functions; a rule that sees only the
+crew, the site and the crew's position (Eq. 9, nearest, GA priorities) subclasses ``Rule`` and
+writes ``target_values(crew, site, position)``; an object with only that method is wrapped in
+``RuleAdapter`` by ``make_evaluator``.
 """
 
 from __future__ import annotations
@@ -67,8 +78,51 @@ def priority_value(successors: float, distance: float, conflicts: float, max_suc
 
 @runtime_checkable
 class TargetEvaluator(Protocol):
+    """V_Tar for a crew's target scope, asked by the engine (see the module doc)."""
+
+    between_seconds: bool
+
+    def prepare(self, case) -> None:
+        """Fit ``case`` (a ``ValueError`` naming the fix if it cannot); once per case."""
+
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        """V_Tar for every target of crew i's scope (``engine.site.crews[i].scope``)."""
+
+
+class Evaluator:
+    """What every evaluator shares: asked inside a second, fits every case. Subclass it and
+    write ``values_for`` (or subclass ``Rule``)."""
+
+    between_seconds = False
+
+    def prepare(self, case) -> None:
+        return None
+
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        raise NotImplementedError(f"{type(self).__name__}.values_for(engine, i)")
+
+
+class Rule(Evaluator):
+    """An evaluator that sees only the crew, the site and the crew's position:
+    ``target_values(crew, site, position)`` (Eq. 9, nearest, GA priorities)."""
+
     def target_values(self, crew: CrewState, site: Site,
-                      position: tuple[float, float]) -> dict[int, float]: ...
+                      position: tuple[float, float]) -> dict[int, float]:
+        raise NotImplementedError(f"{type(self).__name__}.target_values(crew, site, position)")
+
+    def values_for(self, engine, i: int) -> dict[int, float]:
+        site = engine.site
+        return self.target_values(site.crews[i], site, engine.positions[i])
+
+
+class RuleAdapter(Rule):
+    """A foreign object with only ``target_values(crew, site, position)`` as an evaluator."""
+
+    def __init__(self, rule):
+        self.rule = rule
+
+    def target_values(self, crew, site, position):
+        return self.rule.target_values(crew, site, position)
 
 
 def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[int, float, int]]:
@@ -87,7 +141,7 @@ def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[
     return out
 
 
-class PriorityEvaluator:
+class PriorityEvaluator(Rule):
     """The priority heuristic of section 5.3 (Eq. 9): the default evaluator."""
 
     def __init__(self, betas: tuple[float, float, float] = BETAS):
@@ -121,31 +175,14 @@ def desired_position_of_first_choice(crew, site, position) -> tuple[float, float
     return x / half_w, y / half_h
 
 
-class BranchingEvaluator(Protocol):
-    """An evaluator that may branch the floor (``Engine.clone``) to value a scope, such as
-    the lookahead (``agents.lookahead``). The engine asks it only between whole seconds, when
-    the state is complete: ``between_seconds`` is True, and the engine calls
-    ``values_for(engine, i)`` for each crew whose scope needs values, in crew order, at the
-    end of ``reset`` and of every ``advance``."""
-
-    between_seconds: bool
-
-    def values_for(self, engine, i: int) -> dict[int, float]: ...
-
-
-def asks_between_seconds(evaluator) -> bool:
-    """Whether ``evaluator`` is a ``BranchingEvaluator`` (valued between seconds)."""
-    return bool(getattr(evaluator, "between_seconds", False))
-
-
-class UniformEvaluator:
+class UniformEvaluator(Rule):
     """Every target in scope is worth 1."""
 
     def target_values(self, crew, site, position):
         return {t: 1.0 for t in crew.scope}
 
 
-class NearestFirstEvaluator:
+class NearestFirstEvaluator(Rule):
     """V = 1 - 0.5 * d / d_max over the scope: the nearest target is worth most.
 
     The values stay in [0.5, 1] so that no target in scope reads as 0, which Eq. 3 reserves
@@ -176,7 +213,7 @@ def desired_position_values(desired, crew: CrewState, site: Site) -> dict[int, f
                              for t in crew.scope})
 
 
-class DesiredPositionEvaluator:
+class DesiredPositionEvaluator(Rule):
     """Eq. 4 from a desired position (``desired_position_values``): ``default`` for every
     crew; ``desired_position`` is what a subclass overrides (the trained policy:
     ``agents.models.ModelEvaluator``)."""
@@ -196,24 +233,26 @@ EVALUATORS: dict[str, type] = {"priority": PriorityEvaluator, "nearest": Nearest
                                "uniform": UniformEvaluator}
 DEFAULT_EVALUATOR = "priority"
 _CHOICES = ("give " + ", ".join(f'"{name}"' for name in EVALUATORS)
-            + " or an object with target_values(crew, site, position)")
+            + ", an evaluate.TargetEvaluator (values_for(engine, i), prepare(case), "
+            "between_seconds) or an object with target_values(crew, site, position)")
 
 
-def make_evaluator(spec: str | TargetEvaluator | None = None) -> TargetEvaluator:
-    """An evaluator from a name in ``EVALUATORS`` (None: ``DEFAULT_EVALUATOR``, Eq. 9), or
-    ``spec`` itself if it has ``target_values``; otherwise a ``ValueError`` (an unknown name,
-    with the closest one) or ``TypeError`` naming the accepted choices."""
-    if spec is None:
-        spec = DEFAULT_EVALUATOR
+def make_evaluator(spec: str | TargetEvaluator) -> TargetEvaluator:
+    """An evaluator from a name in ``EVALUATORS``, ``spec`` itself if it is a
+    ``TargetEvaluator``, or a three-argument rule (``target_values``) in ``RuleAdapter``;
+    otherwise a ``ValueError`` (an unknown name, with the closest one) or ``TypeError`` naming
+    the accepted choices. (None, values from outside, is the engine's business.)"""
     if isinstance(spec, str):
         if spec in EVALUATORS:
             return EVALUATORS[spec]()
         close = difflib.get_close_matches(spec, EVALUATORS, n=1)
         hint = f'did you mean "{close[0]}"? ' if close else ""
         raise ValueError(f"evaluator {spec!r} is not a known name; {hint}{_CHOICES}")
-    if not isinstance(spec, TargetEvaluator):
-        raise TypeError(f"evaluator {spec!r} has no target_values method; {_CHOICES}")
-    return spec
+    if isinstance(spec, TargetEvaluator):
+        return spec
+    if callable(getattr(spec, "target_values", None)):  # the one place a rule is recognised
+        return RuleAdapter(spec)
+    raise TypeError(f"evaluator {spec!r} is not an evaluator; {_CHOICES}")
 
 
 def needs_values(crew: CrewState, reevaluate_after_steps: int) -> bool:
@@ -231,8 +270,3 @@ def crews_needing_values(site: Site) -> list[CrewState]:
     every = site.case.simulation.reevaluate_after_steps
     return [crew for crew in site.crews if needs_values(crew, every)]
 
-
-def assign_target_values(site: Site, evaluator: TargetEvaluator, positions) -> None:
-    """Value the scope of every crew that needs it: a new scope, or too long without reaching."""
-    for crew in crews_needing_values(site):
-        crew.values = dict(evaluator.target_values(crew, site, positions[crew.index]))

@@ -45,9 +45,10 @@ Info
     ``idle_steps`` by cause.
 
 Arguments (``Floor``)
-    ``case``, ``make_low_level(engine)`` (a ``policy.LowLevel`` bound to the engine, e.g.
-    ``agents.navigator.Navigator``), ``max_time_s`` (None: the case's), ``park_idle`` (see
-    ``env``; for the scripted navigator), ``stall_s``, ``with_state``.
+    ``case``, ``make_low_level()`` (makes the ``policy.LowLevel``, which is then bound to the
+    floor's engine; e.g. the class ``agents.navigator.Navigator``), ``max_time_s`` (None: the
+    case's), ``park_idle`` (see ``env``; for the scripted navigator), ``stall_s``,
+    ``with_state``.
 """
 
 from __future__ import annotations
@@ -83,14 +84,15 @@ class Outcome:
 class Floor:
     """One stage-2 floor: decisions in, R_e out (see the module doc)."""
 
-    def __init__(self, case: Case | None, make_low_level: Callable[[Engine], LowLevel], *,
+    def __init__(self, case: Case | None, make_low_level: Callable[[], LowLevel], *,
                  max_time_s: float | None = None, park_idle: bool = False,
                  stall_s: float | None = 3600.0, with_state: bool = False):
         case = as_case(case)
         self.case = case
         self.engine = Engine(case, stage=2, evaluator=None, max_time_s=max_time_s,
                              park_idle=park_idle, stall_s=stall_s)
-        self.low_level = make_low_level(self.engine)
+        self.low_level = make_low_level()
+        self.low_level.bind(self.engine)
         self.rays = observe.ReachingObservations(case) if self.low_level.reads_rays else None
         self.evaluation_bounds = observe.evaluation_bounds(case)
         self.actor_size = len(self.evaluation_bounds[0])
@@ -148,7 +150,7 @@ class Floor:
         engine, reward = self.engine, 0.0
         while not self._next_decision():
             observations = self.rays.all(engine) if self.rays is not None else None
-            run = engine.advance(self.low_level.crew_actions(engine, observations),
+            run = engine.advance(self.low_level.actions(engine, observations),
                                  until=engine.decision_due)
             reward += sum(run.terms.values())
             for k, v in run.terms.items():

@@ -1,16 +1,19 @@
-"""What the simulation needs from the policies outside it: two small protocols.
+"""What the simulation needs from the policies outside it: one small protocol per role.
 
 ``LowLevel``: the reaching policy of section 3.6.2 (the scripted ``agents.navigator.Navigator``
-or the trained ``agents.models.PolicyNavigator``): ``bind(env)`` once to the engine (or the
-env over one) it drives, ``reset(seed)`` at every episode (after the engine's reset), and every
-second a reaching action (``MultiDiscrete([4, 3, 3])``) per crew: ``crew_actions(engine,
-observations)`` by crew index (the stage-2 env, ``highlevel``), or ``actions(env,
-observations)`` by agent name (the PettingZoo env's). ``reads_rays`` says whether it reads the
-crews' ray observations (``observe.ReachingObservations``); one that reads the state instead
-lets the caller skip the rays.
+or the trained ``agents.models.PolicyNavigator``). It drives an engine by crew index:
+``bind(engine)`` checks that it fits the engine's case, ``reset(seed)`` starts an episode
+(after the engine's reset; seed any sampling there), and ``actions(engine, observations)``
+gives every second a reaching action (``MultiDiscrete([4, 3, 3])``) per crew, in crew order;
+``observations`` are the crews' reaching observations in crew order
+(``observe.ReachingObservations``), or None when ``reads_rays`` is false (one that reads the
+state instead lets the caller skip the rays). State it keeps for one episode goes into
+``engine.memory[name]``: then ``Engine.clone`` carries it, and the same low level drives a
+branch of the floor (the lookahead) as it would the floor itself. The PettingZoo env maps
+agent names in one helper (``CMDPEnv.agent_actions``).
 
-``TargetEvaluator`` (``evaluate``): V_Tar for a crew's target scope, ``target_values(crew, site,
-position)``; the priority heuristic, GA priorities, a plan, or the stage-2 model through Eq. 4.
+``TargetEvaluator`` (``evaluate``): V_Tar for a crew's target scope, ``values_for(engine, i)``;
+the priority heuristic, GA priorities, a plan, the lookahead, or the stage-2 model.
 """
 
 from __future__ import annotations
@@ -26,19 +29,15 @@ class LowLevel(Protocol):
 
     reads_rays: bool
 
-    def bind(self, env: Any) -> None:
-        """Drive ``env`` (an engine, or an env over one) from now on (check that the policy
-        fits its case)."""
+    def bind(self, engine: Any) -> None:
+        """Check that the policy fits ``engine``'s case (a ValueError naming the fix)."""
 
     def reset(self, seed: int) -> None:
         """A new episode with this seed (seed any sampling here)."""
 
-    def crew_actions(self, engine: Any, observations: list | None) -> list:
-        """A reaching action per crew, in crew order, for this second; ``observations``: the
-        crews' reaching observations in crew order (None when ``reads_rays`` is false)."""
-
-    def actions(self, env: Any, observations: dict) -> dict:
-        """A reaching action per agent of ``env.agents`` for this step."""
+    def actions(self, engine: Any, observations: list | None) -> list:
+        """A reaching action per crew, in crew order, for this second; crews that need no
+        decision may get anything (``move.STAND_STILL`` is customary)."""
 
 
 __all__ = ["LowLevel", "TargetEvaluator"]

@@ -3,8 +3,8 @@
 ``run_episode`` drives an env with a low level to the end of an episode, a time-out or a stall
 (``stall_report`` says who and what was stuck); ``crew_summary``, ``reach_rate`` and
 ``versions`` are what a run folder records. ``cmdp-simulate``, ``cmdp-train`` and the
-comparisons call these; none of them imports another script. The summaries read the floor's
-engine (``engine.engine_of``: an engine, or an env over one) and address crews by index.
+comparisons call these; none of them imports another script. Everything here takes an engine
+and addresses crews by index; ``play`` drives one to the end (the lookahead's branches too).
 
 The low level is a ``policy.LowLevel`` (``bind``, ``reset``, ``actions``; the implementations
 are in ``agents``); this module needs nothing from ``agents``.
@@ -23,8 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from .decide import target_id
-from .engine import engine_of
+from .engine import Engine
 from .interrupt import sigint_guard
+from .observe import ReachingObservations
 from .policy import LowLevel
 from .state import DISRUPTION_CAUSES, CrewStatus, IdleCause, Pool, activity
 
@@ -43,22 +44,40 @@ class Episode:
     frames: list = field(default_factory=list)
 
 
-def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
-                progress: bool = True,
-                frame_every_s: float | None = None,
-                on_frame: Callable[[np.ndarray], None] | None = None) -> Episode:
-    """Run one episode to its end, a time-out or a stall; frames every ``frame_every_s``.
+def play(engine: Engine, low_level: LowLevel, reaching: ReachingObservations | None = None,
+         before_step: Callable[[], None] | None = None) -> None:
+    """Drive ``engine`` from where it stands to the end of its episode (every task ended, the
+    time limit or the stall guard): the low level's actions on this second's observations
+    (cast by ``reaching`` if it ``reads_rays``), then on to the next second at which a crew
+    needs a decision (the idle jump). ``before_step`` is called before each step (frames)."""
+    n = len(engine.site.crews)
+    while True:
+        if before_step is not None:
+            before_step()
+        obs = [reaching.crew(engine, i) for i in range(n)] if reaching is not None else None
+        run = engine.advance(low_level.actions(engine, obs), until=engine.decision_due)
+        if run.terminated or run.truncated:
+            return
+
+
+def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float | None,
+                progress: bool = True, frame_every_s: float | None = None,
+                on_frame: Callable[[np.ndarray], None] | None = None,
+                render: Callable[[Engine], np.ndarray] | None = None) -> Episode:
+    """Run one episode of ``engine`` to its end, a time-out or a stall; frames every
+    ``frame_every_s``.
 
     Args:
-        env: a ``CMDPEnv`` (reset here with ``seed``).
-        navigator: the low level, bound to ``env``; ``reset(seed)`` is called after the env's
-            reset.
+        engine: the floor (reset here with ``seed``).
+        low_level: the reaching policy (``policy.LowLevel``): bound to the engine, then
+            ``reset(seed)`` after the engine's reset; its rays are cast only if it reads them.
         seed: the episode's seed.
-        stall_s: stop when no task moves on for this many simulated seconds: sets the env's
-            own stall guard (``env.stall_s``, the one training uses); None keeps the env's.
+        stall_s: stop when no task moves on for this many simulated seconds: sets the engine's
+            stall guard (``engine.stall_s``, the one training uses); None keeps the engine's.
         progress: show a tqdm bar of the tasks ended (the simulated time beside it).
-        frame_every_s: render a frame every this many simulated seconds (None: no frames).
-        on_frame: where each frame goes as it is rendered (e.g. ``media.charts.GifStream.append``,
+        frame_every_s: draw a frame every this many simulated seconds (None: no frames) with
+            ``render(engine)`` (e.g. ``media.render.draw_frame``).
+        on_frame: where each frame goes as it is drawn (e.g. ``media.charts.GifStream.append``,
             so that no frame is held); None keeps them in ``Episode.frames``.
     """
     from tqdm import tqdm
@@ -67,39 +86,44 @@ def run_episode(env, navigator: LowLevel, seed: int, stall_s: float | None,
         if not (math.isfinite(stall_s) and stall_s > 0):
             raise ValueError(f"stall_s must be a positive finite number of seconds, not "
                              f"{stall_s!r}")
-        env.stall_s = stall_s
-    observations, _ = env.reset(seed=seed)
-    navigator.reset(seed)
-    engine = env.engine
+        engine.stall_s = stall_s
+    if frame_every_s is not None and render is None:
+        raise ValueError("run_episode: frame_every_s needs render(engine), e.g. "
+                         "media.render.draw_frame")
+    low_level.bind(engine)
+    engine.reset(seed)
+    low_level.reset(seed)
+    reaching = ReachingObservations(engine.case) if low_level.reads_rays else None
     site = engine.site
     frames: list = []
     keep = frames.append if on_frame is None else on_frame
-    next_frame = 0.0
+    next_frame = [0.0]
     # counted in tasks ended, the one total known in advance (a floor's simulated seconds are
     # not: against the time limit, a finished floor stopped the bar at about 40 %)
     bar = tqdm(total=len(site.tasks), unit="task", disable=not progress, leave=False,
                mininterval=1.0, desc=f"seed {seed}")
+    ended = [0]
+
+    def before_step() -> None:
+        if frame_every_s is not None:
+            while site.time_s >= next_frame[0]:  # a jump repeats the still frame: time-lapse
+                keep(render(engine))
+                next_frame[0] += frame_every_s
+        bar.update(site.tasks_ended - ended[0])
+        ended[0] = site.tasks_ended
+        bar.set_postfix_str(f"t = {site.time_s:,.0f} s", refresh=False)
+
     start = time.perf_counter()
     with sigint_guard(), bar:  # Ctrl-C stops the loop even when it lands inside pymunk
-        while env.agents:
-            if frame_every_s is not None:
-                while site.time_s >= next_frame:  # a jump repeats the still frame: time-lapse
-                    keep(env.render())
-                    next_frame += frame_every_s
-            before = site.tasks_ended
-            observations, *_ = env.step(navigator.actions(env, observations))
-            bar.update(site.tasks_ended - before)
-            bar.set_postfix_str(f"t = {site.time_s:,.0f} s", refresh=False)
+        play(engine, low_level, reaching, before_step)
     stalled = stall_report(engine, engine.stalled["after_s"]) if engine.stalled else None
     if frame_every_s is not None:
-        keep(env.render())
+        keep(render(engine))
     return Episode(seed, engine.makespan_s, time.perf_counter() - start, stalled, frames)
 
 
-def stall_report(floor, for_s: float) -> dict:
-    """The crews and tasks involved in an episode that stopped making progress (``floor``: an
-    engine, or an env over one)."""
-    engine = engine_of(floor)
+def stall_report(engine: Engine, for_s: float) -> dict:
+    """The crews and tasks involved in an episode that stopped making progress."""
     site = engine.site
     crews = []
     for crew in site.crews:
@@ -116,13 +140,12 @@ def stall_report(floor, for_s: float) -> dict:
             "tasks_queued": [t.id for t in site.tasks if t.pool == Pool.QUEUE]}
 
 
-def crew_summary(floor) -> dict:
+def crew_summary(engine: Engine) -> dict:
     """Per crew: reaching steps, idle steps by cause (with a case's disruptions, also the
     seconds each kind of disruption kept it from working), distance, trips, crane waits,
-    contacts, reaches and reach time-outs of the episode so far (``floor``: an engine, or an
-    env over one)."""
+    contacts, reaches and reach time-outs of the episode so far."""
     out = {}
-    site = engine_of(floor).site
+    site = engine.site
     disrupted = bool(site.case.disruptions)
     for crew in site.crews:
         s = crew.stats
@@ -154,10 +177,9 @@ def reach_rate(reaches: int, timeouts: int) -> float:
     return reaches / max(1, reaches + timeouts)
 
 
-def episode_reach_rate(floor) -> float:
-    """``reach_rate`` over every crew of the floor's episode so far (an engine, or an env over
-    one)."""
-    crews = engine_of(floor).site.crews
+def episode_reach_rate(engine: Engine) -> float:
+    """``reach_rate`` over every crew of the engine's episode so far."""
+    crews = engine.site.crews
     return reach_rate(sum(c.stats.reaches for c in crews),
                       sum(c.stats.reach_timeouts for c in crews))
 

@@ -262,7 +262,7 @@ class Site:
             ct: tuple(t.index for t in self.tasks if t.crew_type == ct) for ct in case.crew_types}
         self.active_areas: list[int] = []  # tasks whose areas are on the plane (pool ON)
         self.tasks_ended = 0
-        self.crew_xy: list = []  # every crew's (x, y): the engine's list, set in its reset
+
         self.disrupted = None  # disruptions.Now during the coming second; None: no disruptions
         self.reset_pools()
 

@@ -27,9 +27,9 @@ def main(argv=None) -> list[Path]:
 
     env = pettingzoo.make("parallel", args.env, seed=args.seed)
     observations, _ = env.reset(seed=args.seed)
-    navigator = Navigator(env)
+    navigator = Navigator()
     while env.agents:
-        observations, *_ = env.step(navigator.actions(env, observations))
+        observations, *_ = env.step(env.agent_actions(navigator, observations))
 
     events = env.log.events  # the append-only event log
     for bar in task_bars(events)[:5]:  # the schedule as data: one bar per task

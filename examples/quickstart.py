@@ -24,12 +24,12 @@ def main(argv=None) -> float:
 
     env = pettingzoo.make("parallel", args.env, seed=args.seed)  # Eq. 9 picks the targets
     observations, infos = env.reset(seed=args.seed)
-    navigator = Navigator(env)
+    navigator = Navigator()
     while env.agents:  # every crew stays an agent until the floor is built
         observations, rewards, terminations, truncations, infos = env.step(
-            navigator.actions(env, observations))
+            env.agent_actions(navigator, observations))
     print(f"{args.env} seed {args.seed}: makespan {env.makespan_s:,.0f} s")
-    for crew, stats in crew_summary(env).items():  # what summary.json holds per crew
+    for crew, stats in crew_summary(env.engine).items():  # what summary.json holds per crew
         print(f"  {crew:6s} reaching steps {stats['reaching_steps']:6d}   idle steps "
               f"{sum(stats['idle_steps'].values()):6d}   walked {stats['distance_m']:7.0f} m")
     return env.makespan_s

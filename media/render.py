@@ -21,7 +21,7 @@ y points down, so ``world_to_pixel`` flips it. ``Viewport`` is the one transform
 it to find where a crew is drawn.
 
 The simulation core never imports this module except lazily in ``render()``; everything here
-only reads the env's state.
+only reads the engine's state (``draw_frame(engine, rays)``).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402  (the environment variables above must be set first)
 
+from cmdp_pymunk.observe import ray_model  # noqa: E402
 from cmdp_pymunk.precedence import component_attributes  # noqa: E402
 from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
 
@@ -113,15 +114,16 @@ class Viewport:
         return pygame.Rect(left, top, max(1, right - left), max(1, bottom - top))
 
 
-def world_to_pixel(env, x: float, y: float, px_per_m: float | None = None) -> tuple[int, int]:
-    """Where ``draw_frame(env, px_per_m)`` draws the plane point (x, y): (column, row)."""
-    return Viewport.of(env.case.plane, px_per_m).to_px(x, y)
+def world_to_pixel(engine, x: float, y: float, px_per_m: float | None = None) -> tuple[int, int]:
+    """Where ``draw_frame(engine, px_per_m=px_per_m)`` draws the plane point (x, y): (column,
+    row)."""
+    return Viewport.of(engine.case.plane, px_per_m).to_px(x, y)
 
 
-def crew_colour(env, crew: int) -> Colour:
+def crew_colour(engine, crew: int) -> Colour:
     """The colour of the crew's disc: one per crew type, in the case's crew-type order."""
-    types = list(env.case.crew_types)
-    return CREW_PALETTE[types.index(env.engine.site.crews[crew].type) % len(CREW_PALETTE)]
+    types = list(engine.case.crew_types)
+    return CREW_PALETTE[types.index(engine.site.crews[crew].type) % len(CREW_PALETTE)]
 
 
 def component_colour(site, component: int) -> Colour:
@@ -260,8 +262,8 @@ class _Renderer:
                 bg.blit(label, label.get_rect(midleft=(x + 16, y)))
                 x += 16 + label.get_width() + 14
 
-    def draw(self, env, show_rays: bool) -> np.ndarray:
-        site, vp, fonts = env.engine.site, self.viewport, self.fonts
+    def draw(self, engine, rays, show_rays: bool) -> np.ndarray:
+        site, vp, fonts = engine.site, self.viewport, self.fonts
         surface = self.surface
         surface.blit(self.background, (0, 0))
         if site is None:  # before reset(): the empty plane
@@ -275,7 +277,7 @@ class _Renderer:
             pygame.draw.rect(surface, (235, 130, 20), r, width=1)
 
         if show_rays:
-            self._draw_rays(env)
+            self._draw_rays(engine, rays)
 
         for st in site.storages:
             r = vp.rect_px(st.rect)
@@ -301,7 +303,7 @@ class _Renderer:
             ink = TEXT if colour == COMPONENT_WAITING else (255, 255, 255)
             self.blit_centred(self.text(fonts.small, comp.id, ink), r.center)
 
-        crane = env.case.crane
+        crane = engine.case.crane
         cx, cy = vp.to_px(crane.x_m, crane.y_m)
         pygame.draw.polygon(surface, CRANE, [(cx, cy - 9), (cx - 8, cy + 6), (cx + 8, cy + 6)])
         pygame.draw.polygon(surface, WALL, [(cx, cy - 9), (cx - 8, cy + 6), (cx + 8, cy + 6)],
@@ -315,10 +317,10 @@ class _Renderer:
                           DISRUPTED if down else TEXT)
         surface.blit(label, label.get_rect(midleft=(cx + 11, cy)))
 
-        self._draw_crews(env)
+        self._draw_crews(engine)
 
         header = (f"t {format_clock(site.time_s)}   tasks {site.tasks_ended}/{len(site.tasks)}"
-                  f"   stage {env.stage}   {env.case.case.name}")
+                  f"   stage {engine.stage}   {engine.case.case.name}")
         disrupted = disruption_text(site)
         if disrupted:
             header += "   " + disrupted
@@ -326,33 +328,33 @@ class _Renderer:
                      (MARGIN_PX, 6))
         return _to_array(surface)
 
-    def _draw_rays(self, env) -> None:
+    def _draw_rays(self, engine, rays) -> None:
         """Every moving crew's rays to their full length (not to what they hit), faintly."""
         vp, surface = self.viewport, self.surface
         surface.set_clip(self.plane_rect)  # long frontal rays end beyond the walls
-        for crew in env.engine.site.crews:
+        for crew in engine.site.crews:
             if crew.moving:
-                x, y, heading = env.engine.pose(crew.index)
+                x, y, heading = engine.pose(crew.index)
                 start = vp.to_px(x, y)
-                for ex, ey, _frontal in env.rays.endpoints(x, y, heading):
+                for ex, ey, _frontal in rays.endpoints(x, y, heading):
                     pygame.draw.line(surface, RAY, start, vp.to_px(ex, ey))
         surface.set_clip(None)
 
-    def _draw_crews(self, env) -> None:
-        site, vp, fonts = env.engine.site, self.viewport, self.fonts
+    def _draw_crews(self, engine) -> None:
+        site, vp, fonts = engine.site, self.viewport, self.fonts
         surface = self.surface
         # an absent crew is off the plane (its body too): not drawn, named in the header
         crews = [c for c in site.crews if c.status != CrewStatus.LEFT and not c.absent]
         positions = {}
         for crew in crews:
-            positions[crew.index] = env.engine.pose(crew.index)
+            positions[crew.index] = engine.pose(crew.index)
         surface.set_clip(self.plane_rect)
         for crew in crews:  # target lines under every disc
             if crew.moving and crew.values:
                 x, y, _ = positions[crew.index]
                 target = max(crew.values, key=crew.values.get)
                 tx, ty = site.target_xy[target]
-                pygame.draw.line(surface, crew_colour(env, crew.index), vp.to_px(x, y),
+                pygame.draw.line(surface, crew_colour(engine, crew.index), vp.to_px(x, y),
                                  vp.to_px(tx, ty), 1)
         surface.set_clip(None)
         discs = []
@@ -360,7 +362,7 @@ class _Renderer:
             x, y, angle = positions[crew.index]
             centre = vp.to_px(x, y)
             radius = max(3, round(crew.spec.radius_m * vp.px_per_m))
-            colour = crew_colour(env, crew.index)
+            colour = crew_colour(engine, crew.index)
             pygame.draw.circle(surface, colour, centre, radius)
             pygame.draw.circle(surface, WALL, centre, radius, width=1)
             # the heading tick: screen y is flipped, so the screen angle is -angle
@@ -434,17 +436,22 @@ def _to_array(surface: pygame.Surface) -> np.ndarray:
 _renderers: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def draw_frame(env, px_per_m: float | None = None, show_rays: bool = False) -> np.ndarray:
-    """The env's current state as an (H, W, 3) uint8 image.
+def draw_frame(engine, rays=None, px_per_m: float | None = None,
+               show_rays: bool = False) -> np.ndarray:
+    """The engine's current state as an (H, W, 3) uint8 image.
 
     Args:
-        env: a ``CMDPEnv`` (only read).
+        engine: the floor (``engine.Engine``, only read).
+        rays: the crews' ray model (``observe.ray_model(case)``; a ``CMDPEnv``'s ``rays``),
+            needed only with ``show_rays``.
         px_per_m: pixels per metre; ``None`` fits the plane into about ``TARGET_WIDTH_PX``
             (16 px/m for the built-in 54 m plane).
         show_rays: also draw the rays of every moving crew, faintly.
     """
-    viewport = Viewport.of(env.case.plane, px_per_m)
-    renderer = _renderers.get(env)
-    if renderer is None or renderer.case is not env.case or renderer.viewport != viewport:
-        renderer = _renderers[env] = _Renderer(env.case, viewport)
-    return renderer.draw(env, show_rays)
+    if show_rays and rays is None:
+        rays = ray_model(engine.case)
+    viewport = Viewport.of(engine.case.plane, px_per_m)
+    renderer = _renderers.get(engine)
+    if renderer is None or renderer.case is not engine.case or renderer.viewport != viewport:
+        renderer = _renderers[engine] = _Renderer(engine.case, viewport)
+    return renderer.draw(engine, rays, show_rays)

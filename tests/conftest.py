@@ -176,16 +176,14 @@ def make_events(rows=RUN) -> list[Event]:
 
 
 def scripted_floor(evaluator="priority", case=None, seed: int = 0):
-    """The built-in (or given) floor with the scripted navigator bound as ``cmdp-simulate``
-    binds it (an evaluator's ``bind``, the lookahead's low level), reset: (env, navigator)."""
+    """The built-in (or given) floor with the scripted navigator as ``cmdp-simulate`` runs it
+    (idle crews parked, no rays), reset: (env, navigator)."""
     import cmdp_pymunk
     from agents.specs import make_navigator
 
     env = cmdp_pymunk.parallel_env(case=case, seed=seed, evaluator=evaluator, park_idle=True,
                                    blind=True, stall_s=3600.0)
-    if hasattr(env.evaluator, "bind"):
-        env.evaluator.bind(env)
-    navigator = make_navigator("scripted", env)
+    navigator = make_navigator("scripted", env.engine)
     env.reset(seed=seed)
     navigator.reset(seed)
     return env, navigator
@@ -194,7 +192,7 @@ def scripted_floor(evaluator="priority", case=None, seed: int = 0):
 def play(env, navigator, until_s: float | None = None):
     """Step the floor to its end (or to ``until_s``); returns the env."""
     while env.agents and (until_s is None or env.engine.site.time_s < until_s):
-        env.step(navigator.actions(env, None))
+        env.step(env.agent_actions(navigator, None))
     return env
 
 

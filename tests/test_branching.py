@@ -5,7 +5,9 @@ from __future__ import annotations
 import pytest
 from conftest import place, play, scripted_floor
 
+from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
+from cmdp_pymunk import CMDPEnv
 from cmdp_pymunk.construct import draw_pace
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import NearestFirstEvaluator
@@ -19,6 +21,16 @@ def floor(evaluator=None, seed: int = 0):
 
 def run(env, navigator, until_s: float | None = None) -> None:
     play(env, navigator, until_s)
+
+
+def clone(env, scenario=None):
+    """A branch of the env's floor, driven by a new env over the cloned engine: (env,
+    navigator); the scripted navigator's plans come along in ``engine.memory``."""
+    branch = env.engine.clone(scenario)
+    twin = CMDPEnv(env.case, evaluator=branch.evaluator, park_idle=True, blind=True)
+    twin.engine = branch
+    twin.agents = list(twin.possible_agents)
+    return twin, Navigator()
 
 
 def paces(env) -> dict[str, float]:
@@ -61,8 +73,9 @@ def test_two_strategies_on_one_seed_meet_the_same_paces():
 def test_a_clone_continued_runs_exactly_as_the_original():
     env, navigator = floor()
     run(env, navigator, 3000.0)
-    engine, env2, navigator2 = env.engine.clone(companions=(env, navigator))
-    assert env2.engine is engine and navigator2.env is env2 and engine is not env.engine
+    env2, navigator2 = clone(env)
+    engine = env2.engine
+    assert engine is not env.engine and engine.memory["navigator"].engine is engine
     assert engine.site is not env.engine.site and engine.world is not env.engine.world
     run(env, navigator, 9000.0)
     run(env2, navigator2, 9000.0)
@@ -76,15 +89,15 @@ def test_scenarios_change_only_the_paces_of_tasks_not_yet_started():
     env, navigator = floor()
     run(env, navigator, 4000.0)
     started = paces(env)
-    branches = [env.engine.clone(scenario=k, companions=(env, navigator)) for k in (1, 2)]
-    for _, env_k, nav_k in branches:
+    branches = [clone(env, scenario=k) for k in (1, 2)]
+    for env_k, nav_k in branches:
         run(env_k, nav_k, 9000.0)
-    one, two = paces(branches[0][1]), paces(branches[1][1])
+    one, two = paces(branches[0][0]), paces(branches[1][0])
     assert all(one[t] == started[t] == two[t] for t in started)  # drawn before the branch
     later = (one.keys() & two.keys()) - started.keys()
     assert len(later) >= 3
     assert all(one[t] != two[t] for t in later)
-    site = branches[0][1].engine.site
+    site = branches[0][0].engine.site
     for task in site.tasks:
         if task.id in later:
             stream = RandomStreams(0, scenario=1).pace(task.index)
@@ -95,7 +108,7 @@ def test_the_expected_scenario_gives_the_tasks_not_yet_started_their_mean_pace()
     env, navigator = floor()
     run(env, navigator, 4000.0)
     started = paces(env)
-    _, branch, nav = env.engine.clone(scenario=EXPECTED, companions=(env, navigator))
+    branch, nav = clone(env, scenario=EXPECTED)
     run(branch, nav, 9000.0)
     site = branch.engine.site
     later = paces(branch).keys() - started.keys()

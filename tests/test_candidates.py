@@ -38,7 +38,7 @@ def test_another_row_swaps_only_the_first_choice(tiny_env):
     decision = view.rows(crew, site, position, env.engine.positions)
     targets = decision.targets
     base = decision.values(0)
-    assert base == env.evaluator.target_values(crew, site, position)  # Eq. 9's own values
+    assert base == env.evaluator.values_for(env.engine, crew.index)  # Eq. 9's own values
     assert ranked(base)[0] == targets[0] and decision.mask.sum() == len(targets) >= 2
     swapped = decision.values(1)
     assert ranked(swapped)[0] == targets[1]

@@ -57,7 +57,7 @@ def test_cliques_cover_every_conflict(tiny_case):
 
 def test_plan_evaluator_prefers_the_earliest_planned_task(tiny_env):
     ev = PlanEvaluator(time_limit_s=10)
-    ev.bind(tiny_env)
+    ev.prepare(tiny_env.case)  # solves the case's plan (the engine does this when given it)
     # X-A starts at 0 of 390 s -> 1.0; X-B at 120 (or later) -> at most 1 - 120/390
     assert ev.priorities["X-A"] == 1.0 and ev.priorities["X-B"] <= 1 - 120 / 390 + 1e-9
     site = tiny_env.engine.site

@@ -39,10 +39,10 @@ def run(extra: dict | None, seed: int = 0, stall_s: float | None = None,
     engine = Engine(case_from_dict(data, "tiny.toml"), evaluator="priority", stall_s=stall_s,
                     max_time_s=max_time_s)
     engine.reset(seed=seed)
-    navigator = Navigator(engine)
+    navigator = Navigator()
     navigator.reset(seed)
     while not engine.site.done and engine.site.time_s < max_time_s and not engine.stalled:
-        engine.advance(navigator.crew_actions(engine))
+        engine.advance(navigator.actions(engine))
     return engine
 
 
@@ -123,16 +123,16 @@ def test_an_absent_crew_leaves_the_plane_and_its_task_waits_for_it(base):
     assert [(ev.time_s, ev.crew, ev.detail) for ev in start] == [(50.0, "X-1", "absence")]
     half = Engine(e.case, evaluator="priority")
     half.reset(seed=0)
-    navigator = Navigator(half)
+    navigator = Navigator()
     navigator.reset(0)
     while half.site.time_s < 60:
-        half.advance(navigator.crew_actions(half))
+        half.advance(navigator.actions(half))
     crew = half.site.crews[0]
     assert crew.absent and not crew.moving and crew.status == CrewStatus.TASKING
     assert half.world.bodies[0].space is None
     assert "idle_absence" in [ev.subject for ev in half.log.events if ev.crew == "X-1"]
     while half.site.time_s < 111:
-        half.advance(navigator.crew_actions(half))
+        half.advance(navigator.actions(half))
     assert not crew.absent and half.world.bodies[0].space is not None
 
 
@@ -180,17 +180,17 @@ def test_a_clone_during_an_absence_runs_exactly_as_the_original():
         "crane_breakdowns": [{"at_s": 140.0, "duration_s": 100.0}]}}, "tiny.toml")
     engine = Engine(case, evaluator="priority")
     engine.reset(seed=0)
-    navigator = Navigator(engine)
+    navigator = Navigator()
     navigator.reset(0)
     while engine.site.time_s < 70:
-        engine.advance(navigator.crew_actions(engine))
-    clone, nav2 = engine.clone(companions=(navigator,))
+        engine.advance(navigator.actions(engine))
+    clone, nav2 = engine.clone(), Navigator()  # its plans come along (engine.memory)
     assert clone.site.crews[0].absent and clone.world.bodies[0].space is None
     assert clone.world.bodies[0].position == engine.world.bodies[0].position
     pickle.loads(pickle.dumps(engine.site))  # plain data
     for e, nav in ((engine, navigator), (clone, nav2)):
         while not e.site.done:
-            e.advance(nav.crew_actions(e))
+            e.advance(nav.actions(e))
     assert clone.log.events == engine.log.events
 
 
@@ -415,14 +415,14 @@ def test_no_stall_on_the_disrupted_floor_with_the_heuristic():
 
     case = load_case(DISRUPTED_CASE)
     engine = Engine(case, evaluator="priority", stall_s=3600.0)
-    navigator = Navigator(engine)
+    navigator = Navigator()
     bad, struck = [], 0
     for seed in no_stall_seeds():
         engine.reset(seed=seed)
         navigator.reset(seed)
         while not (engine.site.done or engine.stalled
                    or engine.site.time_s >= engine.max_time_s):
-            engine.advance(navigator.crew_actions(engine), until=engine.decision_due)
+            engine.advance(navigator.actions(engine), until=engine.decision_due)
         struck += bool(engine.timeline.windows())
         if not engine.site.done:
             bad.append((seed, engine.stalled, engine.site.time_s))
@@ -528,9 +528,9 @@ def test_a_model_trained_without_disruptions_is_refused_naming_the_sizes():
     assert state_size(disrupted) == state_size(plain) + 12
     model = Path(__file__).resolve().parents[1] / "models" / "stage2_evaluator.zip"
     evaluator = ModelEvaluator(model)
-    evaluator.bind(Engine(plain))
+    Engine(plain, evaluator=evaluator)  # the engine prepares its evaluator for the case
     with pytest.raises(ValueError) as err:
-        evaluator.bind(Engine(disrupted))
+        Engine(disrupted, evaluator=evaluator)
     size = evaluation_size(disrupted)
     assert f"reads {size - 12} floats" in str(err.value)
     assert f"has {size} (of which 12 say what is disrupted" in str(err.value)

@@ -92,11 +92,11 @@ def test_the_adapter_runs_the_engines_schedule(tiny_case):
     """The PettingZoo env adds agents' names, spaces and infos, nothing to the dynamics."""
     env = parallel_env(case=tiny_case, seed=1, jump_idle=False, max_time_s=400,
                        evaluator="nearest")
-    navigator = Navigator(env)
+    navigator = Navigator()
     obs, _ = env.reset(seed=1)
     actions_log = []
     while env.agents:
-        actions = navigator.actions(env, obs)
+        actions = env.agent_actions(navigator, obs)
         actions_log.append([actions.get(a, STAND_STILL) for a in env.possible_agents])
         obs, *_ = env.step(actions)
     engine = Engine(tiny_case, evaluator=NearestFirstEvaluator(), max_time_s=400)
@@ -126,13 +126,13 @@ def test_a_plane_seen_only_through_the_protocol_plays_the_same_floor(tiny_case):
     def play(physics):
         engine = Engine(tiny_case, evaluator="priority", seed=0, physics=physics)
         engine.reset(seed=0)
-        navigator = Navigator(engine)
+        navigator = Navigator()
         navigator.reset(0)
         rays = ReachingObservations(tiny_case)
         seen = []
         while not engine.site.done:
             seen.append(np.concatenate(rays.all(engine)))
-            engine.advance(navigator.crew_actions(engine), until=engine.decision_due)
+            engine.advance(navigator.actions(engine), until=engine.decision_due)
             if len(seen) == 10:
                 engine.clone()  # a copy, and the original rebuilt (``rebuild``)
         return engine.log.events, seen

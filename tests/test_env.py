@@ -58,8 +58,8 @@ def test_activity_events_follow_every_state_change():
     from agents.navigator import Navigator
 
     env = tiny_env(park_idle=True)
-    nav = Navigator(env)
-    run_episode(env, 1, lambda e: nav.actions(e))
+    nav = Navigator()
+    run_episode(env, 1, lambda e: e.agent_actions(nav, None))
     final_state, activity_at = {}, {}
     for e in env.log.events:
         if e.kind == "crew_state":
@@ -170,8 +170,8 @@ def test_idle_jump_with_parked_crews_gives_the_same_schedule():
     runs = []
     for jump in (True, False):
         env = tiny_env(jump_idle=jump, park_idle=True, seed=2)
-        nav = Navigator(env)
-        run_episode(env, 2, lambda e, nav=nav: nav.actions(e))
+        nav = Navigator()
+        run_episode(env, 2, lambda e, nav=nav: e.agent_actions(nav, None))
         assert env.engine.site.done
         runs.append(env)
     assert schedule(runs[0]) == schedule(runs[1])

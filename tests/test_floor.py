@@ -20,12 +20,12 @@ def run_checked(seed: int):
     component. Returns the env."""
     env = cmdp_pymunk.parallel_env(seed=seed, evaluator=PriorityEvaluator(), park_idle=True)
     obs, _ = env.reset(seed=seed)
-    nav = Navigator(env)
+    nav = Navigator()
     rects = np.array([c.rect for c in env.engine.site.components])
     radii = np.array([c.spec.radius_m for c in env.engine.site.crews])
     half_w, half_h = env.case.plane.half_extents
     while env.agents:
-        obs, *_ = env.step(nav.actions(env, obs))
+        obs, *_ = env.step(env.agent_actions(nav, obs))
         on_plane = [c.status.name != "LEFT" for c in env.engine.site.crews]
         pos = np.array([b.position for b in env.engine.world.bodies])[on_plane]
         r = radii[on_plane]
@@ -60,9 +60,9 @@ from cmdp_pymunk.evaluate import PriorityEvaluator
 env = cmdp_pymunk.parallel_env(seed=7, evaluator=PriorityEvaluator(), park_idle=True,
                                max_time_s=6000, position_log_every_s=5)
 obs, _ = env.reset(seed=7)
-nav = Navigator(env)
+nav = Navigator()
 while env.agents:
-    obs, *_ = env.step(nav.actions(env, obs))
+    obs, *_ = env.step(env.agent_actions(nav, obs))
 print(hashlib.sha256(env.log.to_csv().encode()).hexdigest())
 """
 

@@ -51,12 +51,12 @@ def test_state_follows_a_whole_episode(tiny_case):
 
     env = cmdp_pymunk.parallel_env(case=tiny_case, seed=1)
     env.reset(seed=1)
-    navigator = Navigator(env)
+    navigator = Navigator()
     layout = {name: start for name, start, _ in state_layout(tiny_case)}
     crane, queue = layout["crane"], layout["crane_queue"]
     seen_crane = seen_load = seen_stock = 0
     while env.agents:
-        env.step(navigator.actions(env))
+        env.step(env.agent_actions(navigator, None))
         s = env.state()
         assert env.state_space.contains(s)
         site = env.engine.site

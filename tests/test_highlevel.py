@@ -82,10 +82,10 @@ def test_the_floor_adds_nothing_to_the_engine():
             return desired_position_of_first_choice(crew, site, position)
 
     engine = Engine(floor().case, stage=2, evaluator=FirstChoice(), max_time_s=SHORT_S)
-    navigator = Navigator(engine)
+    navigator = Navigator()
     engine.reset(seed=4)
     while True:
-        run = engine.advance(navigator.crew_actions(engine), until=engine.decision_due)
+        run = engine.advance(navigator.actions(engine), until=engine.decision_due)
         if run.terminated or run.truncated:
             break
 
@@ -98,10 +98,10 @@ def test_the_floor_adds_nothing_to_the_engine():
 def test_external_values_with_the_heuristic_reproduce_its_schedule():
     """Feeding Eq. 9's choice through Eq. 4 gives the PettingZoo env's heuristic schedule."""
     reference = parallel_env(seed=3, evaluator=PriorityEvaluator(), max_time_s=SHORT_S)
-    navigator = Navigator(reference)
+    navigator = Navigator()
     obs, _ = reference.reset(seed=3)
     while reference.agents:
-        obs, *_ = reference.step(navigator.actions(reference, obs))
+        obs, *_ = reference.step(reference.agent_actions(navigator, obs))
 
     fl = floor()
     play(fl, 3, lambda f: f.teacher_action())
@@ -195,7 +195,7 @@ def test_a_stalled_floor_is_cut_by_the_engine_guard_and_says_so():
     them still) is truncated after ``stall_s`` without progress, and the end info says so."""
 
     class StandStill(Navigator):
-        def crew_actions(self, engine, observations=None):
+        def actions(self, engine, observations=None):
             return [(0, 1, 1)] * len(engine.site.crews)
 
     fl = Floor(None, StandStill, stall_s=600.0)

@@ -83,13 +83,14 @@ def test_generated_variants_are_registered_with_their_layout():
 @pytest.mark.parametrize("path", layouts.layout_files("test"), ids=lambda p: p.stem)
 def test_held_out_layouts_finish_with_the_heuristic_and_the_navigator(path):
     from agents.navigator import Navigator
+    from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
 
-    env = cmdp_pymunk.parallel_env(case=path, stage=2, evaluator=PriorityEvaluator(),
-                                   park_idle=True)
-    navigator = Navigator(env)
+    engine = Engine(cmdp_pymunk.load_case(path), stage=2, evaluator=PriorityEvaluator(),
+                    park_idle=True)
+    navigator = Navigator()
     for seed in range(5):
-        episode = run_episode(env, navigator, seed, stall_s=3600.0, progress=False)
+        episode = run_episode(engine, navigator, seed, stall_s=3600.0, progress=False)
         assert episode.stalled is None, (path.name, seed, episode.stalled)
-        assert env.engine.site.done and episode.makespan_s, (path.name, seed)
+        assert engine.site.done and episode.makespan_s, (path.name, seed)

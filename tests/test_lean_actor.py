@@ -113,7 +113,7 @@ def test_committed_model_argmax_matches_sb3_on_real_observations():
     rows = []
     for _ in range(60):
         rows += [observations_[a] for a in env.agents]
-        observations_, *_ = env.step(navigator.actions(env, observations_))
+        observations_, *_ = env.step(env.agent_actions(navigator, observations_))
     batch = np.stack(rows)
     expected, _ = navigator.model.predict(batch, deterministic=True)
     np.testing.assert_array_equal(navigator.actor.act(batch, True), expected)

@@ -5,10 +5,11 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import play_floor
+from conftest import play, play_floor
 
 import cmdp_pymunk
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings, promote, ranked
+from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
 from agents.specs import make_evaluator
 from cmdp_pymunk.streams import EXPECTED
@@ -97,11 +98,15 @@ def test_lookahead_specs_and_their_errors():
         LookaheadSettings(candidates=0)
 
 
-def test_an_unbound_lookahead_says_so(tiny_case):
+def test_the_lookahead_needs_no_binding_and_branches_the_engine_alone(tiny_case):
+    """Nothing to bind: the engine asks the lookahead between seconds and the branches play
+    on clones of the engine with the lookahead's own low level."""
     lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=1))
     env = cmdp_pymunk.parallel_env(case=tiny_case, seed=0, evaluator=lookahead)
-    with pytest.raises(RuntimeError, match="bind"):
-        env.reset(seed=0)
+    env.reset(seed=0)
+    play(env, Navigator(), None)
+    assert env.makespan_s is not None and lookahead.decisions
+    assert all(len(d.makespans_s) == len(d.candidates) >= 2 for d in lookahead.decisions)
 
 
 def test_cmdp_simulate_runs_the_lookahead(tmp_path):

@@ -11,6 +11,8 @@ from cmdp_pymunk.evaluate import (
     EVALUATORS,
     NearestFirstEvaluator,
     PriorityEvaluator,
+    RuleAdapter,
+    TargetEvaluator,
     make_evaluator,
 )
 from cmdp_pymunk.move import STAND_STILL
@@ -19,9 +21,19 @@ from cmdp_pymunk.move import STAND_STILL
 def test_names_objects_and_the_default():
     assert type(make_evaluator("priority")) is PriorityEvaluator
     assert type(make_evaluator("nearest")) is NearestFirstEvaluator
-    assert type(make_evaluator(None)) is EVALUATORS[DEFAULT_EVALUATOR] is PriorityEvaluator
+    assert type(make_evaluator(DEFAULT_EVALUATOR)) is EVALUATORS[DEFAULT_EVALUATOR] \
+        is PriorityEvaluator
     mine = NearestFirstEvaluator()
     assert make_evaluator(mine) is mine
+
+    class ThreeArguments:  # a rule written before the engine protocol: wrapped, not refused
+        def target_values(self, crew, site, position):
+            return {t: 1.0 for t in crew.scope}
+
+    old = ThreeArguments()
+    wrapped = make_evaluator(old)
+    assert isinstance(wrapped, RuleAdapter) and wrapped.rule is old
+    assert isinstance(wrapped, TargetEvaluator) and not wrapped.between_seconds
 
 
 def test_an_unknown_name_names_the_choices_and_the_closest():
@@ -33,8 +45,10 @@ def test_an_unknown_name_names_the_choices_and_the_closest():
     with pytest.raises(ValueError, match='give "priority", "nearest"') as err:
         make_evaluator("best")
     assert "did you mean" not in str(err.value)
-    with pytest.raises(TypeError, match="has no target_values"):
+    with pytest.raises(TypeError, match="is not an evaluator.*values_for"):
         make_evaluator(42)
+    with pytest.raises(TypeError, match="is not an evaluator"):
+        make_evaluator(None)  # None (values from outside) is the engine's, not an evaluator
 
 
 def test_every_way_of_making_an_env_has_the_same_default(tiny_case):
@@ -44,6 +58,14 @@ def test_every_way_of_making_an_env_has_the_same_default(tiny_case):
              type(pettingzoo.make("parallel", "cmdp/TinyFloor-v1").evaluator),
              type(pettingzoo.make("aec", "cmdp/TinyFloor-v1").unwrapped.evaluator)}
     assert kinds == {PriorityEvaluator}
+    # None means one thing at every layer: values come from outside
+    env = cmdp_pymunk.parallel_env(case=tiny_case, seed=0, evaluator=None)
+    engine = Engine(tiny_case, evaluator=None)
+    assert env.evaluator is None and engine.evaluator is None
+    env.reset(seed=0)
+    assert env.engine.pending  # the crews wait for values, as the engine's do
+    with pytest.raises(RuntimeError, match="set_target_values"):
+        env.step({agent: STAND_STILL for agent in env.agents})
 
 
 @pytest.mark.parametrize("name", sorted(EVALUATORS))

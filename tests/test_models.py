@@ -81,10 +81,10 @@ def test_both_low_levels_implement_the_protocol(tmp_path):
     path = save_ppo(tmp_path / "reach.zip", 115, spaces.MultiDiscrete([4, 3, 3]))
     for low in (Navigator(), PolicyNavigator(path, deterministic=False)):
         assert isinstance(low, LowLevel)
-        low.bind(env)
+        low.bind(env.engine)
         observations, _ = env.reset(seed=2)
         low.reset(2)
-        actions = low.actions(env, observations)
+        actions = env.agent_actions(low, observations)
         assert set(actions) == set(env.agents)
         assert all(env.action_space(a).contains(np.asarray(v)) for a, v in actions.items())
 
@@ -119,8 +119,8 @@ def test_a_stuck_argmax_navigator_fails_fast_with_a_message(tmp_path, capsys):
     env.reset(seed=0)
     crew = next(c for c in env.engine.site.crews if c.scope)
     crew.steps_since_reach = 59
-    check_not_stuck(env, PolicyNavigator.stuck_after_caps)  # 59 < 60: not yet
+    check_not_stuck(env.engine, PolicyNavigator.stuck_after_caps)  # 59 < 60: not yet
     crew.steps_since_reach = 60
     with pytest.raises(PolicyStuck, match=f"{crew.id} has held its target.*drop "
                                           "--deterministic"):
-        check_not_stuck(env, PolicyNavigator.stuck_after_caps)
+        check_not_stuck(env.engine, PolicyNavigator.stuck_after_caps)

@@ -13,8 +13,7 @@ def test_carrot_out_of_a_blocked_cell_takes_the_free_cell_lowest_on_the_field(ti
     corner; the nearest free cell lay on the lane a parked crew blocked (a detour field prices
     it at 1e4), an equally near one on the free lane beside it. Heading for the first kept it
     pushing into the parked crew for 3,000 s."""
-    nav = Navigator(tiny_env)
-    nav.actions(tiny_env)  # sets up the grid for this episode
+    nav = Navigator().plans(tiny_env.engine)  # this episode's grid and fields
     field = np.full((nav.ny, nav.nx), 50.0)
     i, j = nav._cell(0.1, 0.1)
     field[j, i] = math.inf                 # the crew's own cell: blocked
@@ -29,8 +28,7 @@ def test_carrot_out_of_a_blocked_cell_takes_the_free_cell_lowest_on_the_field(ti
 
 
 def test_carrot_prefers_nearer_ring_over_lower_value(tiny_env):
-    nav = Navigator(tiny_env)
-    nav.actions(tiny_env)
+    nav = Navigator().plans(tiny_env.engine)
     field = np.full((nav.ny, nav.nx), math.inf)
     i, j = nav._cell(0.1, 0.1)
     field[j, i + 1] = 40.0                 # ring 1

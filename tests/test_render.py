@@ -62,15 +62,15 @@ def test_default_scale_is_about_900_px_wide(rendered_env):
 def test_crew_colour_is_drawn_where_the_crew_is(rendered_env, px_per_m):
     env = rendered_env
     i = _lone_crew(env)
-    frame = render.draw_frame(env, px_per_m=px_per_m)
+    frame = render.draw_frame(env.engine, px_per_m=px_per_m)
     x, y = env.engine.world.bodies[i].position
     scale = render.Viewport.of(env.case.plane, px_per_m).px_per_m
     half = max(1, int(env.engine.site.crews[i].spec.radius_m * scale * 0.6))  # inside the disc
-    colour = render.crew_colour(env, i)
-    col, row = render.world_to_pixel(env, x, y, px_per_m)
+    colour = render.crew_colour(env.engine, i)
+    col, row = render.world_to_pixel(env.engine, x, y, px_per_m)
     assert _has_colour(frame, col, row, half, colour)
     # y is flipped: nothing of that colour at the crew's mirror image across the x axis
-    mcol, mrow = render.world_to_pixel(env, x, -y, px_per_m)
+    mcol, mrow = render.world_to_pixel(env.engine, x, -y, px_per_m)
     assert not _has_colour(frame, mcol, mrow, half, colour)
 
 
@@ -81,7 +81,7 @@ def test_world_to_pixel_flips_y_and_centres_the_origin(rendered_env):
     # the tiny plane is 20 x 12 m: its top-left corner (-10, 6) is 100 px left, 60 px up
     assert vp.to_px(-10.0, 6.0) == (cx - 100, cy - 60)
     assert vp.to_px(10.0, -6.0) == (cx + 100, cy + 60)
-    assert render.world_to_pixel(env, 1.0, 2.0, 10.0) == (cx + 10, cy - 20)
+    assert render.world_to_pixel(env.engine, 1.0, 2.0, 10.0) == (cx + 10, cy - 20)
 
 
 def test_left_crews_are_not_drawn(rendered_env):
@@ -89,8 +89,8 @@ def test_left_crews_are_not_drawn(rendered_env):
     i = _lone_crew(env)
     env.engine.site.crews[i].status = CrewStatus.LEFT  # hand-made state: the crew has gone
     frame = env.render()
-    col, row = render.world_to_pixel(env, *env.engine.world.bodies[i].position)
-    assert not _has_colour(frame, col, row, 3, render.crew_colour(env, i))
+    col, row = render.world_to_pixel(env.engine, *env.engine.world.bodies[i].position)
+    assert not _has_colour(frame, col, row, 3, render.crew_colour(env.engine, i))
 
 
 def test_component_colours_follow_the_task_pools(tiny_env):
@@ -107,9 +107,10 @@ def test_component_colours_follow_the_task_pools(tiny_env):
 
 
 def test_rays_are_drawn_only_on_request(rendered_env):
-    plain = render.draw_frame(rendered_env)
-    assert np.array_equal(plain, render.draw_frame(rendered_env, show_rays=False))
-    assert not np.array_equal(plain, render.draw_frame(rendered_env, show_rays=True))
+    plain = render.draw_frame(rendered_env.engine)
+    rays = rendered_env.rays
+    assert np.array_equal(plain, render.draw_frame(rendered_env.engine, rays, show_rays=False))
+    assert not np.array_equal(plain, render.draw_frame(rendered_env.engine, rays, show_rays=True))
 
 
 def test_clock_format():

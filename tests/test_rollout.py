@@ -2,8 +2,8 @@
 
 import pytest
 
-import cmdp_pymunk
 from agents.specs import make_evaluator, make_navigator, model_path
+from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.rollout import (
     crew_summary,
     episode_reach_rate,
@@ -35,16 +35,15 @@ def test_makespan_stats_over_finished_episodes_only():
 
 
 def test_run_episode_finishes_the_tiny_case(tiny_case):
-    env = cmdp_pymunk.parallel_env(case=tiny_case, evaluator=make_evaluator("priority"))
-    navigator = make_navigator("scripted", env)
-    navigator.bind(env)
-    episode = run_episode(env, navigator, seed=1, stall_s=3600.0, progress=False)
-    assert episode.stalled is None and episode.makespan_s == env.engine.site.time_s
-    summary = crew_summary(env)
+    engine = Engine(tiny_case, evaluator=make_evaluator("priority"))
+    navigator = make_navigator("scripted", engine)
+    episode = run_episode(engine, navigator, seed=1, stall_s=3600.0, progress=False)
+    assert episode.stalled is None and episode.makespan_s == engine.site.time_s
+    summary = crew_summary(engine)
     assert set(summary) == {c.id for c in tiny_case.crews}
     reaches = sum(c["reaches"] for c in summary.values())
     misses = sum(c["reach_timeouts"] for c in summary.values())
-    assert reaches > 0 and episode_reach_rate(env) == reach_rate(reaches, misses)
+    assert reaches > 0 and episode_reach_rate(engine) == reach_rate(reaches, misses)
 
 
 def test_a_missing_model_file_is_named(tmp_path):

@@ -143,18 +143,17 @@ def test_a_ctrl_c_while_the_gif_streams_leaves_no_half_gif(tmp_path, monkeypatch
 def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch):
     from cmdp_pymunk.move import STAND_STILL
 
-    class Frozen:  # a navigator that never moves: nobody reaches anything
-        def __init__(self, env=None):
-            pass
+    class Frozen:  # a low level that never moves anyone: nobody reaches anything
+        reads_rays = False
 
         def reset(self, seed):
             pass
 
-        def bind(self, env):
+        def bind(self, engine):
             pass
 
-        def actions(self, env, observations=None):
-            return {a: STAND_STILL for a in env.agents}
+        def actions(self, engine, observations=None):
+            return [STAND_STILL] * len(engine.site.crews)
 
     import agents.specs
 

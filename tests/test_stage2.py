@@ -170,9 +170,8 @@ def test_short_run_writes_its_files_resumes_and_repeats_its_weights(tmp_path):
         floor = stage2.make_floor(config, stage2.training_case(config))
         floor.reset(seed=5)
         engine, i = floor.engine, floor.deciding
-        evaluator.bind(engine)
-        env_values.append(evaluator.target_values(engine.site.crews[i], engine.site,
-                                                  engine.positions[i]))
+        evaluator.prepare(engine.case)
+        env_values.append(evaluator.values_for(engine, i))
     assert env_values[0] == env_values[1] and len(env_values[0]) > 1
     assert simulate(["--evaluator", str(run / "final_model.zip"), "--seed", "1",
                      "--max-time-s", "3000", "--no-charts", "--no-progress",

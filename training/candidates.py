@@ -80,8 +80,7 @@ class CandidateFloor:
                 self._decision = self.view.rows(crew, engine.site, engine.positions[i],
                                                 engine.positions)
                 return Outcome(reward, False, False)
-            out = self.floor.value_scope(self.view.base.target_values(crew, engine.site,
-                                                                      engine.positions[i]))
+            out = self.floor.value_scope(self.view.base.values_for(engine, i))
             reward += out.reward
         if self.against_heuristic is not None:
             engine = self.floor.engine
@@ -101,8 +100,7 @@ class CandidateFloor:
             out = Outcome(0.0, False, False)
             while not (out.terminated or out.truncated):
                 engine, i = reference.engine, reference.deciding
-                out = reference.value_scope(eq9.target_values(engine.site.crews[i],
-                                                              engine.site, engine.positions[i]))
+                out = reference.value_scope(eq9.values_for(engine, i))
             self._heuristic_s[seed] = (engine.site.time_s if out.terminated
                                        else 2.0 * engine.max_time_s)
         return self._heuristic_s[seed]

@@ -64,16 +64,18 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
     import cmdp_pymunk
     from agents.features import FloorFacts, candidate_features
     from agents.lookahead import LookaheadEvaluator
-    from agents.specs import make_evaluator, make_navigator
+    from agents.navigator import Navigator
+    from agents.specs import make_evaluator
+    from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
+    from cmdp_pymunk.rollout import run_episode
 
     case = cmdp_pymunk.load_case(case_path)
+    navigator = Navigator()  # drives the floor and, from its plans, the branches
     lookahead = LookaheadEvaluator(settings=lookahead_settings(candidates, futures),
-                                   acting=make_evaluator(acting) if acting else None)
-    env = cmdp_pymunk.parallel_env(case=case, evaluator=lookahead, park_idle=True, blind=True,
-                                   stall_s=3600.0)
-    lookahead.bind(env)
-    navigator = make_navigator("scripted", env)
+                                   acting=make_evaluator(acting) if acting else None,
+                                   low_level=navigator)
+    engine = Engine(case, evaluator=lookahead, park_idle=True)
     rows: list[tuple] = []
     priority = PriorityEvaluator()
     facts: list = []
@@ -90,22 +92,19 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
         rows.append((crew.type, [priorities[t] for t in decision.candidates], phi,
                      decision.makespans_s, decision.candidates.index(decision.choice)))
         if states:
-            snapshots.append(decision_state(engine, env, navigator, i, decision.candidates))
+            snapshots.append(decision_state(engine, navigator, i, decision.candidates))
 
     lookahead.on_decision = record
     start = time.perf_counter()
-    env.reset(seed=seed)
-    navigator.reset(seed)
-    while env.agents:
-        env.step(navigator.actions(env, None))
-    return {"seed": seed, "makespan_s": env.makespan_s, "rows": rows,
+    run_episode(engine, navigator, seed, stall_s=3600.0, progress=False)
+    return {"seed": seed, "makespan_s": engine.makespan_s, "rows": rows,
             "wall_s": time.perf_counter() - start, "overrides": lookahead.summary()["overrides"],
             "teacher": f"lookahead:candidates={candidates}+futures={futures}",
             "acting": acting or "", "states": snapshots}
 
 
-def decision_state(engine, env, navigator, i: int, candidates: list[int]) -> bytes:
-    """A decision's floor as a pickle: (engine, env, low level, crew i, candidates), the env
+def decision_state(engine, low_level, i: int, candidates: list[int]) -> bytes:
+    """A decision's floor as a pickle: (engine, low level, crew i, candidates), the engine
     valuing by Eq. 9, its event log left out. What ``--states`` keeps, so that features the
     label files lack can be computed on the teacher's own states later (``load_states``)
     without running the teacher again; a branch from it with the low level's copy is the
@@ -117,10 +116,9 @@ def decision_state(engine, env, navigator, i: int, candidates: list[int]) -> byt
 
     # A clone rebuilds the original's world as the lookahead's own branches do at this
     # decision (a second rebuild from the same data changes nothing; tested).
-    branch_engine, branch_env, low_level = engine.clone(engine.streams.scenario,
-                                                        (env, navigator), keep_log=False)
-    branch_env.evaluator = PriorityEvaluator()
-    return pickle.dumps((branch_engine, branch_env, low_level, i, list(candidates)),
+    branch = engine.clone(engine.streams.scenario, keep_log=False)
+    branch.evaluator = PriorityEvaluator()
+    return pickle.dumps((branch, low_level, i, list(candidates)),
                         protocol=pickle.HIGHEST_PROTOCOL)
 
 
@@ -131,8 +129,8 @@ def load_states(path: Path) -> list[tuple]:
     with open(path, "rb") as f:
         blobs = pickle.load(f)
     states = [pickle.loads(b) for b in blobs]
-    if any(len(s) != 5 for s in states):
-        raise ValueError(f"{path}: not (engine, env, low level, crew, candidates) per decision "
+    if any(len(s) != 4 for s in states):
+        raise ValueError(f"{path}: not (engine, low level, crew, candidates) per decision "
                          "(written by an older commit); fix: label again with --states")
     return states
 

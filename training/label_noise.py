@@ -66,11 +66,11 @@ def candidate_makespan(path: str, row: int, k: int, scenario) -> float:
     from agents.lookahead import LookaheadSettings, run_branch
     from cmdp_pymunk.evaluate import PriorityEvaluator
 
-    engine, env, low_level, i, candidates = _states(path)[row]
+    engine, low_level, i, candidates = _states(path)[row]
     base = PriorityEvaluator()  # the labelling lookahead's base (``distill.label_floor``)
-    values = base.target_values(engine.site.crews[i], engine.site, engine.positions[i])
-    branch = engine.clone(scenario, (env, low_level), keep_log=False)
-    return run_branch(branch, base, i, values, candidates[k],
+    values = base.values_for(engine, i)
+    branch = engine.clone(scenario, keep_log=False)
+    return run_branch(branch, low_level, base, i, values, candidates[k],
                       LookaheadSettings().unfinished_penalty_s)
 
 

@@ -149,15 +149,14 @@ def iso_datetime(text: str) -> str:
     return text
 
 
-def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
+def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
     from cmdp_pymunk.rollout import crew_summary, episode_reach_rate, versions
 
-    engine = env.engine
     site = engine.site
     makespan = episode.makespan_s
     data = {
         "case": site.case.case.name, "case_file": case_label, "seed": episode.seed,
-        "stage": env.stage, "evaluator": args.evaluator, "navigator": args.navigator,
+        "stage": engine.stage, "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
         "makespan_s": makespan,
         "tasks_finished": site.tasks_ended, "tasks_total": len(site.tasks),
@@ -167,8 +166,8 @@ def summary(env, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -
         "reach_rate": episode_reach_rate(engine),
         "crews": crew_summary(engine),
         "stalled": episode.stalled,
-        "lookahead": planner_summary(env.evaluator, "lookahead"),
-        "replan": planner_summary(env.evaluator, "replan"),
+        "lookahead": planner_summary(engine.evaluator, "lookahead"),
+        "replan": planner_summary(engine.evaluator, "replan"),
         "wall_s": round(episode.wall_s, 3),
         "simulated_s_per_wall_s": round(site.time_s / episode.wall_s, 1)
         if episode.wall_s > 0 else None,
@@ -198,22 +197,23 @@ class SeedRun:
     stuck: str = ""
 
 
-def seed_run(env, episode, args: SimulateArgs, case_label: str, lb) -> SeedRun:
-    """What is kept of a finished (or stalled) episode on ``env``."""
-    return SeedRun(episode.seed, summary(env, episode, args, case_label, lb),
-                   list(env.log.events))
+def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb) -> SeedRun:
+    """What is kept of a finished (or stalled) episode on ``engine``."""
+    return SeedRun(episode.seed, summary(engine, episode, args, case_label, lb),
+                   list(engine.log.events))
 
 
 def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: str, lb,
                   seed: int, progress: bool) -> SeedRun:
-    """One seed in a worker (``agents.episodes.open_backend``): played on the worker's env."""
+    """One seed in a worker (``agents.episodes.open_backend``): played on the worker's
+    engine."""
     from agents.models import PolicyStuck
 
     try:
-        env, episode = runner.play(evaluator_spec, args.navigator, seed, progress)
+        engine, episode = runner.play(evaluator_spec, args.navigator, seed, progress)
     except PolicyStuck as err:
         return SeedRun(seed, None, [], str(err))
-    return seed_run(env, episode, args, case_label, lb)
+    return seed_run(engine, episode, args, case_label, lb)
 
 
 def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=None,
@@ -288,7 +288,7 @@ class Progress:
         doing = self.doing
         engine = self.engine
         if engine is None and self.runner is not None and self.runner.playing is not None:
-            engine = self.runner.playing.engine
+            engine = self.runner.playing
         site = engine.site if engine is not None else None
         if site is not None:
             doing += f" at t = {site.time_s:,.0f} s"
@@ -322,7 +322,7 @@ class _Stop(Exception):
 
 def _main(argv: list[str] | None, progress: Progress) -> int:
     import cmdp_pymunk
-    from agents.episodes import BackendError, open_backend
+    from agents.episodes import BackendError, make_engine, open_backend
     from agents.specs import make_evaluator, make_navigator
     from cmdp_pymunk.bounds import lower_bound
 
@@ -345,17 +345,12 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         return 2
     case_label = str(args.case) if args.case else "built-in (precast_floor.toml)"
     lb = lower_bound(case)
-    # The scripted navigator only parks idle crews: let the env skip their seconds (park_idle);
-    # it reads the state, not the rays, so none are cast (blind).
-    # A trained navigator gets every crew's decision, as in the paper. The workers build theirs
-    # with the same options; this one checks the navigator and renders the GIF's seed.
-    env_options = {"position_log_every_s": POSITION_LOG_EVERY_S,
-                   "blind": args.navigator == "scripted"}
-    env = cmdp_pymunk.parallel_env(case=case, stage=2, evaluator=evaluator,
-                                   render_mode="rgb_array" if args.gif else None,
-                                   max_time_s=args.max_time_s,
-                                   park_idle=args.navigator == "scripted", **env_options)
-    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic, env_options)
+    # The scripted navigator only parks idle crews: let the engine skip their seconds
+    # (park_idle); it reads the state, not the rays, so none are cast. A trained navigator gets
+    # every crew's decision, as in the paper. The workers build their engines with the same
+    # options; this one checks the navigator and renders the GIF's seed.
+    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic,
+                   POSITION_LOG_EVERY_S)
     workers = args.workers or (1 if args.ray is None else None)
     try:
         # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
@@ -370,10 +365,10 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                       f"{cpsat.makespan_s or float('nan'):.0f} s, {cpsat.wall_s:.1f} s)")
                 if args.evaluator == "cpsat":
                     evaluator.use(cpsat)
-            try:
-                if hasattr(evaluator, "bind"):
-                    evaluator.bind(env)
-                navigator = make_navigator(args.navigator, env, args.deterministic)
+            try:  # the evaluator is prepared for the case here (a misfit: exit 2)
+                engine = make_engine(case, evaluator, args.navigator, args.max_time_s,
+                                     POSITION_LOG_EVERY_S)
+                navigator = make_navigator(args.navigator, engine, args.deterministic)
             except ValueError as err:
                 print(f"cmdp-simulate: {err}", file=sys.stderr)
                 return 2
@@ -398,7 +393,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                   f"{args.evaluator}, navigator {args.navigator}"
                   + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
                   flush=True)
-            rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, env,
+            rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, engine,
                                                navigator, pool, progress)
     except BackendError as err:
         print(f"cmdp-simulate: {err}", file=sys.stderr)
@@ -421,9 +416,10 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     return 1 if failed else 0
 
 
-def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, env, navigator,
-              pool, progress: Progress) -> tuple[list[dict], list[list[float]], bool]:
-    """Every seed, in seed order: the GIF's seed played on ``env`` here, the others on ``pool``
+def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, engine,
+              navigator, pool, progress: Progress) -> tuple[list[dict], list[list[float]], bool]:
+    """Every seed, in seed order: the GIF's seed played on ``engine`` here, the others on
+    ``pool``
     (the backend's results come back in job order, so seed folders are written in seed order
     and a stopped run keeps seeds SEED ... K, each folder complete). Returns the summaries,
     each seed's task finish times and whether any episode stalled or timed out."""
@@ -459,13 +455,15 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
             try:
                 if seed in here:
                     from media.charts import GifStream
+                    from media.render import draw_frame
 
                     gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
-                    progress.engine = env.engine
+                    progress.engine = engine
                     try:
-                        episode = run_episode(env, navigator, seed, args.stall_s, task_bar,
-                                              frame_interval(case, lb), on_frame=gif.append)
-                        run = seed_run(env, episode, args, case_label, lb)
+                        episode = run_episode(engine, navigator, seed, args.stall_s, task_bar,
+                                              frame_interval(case, lb), on_frame=gif.append,
+                                              render=draw_frame)
+                        run = seed_run(engine, episode, args, case_label, lb)
                     except PolicyStuck as err:
                         run = SeedRun(seed, None, [], str(err))
                     progress.engine = None

@@ -156,9 +156,9 @@ def navigator_samples(config: Stage1Config, case, n: int, seed: int,
                desc="behaviour cloning samples")
     while len(obs_out) < n:
         observations, infos = env.reset(seed=seed + episode)
-        navigator = Navigator(env)
+        navigator = Navigator()
         while env.agents and len(obs_out) < n:
-            actions = navigator.actions(env, observations)
+            actions = env.agent_actions(navigator, observations)
             for agent in env.agents:
                 if infos[agent]["needs_action"]:
                     obs_out.append(observations[agent])
@@ -219,7 +219,7 @@ def evaluate_reaching(model, config: Stage1Config, case, seeds, stage: int = 1) 
         navigator.reset(seed)
         total = 0.0
         while env.agents:
-            observations, rew, *_ = env.step(navigator.actions(env, observations))
+            observations, rew, *_ = env.step(env.agent_actions(navigator, observations))
             total += sum(rew.values())
         site = env.engine.site
         for crew in site.crews:

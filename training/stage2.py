@@ -139,12 +139,12 @@ def training_case(config: Stage2Config):
 
 
 def low_level_factory(spec: str):
-    """``make_low_level(engine)`` for ``highlevel.Floor``: the scripted navigator, or a
-    stage-1 model sampling its actions."""
-    def make(engine):
+    """``make_low_level()`` for ``highlevel.Floor``: the scripted navigator, or a stage-1
+    model sampling its actions (the floor binds it to its engine)."""
+    def make():
         from agents.specs import make_navigator
 
-        return make_navigator(spec, engine, deterministic=False)
+        return make_navigator(spec, deterministic=False)
 
     return make
 
