@@ -14,7 +14,7 @@ from agents.episodes import EpisodeRunner
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings
 from agents.navigator import Navigator
 from agents.steering import steer
-from cmdp_pymunk import CMDPEnv, TINY_CASE, load_case
+from cmdp_pymunk import TINY_CASE, CMDPEnv, load_case
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import Evaluator, TargetEvaluator
 from cmdp_pymunk.highlevel import Floor
