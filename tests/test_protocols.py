@@ -141,3 +141,57 @@ def test_reset_creates_no_attribute_that_init_does_not_declare():
     assert set(vars(fresh)) == declared
     fresh.advance([(0, 1, 1)] * len(case.crews))
     assert set(vars(fresh)) == declared
+
+
+ROOMS = ("cmdp_pymunk", "agents", "training", "media", "benchmarks", "tools")
+
+
+def named_in_the_architecture_doc() -> tuple[set[str], set[str]]:
+    """The file paths (``dir/file.py``) and dotted names of the rooms that
+    docs/architecture.md puts in backticks."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "architecture.md").read_text()
+    text = re.sub(r"```.*?```", "", text, flags=re.S)  # the diagram: names, not code
+    spans = re.findall(r"`([^`]+)`", text)
+    paths = {m for s in spans for m in re.findall(r"\b[\w/]+\.py\b", s) if "/" in m}
+    core = {p.stem for p in (root / "cmdp_pymunk").glob("*.py")}  # `evaluate.Rule` and such
+    dotted = set()
+    for span in spans:
+        m = re.match(r"[a-z_]\w*(\.\w+)+", span)
+        if m and m.group(0).split(".")[0] in ROOMS:
+            dotted.add(m.group(0))
+        elif m and m.group(0).split(".")[0] in core - {"engine", "env"} \
+                and not span.endswith(".py"):  # `engine.site`: an instance, in prose
+            dotted.add("cmdp_pymunk." + m.group(0))
+    return paths, dotted
+
+
+def test_every_module_and_name_in_the_architecture_doc_exists():
+    import importlib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    paths, dotted = named_in_the_architecture_doc()
+    assert len(paths) >= 5 and len(dotted) >= 10  # the doc names them; the test reads them
+    missing = sorted(p for p in paths if not (root / p).exists())
+    assert not missing, f"docs/architecture.md names files that do not exist: {missing}"
+    unresolved = []
+    for name in sorted(dotted):
+        parts = name.split(".")
+        for k in range(len(parts), 0, -1):  # the longest importable module, then attributes
+            try:
+                obj = importlib.import_module(".".join(parts[:k]))
+            except ImportError:
+                continue
+            try:
+                for attr in parts[k:]:
+                    obj = getattr(obj, attr)
+            except AttributeError:
+                unresolved.append(name)
+            break
+        else:
+            unresolved.append(name)
+    assert not unresolved, f"docs/architecture.md names what the code lacks: {unresolved}"
