@@ -38,7 +38,7 @@ class CandidateScorer(nn.Module):
                 + self.residual(rows).squeeze(-1))
 
     def start_from_rule(self, weights) -> None:
-        """Logits ``scale * (V' + w . phi)``: the extended Eq. 9 of ``agents.rule_search``
+        """Logits ``scale * (V' + w . phi)``: the extended Eq. 9 of ``training.search.rule``
         (``weights``: one per feature, the columns after V'), so the untrained policy's
         argmax is that rule's choice."""
         w = torch.as_tensor([0.0, *weights], dtype=self.linear.weight.dtype)

@@ -26,10 +26,10 @@ import statistics
 import time
 
 import cmdp_pymunk
-from agents.episodes import open_backend
 from cmdp_pymunk.rollout import versions
 from training.distill import _label_job
 from training.evaluate import _episode_job
+from training.runs.backends import open_backend
 
 
 def _job(runner, which: str, *args):

@@ -79,7 +79,7 @@ def main(argv: list[str] | None = None) -> None:
     a = p.parse_args(argv)
     import torch
 
-    from agents.ray_backend import connect, ray
+    from training.runs.ray_backend import connect, ray
 
     torch.set_num_threads(1)
     commit = (versions()["commit"] or "unknown")[:7]

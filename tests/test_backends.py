@@ -1,4 +1,4 @@
-"""Where episodes run (agents/episodes.py): the local backend gives the same results in the
+"""Where episodes run (training/runs/episodes.py): the local backend gives the same results in the
 same order with 1 or 2 workers, a dead worker's jobs run again or are reported, the default
 path never imports Ray, and ``cmdp-evaluate`` streams its episodes and resumes. The Ray
 backend's own tests are in test_ray.py."""
@@ -15,8 +15,8 @@ import pytest
 from test_interrupt import default_sigint
 
 import cmdp_pymunk
-from agents.episodes import WorkerLost, Workers, open_backend
 from training import evaluate
+from training.runs.backends import WorkerLost, Workers, open_backend
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = str(cmdp_pymunk.TINY_CASE)

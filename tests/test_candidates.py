@@ -9,8 +9,8 @@ import torch as th
 from test_ga import far_start_case
 
 from agents.candidates import CANDIDATE_COLUMNS, CandidateView, observation_bounds
-from agents.episodes import EpisodeRunner
 from training import stage2
+from training.runs.episodes import EpisodeRunner
 from training.stage2 import Stage2Config
 
 

@@ -192,7 +192,7 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
         # keeping the states does not change the floor or its labels
         for key in ("choice", "makespan_s", "features", "values", "floor_makespan_s"):
             assert np.array_equal(a[key], b[key], equal_nan=True), key
-        states = distill.load_states(kept / f"seed-{seed}.states.pkl")
+        states = label_noise.load_states(kept / f"seed-{seed}.states.pkl")
         assert len(states) == len(b["choice"]) >= 1
         engine, low_level, i, candidates = states[0]
         # the teacher's low level comes with it, its plans in the kept floor's memory (a fresh

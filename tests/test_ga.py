@@ -1,12 +1,11 @@
-"""Task priorities as an evaluator, priority files, and the GA search (agents/ga.py)."""
+"""Task priorities as an evaluator, priority files, and the GA search
+(training/search/genetic.py)."""
 
 import json
 
 import pytest
 from conftest import tiny_dict
 
-from agents.episodes import EpisodeRunner
-from agents.ga import GAConfig, episode_fitness, run_ga, successor_genes
 from agents.specs import make_evaluator
 from agents.task_priority import (
     TaskPriorityEvaluator,
@@ -15,6 +14,8 @@ from agents.task_priority import (
     task_priority_value,
 )
 from cmdp_pymunk.case import case_from_dict
+from training.runs.episodes import EpisodeRunner
+from training.search.genetic import GAConfig, episode_fitness, run_ga, successor_genes
 
 
 def far_start_case():
@@ -170,7 +171,7 @@ def test_the_progress_bar_ends_at_its_total(tmp_path, monkeypatch):
     counted the elite too and it stopped short (7/8 of the way with these settings)."""
     import tqdm
 
-    from agents.ga import episodes_after
+    from training.search.genetic import episodes_after
 
     seen = []
 

@@ -10,11 +10,14 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def imported_modules(path: Path) -> set[str]:
-    """The absolute names of every module ``path`` imports (relative imports resolved)."""
+def imported_modules(path: Path, tree: ast.AST | None = None) -> set[str]:
+    """The absolute names of every module ``path`` imports (relative imports resolved); from
+    ``tree`` if given (``path``'s, edited)."""
     package = ".".join(path.relative_to(ROOT).with_suffix("").parts[:-1])
+    if tree is None:
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
     names = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             names.update(alias.name for alias in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -150,3 +153,80 @@ def test_pymunks_world_is_a_physics():
     assert isinstance(world, Physics)
     x, y, heading = world.pose(0)
     assert (x, y) == (case.crews[0].start_x_m, case.crews[0].start_y_m)
+
+
+# -- rooms (issue 29): which room may import which, and no circles -----------------------------
+
+ROOM_RULES = {
+    # room: rooms it must not import (anything not listed is allowed)
+    "agents": {"training", "media", "benchmarks", "tools", "examples"},  # policies, evaluators
+    "media": {"agents", "training", "benchmarks", "tools"},  # drawing from logs and engines
+    "training/runs": {"training.search", "training.simulate", "training.evaluate",
+                      "training.train", "training.ga", "training.search_rule",
+                      "training.distill", "training.label_noise"},  # machinery, no commands
+    "training/search": {"training.simulate", "training.evaluate", "training.train",
+                        "training.ga", "training.search_rule"},  # searches, not commands
+}
+
+
+def _room_modules(room: str) -> list[Path]:
+    return sorted((ROOT / room).rglob("*.py"))
+
+
+@pytest.mark.parametrize("room", sorted(ROOM_RULES))
+def test_each_room_imports_only_what_it_may(room):
+    bad = []
+    for path in _room_modules(room):
+        for name in imported_modules(path):
+            if any(name == f or name.startswith(f + ".") for f in ROOM_RULES[room]):
+                bad.append(f"{path.relative_to(ROOT)} imports {name}")
+    assert not bad, f"room {room}/ imports what it may not: {bad}"
+
+
+def runtime_imports(path: Path) -> set[str]:
+    """``imported_modules`` less the imports under ``if TYPE_CHECKING:`` (annotations only)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            node.body = [ast.Pass()]
+    return imported_modules(path, tree)
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def test_no_module_of_the_project_imports_itself_round_a_circle():
+    """Import circles, also through imports inside functions, among the project's modules."""
+    paths = [p for room in ("cmdp_pymunk", "agents", "training", "media")
+             for p in _room_modules(room)]
+    names = {_module_name(p): p for p in paths}
+    graph = {}
+    for name, path in names.items():
+        out = set()
+        for imported in runtime_imports(path):
+            while imported and imported not in names:  # ``pkg.mod.attr`` -> ``pkg.mod``
+                imported = imported.rpartition(".")[0]
+            if imported and imported != name and not name.startswith(imported + "."):
+                out.add(imported)
+        graph[name] = out
+    circles, state = [], {}
+
+    def visit(node, stack):
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == 1:
+                circles.append(stack[stack.index(nxt):] + [nxt])
+            elif nxt not in state:
+                visit(nxt, stack)
+        stack.pop()
+        state[node] = 2
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [])
+    # a package's __init__ that registers its own adapters is not a circle of rooms
+    circles = [c for c in circles if not (c[0] == "cmdp_pymunk" or "cmdp_pymunk" in c)]
+    assert not circles, " ; ".join(" -> ".join(c) for c in circles)

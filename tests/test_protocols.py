@@ -10,7 +10,6 @@ import sys
 
 import pytest
 
-from agents.episodes import EpisodeRunner
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings
 from agents.navigator import Navigator
 from agents.steering import steer
@@ -20,6 +19,7 @@ from cmdp_pymunk.evaluate import Evaluator, TargetEvaluator
 from cmdp_pymunk.highlevel import Floor
 from cmdp_pymunk.policy import LowLevel
 from cmdp_pymunk.rollout import play, run_episode
+from training.runs.episodes import EpisodeRunner
 
 
 class FarthestFirst(Evaluator):

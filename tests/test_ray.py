@@ -1,4 +1,4 @@
-"""The Ray backend (agents/ray_backend.py) on a two-node Ray cluster started on this machine
+"""The Ray backend (training/runs/ray_backend.py) on a two-node Ray cluster started on this machine
 (``ray.cluster_utils.Cluster``, 1 CPU per node): the same ``cmdp-evaluate`` episodes as local
 processes, a killed worker's job retried or reported, Ctrl-C leaving complete outputs only,
 and bad input (an address nobody answers at, workers with another version of this package, a
@@ -21,12 +21,12 @@ from test_backends import (
 )
 
 import cmdp_pymunk
-from agents.episodes import WorkerLost
 from training import evaluate
+from training.runs.backends import WorkerLost
 
 # As a cluster of `ray start --head` (Ray 2.60's default), with a token: the commands run in a
-# child process here send theirs (agents/ray_backend.py), and a child in token mode cannot use
-# the workers of a cluster without one. Ray reads the mode when it is imported.
+# child process here send theirs (training/runs/ray_backend.py), and a child in token mode
+# cannot use the workers of a cluster without one. Ray reads the mode when it is imported.
 os.environ.setdefault("RAY_AUTH_MODE", "token")
 TOKEN_FILE = os.path.expanduser("~/.ray/auth_token")
 if not (os.environ.get("RAY_AUTH_TOKEN") or os.path.isfile(TOKEN_FILE)):
@@ -56,7 +56,7 @@ def cluster():
 
 @pytest.fixture
 def backend(cluster):
-    from agents.ray_backend import RayWorkers
+    from training.runs.ray_backend import RayWorkers
 
     def make(job, retries=1):
         return RayWorkers(job, None, None, cluster.address, retries)
@@ -168,7 +168,7 @@ def test_a_file_missing_on_a_worker_is_one_line(cluster, tmp_path, capsys, monke
 def test_the_ga_searches_the_same_on_ray(cluster, tmp_path):
     from test_ga import far_start_case
 
-    from agents.ga import GAConfig, run_ga
+    from training.search.genetic import GAConfig, run_ga
 
     case = far_start_case()
     config = GAConfig(population=4, generations=1, train_seeds=[0, 1], seed=2)
@@ -198,7 +198,7 @@ def test_the_rule_search_is_the_same_on_ray(cluster, tmp_path):
     """CMA-ES (cmdp-search-rule) samples from numpy's global generator: Ray must not move it."""
     from test_ga import far_start_case
 
-    from agents.rule_search import RuleSearchConfig, search_rule
+    from training.search.rule import RuleSearchConfig, search_rule
 
     config = RuleSearchConfig(features=["nearness"], popsize=3, train_seeds=[0, 1],
                               seeds_per_generation=1, select_seeds=[5], generations=1, seed=2)

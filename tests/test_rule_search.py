@@ -1,13 +1,13 @@
-"""The searched extension of Eq. 9 (agents/rule_search.py): seeds, weights, fitness, resume."""
+"""The searched extension of Eq. 9 (training/search/rule.py): seeds, weights, fitness, resume."""
 
 import json
 
 import pytest
 from test_ga import far_start_case
 
-from agents.episodes import EpisodeRunner
 from agents.features import FEATURE_NAMES
-from agents.rule_search import (
+from training.runs.episodes import EpisodeRunner
+from training.search.rule import (
     RuleSearchConfig,
     _rule_job,
     generation_seeds,
@@ -100,7 +100,7 @@ def test_a_resumed_search_continues_exactly_and_checks_on_unseen_seeds(tmp_path)
 
 
 def test_the_kept_mean_is_the_best_checked_or_eq9():
-    from agents.rule_search import SearchState, choose, generations_checked
+    from training.search.rule import SearchState, choose, generations_checked
 
     config = RuleSearchConfig(features=["tail"], generations=3, select_every=2,
                               train_seeds=[0, 1], seeds_per_generation=1, select_seeds=[5])

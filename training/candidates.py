@@ -23,7 +23,7 @@ def terminal_term(per_second: float, heuristic_s: float, time_s: float, finished
     """The reward added at a floor's end against the heuristic on the same seed (issue 17,
     item 5): with R_e's makespan term ``per_second`` (< 0) summed over the floor, the return's
     makespan part becomes ``per_second * (M - H)``, M the makespan (an unfinished floor: twice
-    the time limit, ``agents.ga.unfinished_makespan_s``) and H the heuristic's."""
+    the time limit, ``training.search.genetic.unfinished_makespan_s``) and H the heuristic's."""
     makespan = time_s if finished else 2.0 * limit_s
     return -per_second * heuristic_s + per_second * (makespan - time_s)
 

@@ -83,7 +83,7 @@ def write_search_settings(out, config, case, workers, ray) -> None:
 
 def workers_label(workers, ray) -> str:
     """How a run's episodes are spread, for its first line."""
-    from agents.episodes import default_workers
+    from training.runs.backends import default_workers
 
     return f"Ray ({ray})" if ray else f"{workers or default_workers()} worker(s)"
 

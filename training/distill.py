@@ -106,7 +106,8 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
 def decision_state(engine, low_level, i: int, candidates: list[int]) -> bytes:
     """A decision's floor as a pickle: (engine, low level, crew i, candidates), the engine
     valuing by Eq. 9, its event log left out. What ``--states`` keeps, so that features the
-    label files lack can be computed on the teacher's own states later (``load_states``)
+    label files lack can be computed on the teacher's own states later
+    (``label_noise.load_states``)
     without running the teacher again; a branch from it with the low level's copy is the
     teacher's own branch (the scripted navigator keeps state: a fresh one walks differently).
     A pickle of this code's classes: read it with the same commit."""
@@ -120,19 +121,6 @@ def decision_state(engine, low_level, i: int, candidates: list[int]) -> bytes:
     branch.evaluator = PriorityEvaluator()
     return pickle.dumps((branch, low_level, i, list(candidates)),
                         protocol=pickle.HIGHEST_PROTOCOL)
-
-
-def load_states(path: Path) -> list[tuple]:
-    """The decisions' floors of a ``seed-N.states.pkl`` (``decision_state``), in row order."""
-    import pickle
-
-    with open(path, "rb") as f:
-        blobs = pickle.load(f)
-    states = [pickle.loads(b) for b in blobs]
-    if any(len(s) != 4 for s in states):
-        raise ValueError(f"{path}: not (engine, low level, crew, candidates) per decision "
-                         "(written by an older commit); fix: label again with --states")
-    return states
 
 
 def save_labels(path: Path, result: dict, candidates: int) -> None:
@@ -171,8 +159,8 @@ def _label_job(runner, case_path, seed, candidates, futures, acting=None, states
 def label(args) -> int:
     from tqdm import tqdm
 
-    from agents.episodes import open_backend
     from training.evaluate import seed_list
+    from training.runs.backends import open_backend
 
     futures = futures_option(args.futures)
     lookahead_settings(args.candidates, futures)  # bad settings fail before any floor runs
@@ -484,8 +472,8 @@ def fit_model(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.episodes import BackendError
     from training.cli import OneLineParser, add_ray_option
+    from training.runs.backends import BackendError
 
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = OneLineParser(prog="python -m training.distill", description=__doc__.split("\n")[0])

@@ -10,7 +10,8 @@ Writes into DIR: ``best.json`` (the best priority file so far: use it with
 ``cmdp-simulate --evaluator ga:DIR/best.json``), ``history.csv`` (best, mean and worst
 fitness per generation), ``checkpoint.pkl`` (after every generation; ``--resume`` continues
 from it, exactly as if never stopped) and ``config.json`` (settings, case, versions, command).
-The settings are ``agents.ga.GAConfig``'s; a bad one exits with 2 naming it and the fix.
+The settings are ``training.search.genetic.GAConfig``'s; a bad one exits with 2 naming it and
+the fix.
 """
 
 from __future__ import annotations
@@ -19,8 +20,6 @@ import sys
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import BackendError
-from agents.ga import GAConfig, run_ga
 from training.cli import (
     SearchArgs,
     parse_search_args,
@@ -28,6 +27,8 @@ from training.cli import (
     write_search_settings,
 )
 from training.config import RunConfig
+from training.runs.backends import BackendError
+from training.search.genetic import GAConfig, run_ga
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
 
@@ -38,7 +39,8 @@ def parse_args(argv: list[str] | None = None) -> SearchArgs:
 
 
 class GARunConfig(GAConfig, RunConfig):
-    """``agents.ga.GAConfig`` read like every run config (``training.config.RunConfig.load``:
+    """``training.search.genetic.GAConfig`` read like every run config
+    (``training.config.RunConfig.load``:
     the TOML file, then ``--set`` overrides, every bad setting named with its fix)."""
 
 

@@ -53,10 +53,21 @@ def teacher_future(teacher: str):
     return None if settings.futures == 0 else False
 
 
+def load_states(path: Path) -> list[tuple]:
+    """The decisions' floors of a ``seed-N.states.pkl`` (``decision_state``), in row order."""
+    import pickle
+
+    with open(path, "rb") as f:
+        blobs = pickle.load(f)
+    states = [pickle.loads(b) for b in blobs]
+    if any(len(s) != 4 for s in states):
+        raise ValueError(f"{path}: not (engine, low level, crew, candidates) per decision "
+                         "(written by an older commit); fix: label again with --states")
+    return states
+
+
 @functools.lru_cache(maxsize=2)  # a worker serves the rows of one floor in turn
 def _states(path: str) -> list[tuple]:
-    from training.distill import load_states
-
     return load_states(Path(path))
 
 
@@ -163,8 +174,8 @@ def _finite(x, digits: int):
 def noise(args) -> int:
     from tqdm import tqdm
 
-    from agents.episodes import open_backend
     from cmdp_pymunk.events import write_atomic
+    from training.runs.backends import open_backend
 
     if args.every < 1 or args.futures < 1:
         raise ValueError(f"--every {args.every} --futures {args.futures}: both must be >= 1")

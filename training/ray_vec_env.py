@@ -24,7 +24,7 @@ from typing import Any
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv
 from stable_baselines3.common.vec_env.base_vec_env import CloudpickleWrapper
 
-from agents.ray_backend import (
+from training.runs.ray_backend import (
     START_TIMEOUT_S,
     ClusterError,
     cannot_run_here,

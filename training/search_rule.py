@@ -8,7 +8,7 @@ with ``cmdp-simulate --evaluator student:DIR/rule.json``; at the end, the mean t
 against Eq. 9 on the selection seeds, with that check), ``history.csv`` (per generation: best
 and mean paired difference to Eq. 9, step size, the mean weights), ``checkpoint.pkl`` (after
 every generation; ``--resume`` continues from it exactly) and ``config.json`` (settings, case,
-versions, command). The settings are ``agents.rule_search.RuleSearchConfig``'s; a bad one
+versions, command). The settings are ``training.search.rule.RuleSearchConfig``'s; a bad one
 exits with 2 naming it and the fix. The floors run in worker processes, or on Ray actors with
 ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster; docs/ray.md).
 """
@@ -19,8 +19,6 @@ import sys
 from pathlib import Path
 
 import cmdp_pymunk
-from agents.episodes import BackendError
-from agents.rule_search import RuleSearchConfig, search_rule
 from training.cli import (
     SearchArgs,
     parse_search_args,
@@ -28,6 +26,8 @@ from training.cli import (
     write_search_settings,
 )
 from training.config import RunConfig
+from training.runs.backends import BackendError
+from training.search.rule import RuleSearchConfig, search_rule
 
 DEFAULT_CONFIG = Path(__file__).with_name("configs") / "rule_search.toml"
 
@@ -38,7 +38,7 @@ def parse_args(argv: list[str] | None = None) -> SearchArgs:
 
 
 class RuleSearchRunConfig(RuleSearchConfig, RunConfig):
-    """``agents.rule_search.RuleSearchConfig`` read like every run config (file, then
+    """``training.search.rule.RuleSearchConfig`` read like every run config (file, then
     ``--set``, every bad setting named with its fix)."""
 
 

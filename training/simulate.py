@@ -18,7 +18,7 @@ seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.p
 model with the simulated schedule as an IfcWorkSchedule (``cmdp_pymunk.ifc.export_4d``; IFC4
 or IFC2X3, as the model), simulated second 0 at ``--ifc-start``.
 
-The episodes run through ``cmdp-evaluate``'s episode runner (``agents/episodes.py``): in this
+The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/episodes.py``): in this
 process (the default, ``--workers 1``), in ``--workers N`` worker processes, or on Ray actors
 with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster; docs/ray.md). A worker
 plays its seed and sends back the summary and the event log; this process writes each seed's
@@ -205,7 +205,7 @@ def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb) -> SeedRu
 
 def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: str, lb,
                   seed: int, progress: bool) -> SeedRun:
-    """One seed in a worker (``agents.episodes.open_backend``): played on the worker's
+    """One seed in a worker (``training.runs.episodes.open_backend``): played on the worker's
     engine."""
     from agents.models import PolicyStuck
 
@@ -322,9 +322,10 @@ class _Stop(Exception):
 
 def _main(argv: list[str] | None, progress: Progress) -> int:
     import cmdp_pymunk
-    from agents.episodes import BackendError, make_engine, open_backend
     from agents.specs import make_evaluator, make_navigator
     from cmdp_pymunk.bounds import lower_bound
+    from training.runs.backends import BackendError, open_backend
+    from training.runs.episodes import make_engine
 
     args = parse_args(argv)
     try:
@@ -377,7 +378,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                 from agents.cpsat import save_plan
 
                 spec = f"cpsat:{save_plan(args.out / 'cpsat_plan.json', case, cpsat)}"
-            from agents.episodes import check_worker
+            from training.runs.episodes import check_worker
 
             problems = [p for p in pool.check_each(check_worker, [spec], [args.navigator],
                                                    args.deterministic) if p]
@@ -425,11 +426,11 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
     each seed's task finish times and whether any episode stalled or timed out."""
     from tqdm import tqdm
 
-    from agents.episodes import WorkerLost, Workers
     from agents.models import PolicyStuck
     from cmdp_pymunk import interrupt
     from cmdp_pymunk.rollout import run_episode
     from cmdp_pymunk.schedule import finish_times
+    from training.runs.backends import WorkerLost, Workers
 
     seeds = [args.seed + k for k in range(args.episodes)]
     here = seeds[:1] if args.gif else []  # the GIF's seed: rendered in this process

@@ -451,7 +451,7 @@ def new_candidate_model(config: Stage2Config, venv):
 
 
 def rule_vector(path: str, candidates: int) -> list[float]:
-    """The one weight vector of a searched rule's file (``agents.rule_search``); ValueError
+    """The one weight vector of a searched rule's file (``training.search.rule``); ValueError
     naming the file and the fix for a rule with several vectors or other candidates."""
     from agents.student import StudentEvaluator
 

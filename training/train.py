@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
 def start(config_class, default_config: Path, train_run, args, argv) -> Path | int:
     """Settings checked, then ``train_run``: the final model's path, or 2 with one line for
     bad settings (``main`` runs this under its Ctrl-C guard)."""
-    from agents.episodes import BackendError
+    from training.runs.backends import BackendError
 
     ray = getattr(args, "ray", None)
     try:
@@ -77,7 +77,7 @@ def start(config_class, default_config: Path, train_run, args, argv) -> Path | i
         if args.resume is not None and not args.resume.is_file():
             raise ValueError(f"--resume {args.resume}: no such checkpoint")
         if ray is not None:  # before the run folder: Ray missing, an address nobody answers
-            from agents.ray_backend import check_address, require_ray
+            from training.runs.ray_backend import check_address, require_ray
 
             require_ray()
             if ray != "local":

@@ -1,10 +1,10 @@
 """Episodes on Ray actors: ``--ray`` (a Ray started on this machine) or ``--ray ADDRESS`` (a
 cluster started with ``ray start --head``, or KubeRay's head service); docs/ray.md.
 
-Imported only when ``--ray`` is given (``agents.episodes.open_backend``): the default install
+Imported only when ``--ray`` is given (``training.runs.episodes.open_backend``): the default install
 needs no Ray. Each actor builds its ``EpisodeRunner`` once and runs many jobs on it, two in
 flight at a time so that it never waits for the driver. Results come back through the same
-interface as the local worker processes (``agents.episodes.Backend``): in job order for
+interface as the local worker processes (``training.runs.episodes.Backend``): in job order for
 ``imap``, as they arrive for ``as_completed``.
 
 A worker process that dies (killed, out of memory, its node lost) loses its actor: a new
@@ -30,7 +30,7 @@ import sys
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 
-from .episodes import Backend, BackendError, WorkerLost, make_runner
+from .base import Backend, BackendError, WorkerLost, make_runner
 
 
 def use_token_if_there_is_one() -> None:
@@ -130,7 +130,7 @@ def connect(address: str, cpus: int | None = None) -> bool:
     if ray.is_initialized():
         return False
     if address == "local":
-        from .episodes import default_workers
+        from .base import default_workers
 
         ray.init(num_cpus=cpus or default_workers(), include_dashboard=False,
                  object_store_memory=LOCAL_OBJECT_STORE_BYTES, logging_level=logging.WARNING)

@@ -29,11 +29,12 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict
 
+from agents.task_priority import TaskPriorityEvaluator
 from cmdp_pymunk.events import write_atomic
 
-from .checkpoint import resume_state
-from .episodes import Backend, EpisodeRunner, open_backend
-from .task_priority import TaskPriorityEvaluator
+from ..runs.backends import Backend, open_backend
+from ..runs.checkpoint import resume_state
+from ..runs.episodes import EpisodeRunner
 
 Count = Annotated[int, Strict(), Field(gt=0)]
 CountOrZero = Annotated[int, Strict(), Field(ge=0)]
@@ -160,7 +161,7 @@ def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: b
     ``out/best.json`` (the best priority file so far). ``resume`` continues from the
     checkpoint (which must come from the same config, up to ``generations``). The episodes
     run on ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
-    address; ``agents.episodes.open_backend``)."""
+    address; ``training.runs.episodes.open_backend``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -231,7 +232,7 @@ def episodes_after(config: GAConfig, generation: int) -> int:
 
 def _record(state: GAState, out: Path, case, config: GAConfig, bar) -> None:
     """Log the generation, write the best file and the checkpoint (atomically)."""
-    from .task_priority import save_priorities
+    from agents.task_priority import save_priorities
 
     fits = [f for _, f in state.population]
     best_genes, best = state.best

@@ -12,7 +12,7 @@ Eq. 9: each generation draws ``seeds_per_generation`` seeds from the training po
 seeds for every candidate of that generation, so candidates meet on common random numbers)
 and a candidate's fitness is the mean over them of (its makespan - Eq. 9's makespan on the
 same seed); Eq. 9's makespans are run once per seed and cached. An unfinished floor scores
-``agents.ga.unfinished_makespan_s``.
+``training.search.genetic.unfinished_makespan_s``.
 
 After the last generation the distribution's means (CMA-ES's estimates of the optimum, less
 noisy than the best sample of one generation) after every ``select_every``-th generation and
@@ -38,13 +38,14 @@ from typing import Annotated
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, model_validator
 
+from agents.features import FEATURE_NAMES
+from agents.student import StudentEvaluator
 from cmdp_pymunk.events import write_atomic
 
-from .checkpoint import resume_state
-from .episodes import EpisodeRunner, open_backend
-from .features import FEATURE_NAMES
-from .ga import unfinished_makespan_s
-from .student import StudentEvaluator
+from ..runs.backends import open_backend
+from ..runs.checkpoint import resume_state
+from ..runs.episodes import EpisodeRunner
+from .genetic import unfinished_makespan_s
 
 Count = Annotated[int, Strict(), Field(gt=0)]
 CountOrZero = Annotated[int, Strict(), Field(ge=0)]
@@ -178,7 +179,7 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
     selected mean (``choose``) with its selection result at the end. The checkpoint is also
     written after each checked mean, so a stopped selection resumes too. The floors run on
     ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
-    address; ``agents.episodes.open_backend``)."""
+    address; ``training.runs.episodes.open_backend``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -297,7 +298,7 @@ def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
     x = state.selection["weights"] if state.selection else state.es.mean
     rule = StudentEvaluator(rule_weights(config, x, crew_types), config.candidates)
     rule.save(out / "rule.json", {
-        "made_by": "agents.rule_search (CMA-ES, paired makespan against Eq. 9)",
+        "made_by": "training.search.rule (CMA-ES, paired makespan against Eq. 9)",
         "searched": dict(zip(config.features, (round(float(v), 6) for v in x), strict=True)),
         "generation": state.selection["generation"] if state.selection else state.generation,
         "generations_run": state.generation, "popsize": popsize,
