@@ -214,3 +214,10 @@ def play_floor(evaluator="priority", case=None, seed: int = 0):
     """A whole floor under ``evaluator`` with the scripted navigator; returns the env."""
     return play(*scripted_floor(evaluator, case, seed))
 
+
+@pytest.fixture(scope="session")
+def priority_floor():
+    """The built-in floor, seed 0, played once per session under the priority heuristic
+    (``play_floor()``), for the tests that compare another evaluator's floor with it and only
+    read it (its log, its makespan): a whole floor costs a few seconds."""
+    return play_floor()
