@@ -6,7 +6,7 @@ export SDL_VIDEODRIVER := dummy
 export SDL_AUDIODRIVER := dummy
 export PYGAME_HIDE_SUPPORT_PROMPT := 1
 
-.PHONY: demo test test-slow test-ray docs lint bench clean
+.PHONY: demo test test-slow test-nightly test-ray docs lint bench clean
 
 # torch is pinned first and on its own: an unpinned torch (pulled by stable-baselines3)
 # would fetch a CUDA build of several GB. On a machine with only the public package index,
@@ -23,11 +23,16 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 demo: $(VENV)/.installed
 	$(VENV)/bin/cmdp-simulate --gif --out out/demo
 
+# The gate (about 100 s on 2 cores), the slow set (CI) and the nightly set (the full sweeps,
+# before a release; not in CI): docs/testing.md says what each covers and how long it takes.
 test: $(VENV)/.installed
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q -m "not slow and not nightly"
 
 test-slow: $(VENV)/.installed
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -m "slow and not nightly"
+
+test-nightly: $(VENV)/.installed
+	$(PY) -m pytest -q -m nightly
 
 # The Ray backend's tests (tests/test_ray.py, marker `ray`, a two-node Ray cluster on this
 # machine) in a venv of their own: the default install has no Ray (ray 2.60.0 adds about

@@ -21,6 +21,18 @@ from cmdp_pymunk.events import Event, EventLog
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``nightly`` (the full sweeps, tens of minutes) run only when ``-m`` names
+    them (``make test-nightly``): ``pytest -m "not slow"``, ``pytest -m slow`` and a bare
+    ``pytest`` leave them out (docs/testing.md)."""
+    if "nightly" in (config.getoption("markexpr") or ""):
+        return
+    nightly = [item for item in items if item.get_closest_marker("nightly")]
+    if nightly:
+        config.hook.pytest_deselected(items=nightly)
+        items[:] = [item for item in items if not item.get_closest_marker("nightly")]
+
 TINY = {
     "case": {"name": "tiny"},
     "plane": {"width_m": 20.0, "height_m": 12.0, "outlet_x_m": -9.0, "outlet_y_m": -4.0,
@@ -199,3 +211,11 @@ def play(env, navigator, until_s: float | None = None):
 def play_floor(evaluator="priority", case=None, seed: int = 0):
     """A whole floor under ``evaluator`` with the scripted navigator; returns the env."""
     return play(*scripted_floor(evaluator, case, seed))
+
+
+@pytest.fixture(scope="session")
+def priority_floor():
+    """The built-in floor, seed 0, played once per session under the priority heuristic
+    (``play_floor()``), for the tests that compare another evaluator's floor with it and only
+    read it (its log, its makespan): a whole floor costs a few seconds."""
+    return play_floor()

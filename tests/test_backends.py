@@ -48,6 +48,11 @@ def rows_of(out: Path) -> list[dict]:
             for r in csv.DictReader((out / "episodes.csv").open())]
 
 
+# The three pool tests below spawn fresh worker processes (a few seconds each on 2 cores) to
+# check the pool itself: slow set. The gate keeps the pool's end-to-end checks with real
+# episodes (1 and 2 workers: test_episodes_stream_to_a_log_and_a_stopped_run_resumes here,
+# test_simulate.py::test_episodes_are_the_same_with_any_number_of_workers).
+@pytest.mark.slow
 def test_results_come_in_job_order_with_any_number_of_workers():
     jobs = [(k,) for k in range(7)]
     for workers in (1, 2):
@@ -56,12 +61,14 @@ def test_results_come_in_job_order_with_any_number_of_workers():
             assert sorted(pool.as_completed(jobs)) == [(k, k * k) for k in range(7)]
 
 
+@pytest.mark.slow
 def test_a_dead_workers_jobs_run_again(tmp_path):
     with Workers(die_once, None, 2, retries=1) as pool:
         assert pool.map([(str(tmp_path / "died"), k, 2) for k in range(5)]) == list(range(5))
     assert (tmp_path / "died").exists()
 
 
+@pytest.mark.slow
 def test_a_job_that_kills_every_worker_is_reported_not_lost():
     got = []
     with pytest.raises(WorkerLost) as err, Workers(die_always, None, 2, retries=1) as pool:
@@ -71,7 +78,15 @@ def test_a_job_that_kills_every_worker_is_reported_not_lost():
     assert sorted(got) == [0, 1, 2, 4]  # every other job was handed out first
 
 
+def ray_is_installed() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("ray") is not None
+
+
 @pytest.mark.ray  # also in the Ray venv (make test-ray), where importing it would be possible
+@pytest.mark.skipif(not ray_is_installed(), reason="without Ray nothing can import it: the "
+                    "check runs where Ray is installed (make test-ray, in CI)")
 def test_the_default_path_never_imports_ray(tmp_path):
     """cmdp-evaluate and cmdp-simulate in worker processes, and stage 2's floors in worker
     processes (``cmdp-train stage2`` without --ray), import no Ray."""

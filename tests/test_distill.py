@@ -12,22 +12,21 @@ from conftest import play_floor
 import cmdp_pymunk
 from agents.features import FEATURE_NAMES, FloorFacts
 from agents.student import StudentEvaluator
-from cmdp_pymunk.evaluate import PriorityEvaluator
 from training import distill
 
 
-def test_a_student_without_weights_is_eq_9_exactly():
+def test_a_student_without_weights_is_eq_9_exactly(priority_floor):
     zero = {t: [0.0] * len(FEATURE_NAMES) for t in ("JCC", "HIC", "GC", "RC", "FC")}
-    student, base = play_floor(StudentEvaluator(zero)), play_floor(PriorityEvaluator())
+    student, base = play_floor(StudentEvaluator(zero)), priority_floor
     assert student.log.events == base.log.events
 
 
-def test_a_student_with_weights_changes_choices_and_holds_them():
+def test_a_student_with_weights_changes_choices_and_holds_them(priority_floor):
     # a large weight against nearness (far targets first) overrides Eq. 9 on the floor
     w = [0.0] * len(FEATURE_NAMES)
     w[FEATURE_NAMES.index("nearness")] = -5.0
     env = play_floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
-    assert env.engine.site.done and env.log.events != play_floor(PriorityEvaluator()).log.events
+    assert env.engine.site.done and env.log.events != priority_floor.log.events
 
 
 def test_floor_facts_tail_by_hand(tiny_case):

@@ -22,10 +22,10 @@ def test_promote_swaps_the_chosen_target_with_the_best():
     assert ranked({1: 0.9, 2: 0.9, 0: 0.5}) == [1, 2, 0]  # ties: lowest index first
 
 
-def test_one_candidate_is_the_base_rule_exactly():
+def test_one_candidate_is_the_base_rule_exactly(priority_floor):
     lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=0))
     env = play_floor(lookahead)
-    base = play_floor(PriorityEvaluator())
+    base = priority_floor
     assert env.engine.site.done and env.makespan_s == base.makespan_s
     assert env.log.events == base.log.events
     assert lookahead.decisions == []
