@@ -1,11 +1,12 @@
 """A centralized critic for the stage-2 policy, as the paper's MAPPO (section 4.1).
 
 The observation a training env returns is O^e followed by the global state s
-(``cmdp_pymunk.global_state``). The actor sees only O^e: its features extractor zeroes the state
-part (``ActorView``), so its first layer's weights for those inputs never receive a gradient and
-never matter. The critic sees all of it. Keeping one observation vector (rather than a dict)
-keeps SB3's PPO, its rollout buffer and our ``LeanActor`` unchanged: ``LeanActor.from_sb3``
-keeps only the first layer's O^e rows, so a deployed evaluator needs O^e alone.
+(``cmdp_pymunk.adapters.global_state``). The actor sees only O^e: its features extractor zeroes
+the state part (``ActorView``), so its first layer's weights for those inputs never receive a
+gradient and never matter. The critic sees all of it. Keeping one observation vector (rather
+than a dict) keeps SB3's PPO, its rollout buffer and our ``LeanActor`` unchanged:
+``LeanActor.from_sb3`` keeps only the first layer's O^e rows, so a deployed evaluator needs O^e
+alone.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Stage-2 decisions per second per core: the stage-2 env of a given commit (by default
 c5777ae, the four layers ``TargetEvaluationEnv`` -> ``CMDPEnv`` -> ``Engine``) against this
-checkout's (``highlevel.Floor`` on the engine, and k floors in one ``FloorsVecEnv``), in one
+checkout's (``stage2.DecisionLoop`` on the engine, and k floors in one ``FloorsVecEnv``), in one
 process, with their ratio.
 
     python benchmarks/bench_stage2.py [--before c5777ae] [--decisions 30] [--k 4] [--rounds 3]
@@ -37,8 +37,8 @@ sys.path.insert(0, str(ROOT))
 
 import cmdp_pymunk  # noqa: E402
 from agents.navigator import Navigator  # noqa: E402
+from cmdp_pymunk.adapters.stage2 import DecisionLoop  # noqa: E402
 from cmdp_pymunk.evaluate import desired_position_of_first_choice  # noqa: E402
-from cmdp_pymunk.highlevel import Floor  # noqa: E402
 
 
 def old_package(commit: str, folder: Path):
@@ -79,10 +79,10 @@ class OldPath:
 
 
 class NewPath:
-    """This checkout's: ``Floor`` on the engine."""
+    """This checkout's: ``DecisionLoop`` on the engine."""
 
     def __init__(self):
-        self.floor = Floor(None, Navigator, park_idle=True, with_state=True)
+        self.floor = DecisionLoop(None, Navigator, park_idle=True, with_state=True)
 
     def reset(self, seed: int) -> np.ndarray:
         self.floor.reset(seed)
@@ -116,7 +116,8 @@ def vector_per_cpu_s(k: int, decisions: int, seed: int) -> float:
     one ``FloorsVecEnv`` (seeded ``seed`` + floor)."""
     from training.vec_env import FloorsVecEnv
 
-    venv = FloorsVecEnv([lambda: Floor(None, Navigator, park_idle=True, with_state=True)] * k)
+    venv = FloorsVecEnv([lambda: DecisionLoop(None, Navigator, park_idle=True,
+                                              with_state=True)] * k)
     cpu = time.process_time()
     venv.seed(seed)
     venv.reset()
@@ -155,7 +156,7 @@ def main(argv=None) -> int:
           f"{args.seed + args.k - 1}):")
     print(f"  before ({args.before}, TargetEvaluationEnv -> CMDPEnv -> Engine): "
           f"{statistics.median(rates['old']):.1f}")
-    print(f"  now (Floor on the Engine):                               "
+    print(f"  now (DecisionLoop on the Engine):                               "
           f"{statistics.median(rates['new']):.1f}")
     print(f"  now ({args.k} floors in one FloorsVecEnv):                    "
           f"{statistics.median(rates['vector']):.1f}")

@@ -189,7 +189,7 @@ def markdown(summary: dict, skipped: dict) -> str:
 
 
 def _registered_ids() -> list[str]:
-    from cmdp_pymunk import registry
+    from cmdp_pymunk.adapters import registry
 
     return list(registry.VARIANTS)  # the generated layouts included
 

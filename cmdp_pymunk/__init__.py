@@ -6,7 +6,7 @@ installed, importing the package registers the env's variants (``pettingzoo.make
 "cmdp/PrecastFloor-v1")``); ``CMDPEnv``, ``parallel_env`` and ``env`` load the adapter on use.
 """
 
-from .case import BUILTIN_CASE, DISRUPTED_CASE, TINY_CASE, Case, CaseError, load_case
+from .cases.load import BUILTIN_CASE, DISRUPTED_CASE, TINY_CASE, Case, CaseError, load_case
 
 __version__ = "0.2.0"
 ENV_NAME = "cmdp_pymunk_v1"  # the PettingZoo env's name and version (CMDPEnv.metadata)
@@ -19,15 +19,22 @@ def add_version_flag(parser) -> None:
 
 
 def parallel_env(**kwargs):
-    """The CMDP as a PettingZoo ParallelEnv; see ``cmdp_pymunk.env`` for its arguments."""
-    from .env import CMDPEnv
+    """The CMDP as a PettingZoo ParallelEnv; see ``cmdp_pymunk.adapters.env`` for its arguments."""
+    from .adapters.env import CMDPEnv
 
     return CMDPEnv(**kwargs)
 
 
+def env(**kwargs):
+    """The CMDP as a PettingZoo AECEnv (``parallel_to_aec`` over ``parallel_env``)."""
+    from pettingzoo.utils.conversions import parallel_to_aec
+
+    return parallel_to_aec(parallel_env(**kwargs))
+
+
 def __getattr__(name: str):
     if name == "CMDPEnv":  # the adapter, loaded on use (it needs PettingZoo)
-        from .env import CMDPEnv
+        from .adapters.env import CMDPEnv
 
         return CMDPEnv
     raise AttributeError(f"module 'cmdp_pymunk' has no attribute {name!r}")
@@ -38,18 +45,10 @@ try:  # the variants in PettingZoo's registry, as its users expect, where it is 
 except ImportError:
     pass
 else:
-    from . import registry as _registry
+    from .adapters import registry as _registry
 
     _registry.register_variants()
 
-
-# after the registration: importing the adapter module ``cmdp_pymunk.env`` sets the package's
-# attribute ``env`` to that module, and PettingZoo's users call ``cmdp_pymunk.env()``
-def env(**kwargs):
-    """The CMDP as a PettingZoo AECEnv (``parallel_to_aec`` over ``parallel_env``)."""
-    from pettingzoo.utils.conversions import parallel_to_aec
-
-    return parallel_to_aec(parallel_env(**kwargs))
 
 
 __all__ = ["parallel_env", "env", "add_version_flag", "__version__", "CMDPEnv", "Case", "CaseError",

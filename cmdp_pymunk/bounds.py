@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from .case_model import Case
+from .cases.model import Case
 
 
 @dataclass(frozen=True)

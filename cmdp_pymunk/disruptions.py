@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import construct, events, streams
-from .case_model import Case, Disruption
+from .cases.model import Case, Disruption
 from .physics import Physics
 from .state import CrewState, CrewStatus, IdleCause, Site
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .case_model import EvaluationReward, ReachingReward
+from .cases.model import EvaluationReward, ReachingReward
 from .physics import COMPONENT, CREW, N_KINDS, STORAGE, TASK_AREA, WALL
 from .state import CrewStatus, IdleCause, Site
 

@@ -209,16 +209,23 @@ def makespan_stats(rows: list[dict]) -> dict:
 
 def versions() -> dict:
     """Versions of this package, Python and the simulation stack, and the git commit (None
-    outside a checkout), for every run folder."""
-    import gymnasium
-    import pettingzoo
+    outside a checkout), for every run folder. The RL libraries' versions are read from their
+    installed metadata (None where absent): the core does not import them."""
+    from importlib import metadata
+
     import pymunk
 
     from . import __version__
 
+    def installed(name: str) -> str | None:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
     out = {"cmdp_pymunk": __version__, "python": platform.python_version(),
-           "pymunk": pymunk.version, "numpy": np.__version__, "gymnasium": gymnasium.__version__,
-           "pettingzoo": pettingzoo.__version__}
+           "pymunk": pymunk.version, "numpy": np.__version__,
+           "gymnasium": installed("gymnasium"), "pettingzoo": installed("pettingzoo")}
     try:
         out["commit"] = subprocess.run(
             ["git", "rev-parse", "HEAD"], capture_output=True, text=True, timeout=5,

@@ -14,7 +14,7 @@ from enum import IntEnum
 
 import numpy as np
 
-from .case_model import Case, CrewType
+from .cases.model import Case, CrewType
 from .precedence import Pool, initial_pools
 
 Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)

@@ -18,7 +18,7 @@ import math
 import pymunk
 
 from . import interrupt
-from .case_model import Case
+from .cases.model import Case
 from .physics import (  # noqa: F401 - the kinds, also read from here
     COMPONENT,
     CREW,

@@ -45,7 +45,7 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Rectangle
 
-from cmdp_pymunk.case import Case
+from cmdp_pymunk.cases.load import Case
 from cmdp_pymunk.events import Event, position, read_csv, write_atomic
 from cmdp_pymunk.schedule import log_end_s, makespan_s, task_bars
 
@@ -674,9 +674,10 @@ def run_case_path(run_dir: Path) -> Path | None:
 def load_run_case(path: Path | None) -> Case:
     """A case from a TOML case file, a resolved ``case.json``, or None (the built-in case).
 
-    Raises ``cmdp_pymunk.case.CaseError`` for a file that cannot be read or is not a valid case.
+    Raises ``cmdp_pymunk.cases.load.CaseError`` for a file that cannot be read or is not a valid
+    case.
     """
-    from cmdp_pymunk.case import CaseError, case_from_dict, load_case
+    from cmdp_pymunk.cases.load import CaseError, case_from_dict, load_case
 
     if path is None or path.suffix.lower() != ".json":
         return load_case(path)
@@ -707,7 +708,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{prog}: {ns.run_dir / 'events.csv'} does not exist; fix: pass a run folder "
               "that holds the run's events.csv (written by env.log.write_csv)", file=sys.stderr)
         return 2
-    from cmdp_pymunk.case import CaseError
+    from cmdp_pymunk.cases.load import CaseError
 
     try:
         case = load_run_case(ns.case if ns.case is not None else run_case_path(ns.run_dir))

@@ -16,9 +16,9 @@ crane down, late deliveries, crews away) in magenta; a broken-down crane is cros
 storage whose delivery is late gets a thick magenta edge; an absent crew is not drawn (it is
 off the plane).
 
-Coordinates: the plane's origin is its centre and y points up (``cmdp_pymunk.case``); on screen
-y points down, so ``world_to_pixel`` flips it. ``Viewport`` is the one transform, and tests use
-it to find where a crew is drawn.
+Coordinates: the plane's origin is its centre and y points up (``cmdp_pymunk.cases.load``); on
+screen y points down, so ``world_to_pixel`` flips it. ``Viewport`` is the one transform, and
+tests use it to find where a crew is drawn.
 
 The simulation core never imports this module except lazily in ``render()``; everything here
 only reads the engine's state (``draw_frame(engine, rays)``).

@@ -86,7 +86,7 @@ def tiny_dict() -> dict:
 
 @pytest.fixture
 def tiny_case():
-    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.cases.load import case_from_dict
 
     return case_from_dict(tiny_dict(), "tiny.toml")
 

@@ -22,7 +22,7 @@ def test_tiny_case_lower_bound(tiny_case):
 def test_crew_bound_wins_when_work_piles_on_one_crew(tiny_case):
     from conftest import tiny_dict
 
-    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.cases.load import case_from_dict
 
     data = tiny_dict()
     data["crew_types"]["XC"]["duration_mean_min"] = 5.0  # X: 300 s each, 600 s on one crew

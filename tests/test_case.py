@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from cmdp_pymunk.case import BUILTIN_CASE, TINY_CASE, CaseError, case_from_dict, load_case
+from cmdp_pymunk.cases.load import BUILTIN_CASE, TINY_CASE, CaseError, case_from_dict, load_case
 
 ROOT = Path(__file__).resolve().parent.parent
 BUILTIN = tomllib.loads(BUILTIN_CASE.read_text(encoding="utf-8"))
@@ -491,7 +491,7 @@ def test_a_case_built_in_python_with_tuples_is_checked_too(floor):
 
 
 def test_two_tasks_of_one_crew_type_on_a_component_are_refused(floor):
-    from cmdp_pymunk.case import CaseError, case_from_dict
+    from cmdp_pymunk.cases.load import CaseError, case_from_dict
 
     data = floor
     extra = dict(data["tasks"][0])

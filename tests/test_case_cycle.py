@@ -5,7 +5,7 @@ from types import SimpleNamespace
 import pytest
 from conftest import tiny_dict
 
-from cmdp_pymunk.case import CaseError, _find_cycle, case_from_dict
+from cmdp_pymunk.cases.load import CaseError, _find_cycle, case_from_dict
 
 
 def tasks(**preds):

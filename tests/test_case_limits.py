@@ -9,7 +9,7 @@ import tomllib
 
 import pytest
 
-from cmdp_pymunk.case import BUILTIN_CASE, CaseError, case_from_dict
+from cmdp_pymunk.cases.load import BUILTIN_CASE, CaseError, case_from_dict
 
 BUILTIN = tomllib.loads(BUILTIN_CASE.read_text(encoding="utf-8"))
 FILE = "floor.toml"

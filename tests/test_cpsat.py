@@ -5,7 +5,7 @@ from conftest import tiny_dict
 
 from agents.cpsat import PlanEvaluator, conflict_cliques, resource_cut_s, solve, task_conflicts
 from cmdp_pymunk.bounds import lower_bound
-from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.cases.load import case_from_dict
 
 # Expected durations of the tiny case (conftest): X (cleaning crew, 2 min) 120 s;
 # K-A (1 min + 30 s crane assistance) 90 s; M-C (0.3 m3 at 0.1 m3/min) 180 s.

@@ -206,7 +206,7 @@ def test_no_state_fires_two_rows():
     from conftest import tiny_dict
 
     from cmdp_pymunk import parallel_env
-    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.cases.load import case_from_dict
 
     env = parallel_env(case=case_from_dict(tiny_dict()), seed=0)
     env.reset(seed=0)

@@ -25,8 +25,8 @@ from conftest import tiny_dict
 
 from agents.navigator import Navigator
 from cmdp_pymunk import disruptions, streams
-from cmdp_pymunk.case import TINY_CASE, CaseError, case_from_dict, load_case
-from cmdp_pymunk.case_model import Disruption
+from cmdp_pymunk.cases.load import TINY_CASE, CaseError, case_from_dict, load_case
+from cmdp_pymunk.cases.model import Disruption
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.state import CrewStatus, IdleCause
 
@@ -380,8 +380,8 @@ def test_every_problem_is_reported_together_with_the_rest_of_the_case():
 # -- the registered variant ----------------------------------------------------------------
 
 def test_the_disrupted_floor_is_the_built_in_floor_with_the_profile():
-    from cmdp_pymunk.case import BUILTIN_CASE, DISRUPTED_CASE
-    from cmdp_pymunk.case_model import Disruptions
+    from cmdp_pymunk.cases.load import BUILTIN_CASE, DISRUPTED_CASE
+    from cmdp_pymunk.cases.model import Disruptions
 
     plain, disrupted = load_case(BUILTIN_CASE), load_case(DISRUPTED_CASE)
     assert disrupted.disruptions
@@ -418,7 +418,7 @@ def no_stall_seeds(default: int) -> range:
 def test_no_stall_on_the_disrupted_floor_with_the_heuristic(first):
     """Every seed of the disrupted built-in floor ends (every task) with the priority
     heuristic and the scripted navigator, under the env's stall guard of 3600 s."""
-    from cmdp_pymunk.case import DISRUPTED_CASE
+    from cmdp_pymunk.cases.load import DISRUPTED_CASE
 
     case = load_case(DISRUPTED_CASE)
     engine = Engine(case, evaluator="priority", stall_s=3600.0)
@@ -470,7 +470,7 @@ def test_the_gantt_charts_draw_the_bands(tmp_path):
 
 
 def test_a_frame_shows_what_is_disrupted():
-    from cmdp_pymunk.env import CMDPEnv
+    from cmdp_pymunk.adapters.env import CMDPEnv
     from media.render import disruption_text
 
     data = {**tiny_dict(), "disruptions": {
@@ -525,8 +525,8 @@ def test_a_model_trained_without_disruptions_is_refused_naming_the_sizes():
     from pathlib import Path
 
     from agents.models import ModelEvaluator
-    from cmdp_pymunk.case import BUILTIN_CASE, DISRUPTED_CASE
-    from cmdp_pymunk.global_state import state_size
+    from cmdp_pymunk.adapters.global_state import state_size
+    from cmdp_pymunk.cases.load import BUILTIN_CASE, DISRUPTED_CASE
     from cmdp_pymunk.observe import evaluation_size
 
     plain, disrupted = load_case(BUILTIN_CASE), load_case(DISRUPTED_CASE)

@@ -6,7 +6,7 @@ from conftest import run_episode, tiny_dict
 
 from agents.steering import steer_all
 from cmdp_pymunk import parallel_env
-from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.cases.load import case_from_dict
 from cmdp_pymunk.observe import evaluation_size
 from cmdp_pymunk.state import CrewStatus
 

@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from cmdp_pymunk.case import ReachingReward
+from cmdp_pymunk.cases.load import ReachingReward
 from cmdp_pymunk.construct import invaded_efficiency
 from cmdp_pymunk.evaluate import desired_position_value
 from cmdp_pymunk.move import congested_velocity

@@ -1,6 +1,6 @@
-"""Floor-plan geometry and the task recipe (``cmdp_pymunk.floorplan``), numbers by hand."""
+"""Floor-plan geometry and the task recipe (``cmdp_pymunk.cases.floorplan``), numbers by hand."""
 
-from cmdp_pymunk import floorplan
+from cmdp_pymunk.cases import floorplan
 
 
 def test_side_gap_and_neighbours_by_hand():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import cmdp_pymunk
-from cmdp_pymunk.global_state import CREW_FEATURES, state_layout, state_size
+from cmdp_pymunk.adapters.global_state import CREW_FEATURES, state_layout, state_size
 
 
 def test_layout_blocks_follow_each_other(tiny_case):

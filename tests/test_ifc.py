@@ -1,5 +1,5 @@
-"""The IFC importer and the 4D export (``cmdp_pymunk.ifc``, ``cmdp-import-ifc``,
-``cmdp-simulate --ifc``) on models built in the test with ``ifcopenshell.api``
+"""The IFC importer and the 4D export (``cmdp_pymunk.cases.ifc_import`` and ``ifc_export``,
+``cmdp-import-ifc``, ``cmdp-simulate --ifc``) on models built in the test with ``ifcopenshell.api``
 (``tests/ifc_models.py``). Skipped without the [ifc] extra."""
 
 from __future__ import annotations
@@ -10,8 +10,9 @@ import pytest
 
 ifcopenshell = pytest.importorskip("ifcopenshell")
 
-from cmdp_pymunk.case import CaseError, load_case  # noqa: E402
-from cmdp_pymunk.ifc import import_storey, load_overlay, read_4d  # noqa: E402
+from cmdp_pymunk.cases.ifc_export import read_4d  # noqa: E402
+from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay  # noqa: E402
+from cmdp_pymunk.cases.load import CaseError, load_case  # noqa: E402
 from tests import ifc_models  # noqa: E402
 from training import import_ifc, simulate  # noqa: E402
 
@@ -280,7 +281,7 @@ def test_the_storeys_ranges_by_hand():
     Level 2 1.75..5.25 m (none above: as far up as down); a roof at 10 m makes Level 2's
     1.75..6.75 m and its own 6.75..13.25 m; a storey alone spans its level +- 2 m (a nominal
     4 m storey)."""
-    from cmdp_pymunk.ifc import storey_range
+    from cmdp_pymunk.cases.ifc_import import storey_range
 
     def span(model, storey):
         r = storey_range(model, storey)
@@ -372,7 +373,7 @@ def test_the_sample_model_gives_the_built_in_case_back():
     importer's default overlay and recipe give back its components, tasks, crews, storages,
     plane and crane; only the name and the time limit (1,000 s per task) differ."""
     import cmdp_pymunk
-    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.cases.load import case_from_dict
 
     sample = cmdp_pymunk.BUILTIN_CASE.with_name("precast_floor.ifc")
     data, report = import_storey(sample, "Level 1")
@@ -482,8 +483,8 @@ def test_the_4d_export_passes_the_express_rules(tmp_path, schema):
 
     import ifcopenshell.validate
 
-    from cmdp_pymunk.case import case_from_dict
-    from cmdp_pymunk.ifc import export_4d
+    from cmdp_pymunk.cases.ifc_export import export_4d
+    from cmdp_pymunk.cases.load import case_from_dict
     from cmdp_pymunk.schedule import TaskBar
 
     f, _ = ifc_models.two_by_two(schema)

@@ -14,7 +14,7 @@ import pytest
 from conftest import tiny_dict
 
 import cmdp_pymunk
-from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.cases.load import case_from_dict
 from cmdp_pymunk.interrupt import sigint_guard
 
 ROOT = Path(__file__).resolve().parents[1]

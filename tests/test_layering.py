@@ -166,7 +166,23 @@ ROOM_RULES = {
                       "training.distill", "training.label_noise"},  # machinery, no commands
     "training/search": {"training.simulate", "training.evaluate", "training.train",
                         "training.ga", "training.search_rule"},  # searches, not commands
+    # case input and output: the case as data, files, generators, IFC; no simulation stage
+    "cmdp_pymunk/cases": {"cmdp_pymunk.engine", "cmdp_pymunk.world", "cmdp_pymunk.state",
+                          "cmdp_pymunk.decide", "cmdp_pymunk.construct", "cmdp_pymunk.move",
+                          "cmdp_pymunk.observe", "cmdp_pymunk.rollout", "cmdp_pymunk.adapters",
+                          "pymunk", "pettingzoo", "gymnasium"},
 }
+
+
+# the simulation core (cmdp_pymunk/*.py, not its rooms) imports no adapter
+CORE_MODULES = sorted(p for p in (ROOT / "cmdp_pymunk").glob("*.py") if p.name != "__init__.py")
+
+
+@pytest.mark.parametrize("path", CORE_MODULES, ids=lambda p: p.name)
+def test_the_simulation_imports_no_adapter(path):
+    names = imported_modules(path)
+    assert not {n for n in names if n.startswith("cmdp_pymunk.adapters")
+                or n.split(".")[0] in ("pettingzoo", "gymnasium")}, names
 
 
 def _room_modules(room: str) -> list[Path]:

@@ -6,9 +6,9 @@ import pettingzoo
 import pytest
 
 import cmdp_pymunk
-from cmdp_pymunk import layouts
-from cmdp_pymunk.case import case_from_dict
-from cmdp_pymunk.registry import GENERATED
+from cmdp_pymunk.adapters.registry import GENERATED
+from cmdp_pymunk.cases import generated as layouts
+from cmdp_pymunk.cases.load import case_from_dict
 
 
 def test_published_layouts_are_what_the_generator_writes():

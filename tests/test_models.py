@@ -111,7 +111,7 @@ def test_a_stuck_argmax_navigator_fails_fast_with_a_message(tmp_path, capsys):
 
     from agents.models import PolicyNavigator, PolicyStuck, check_not_stuck
     from cmdp_pymunk import parallel_env
-    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.cases.load import case_from_dict
 
     data = tomllib.loads(Path(TINY).read_text())
     data.setdefault("simulation", {})["reevaluate_after_steps"] = 20

@@ -9,7 +9,7 @@ from conftest import tiny_dict
 
 import cmdp_pymunk
 from cmdp_pymunk import observe
-from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.cases.load import case_from_dict
 from cmdp_pymunk.move import ACTION_NVEC
 
 

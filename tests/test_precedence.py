@@ -37,7 +37,7 @@ def test_successor_counts_and_space_conflicts(tiny_case):
 def test_a_task_waits_until_every_predecessor_ends(tiny_case):
     from conftest import tiny_dict
 
-    from cmdp_pymunk.case import case_from_dict
+    from cmdp_pymunk.cases.load import case_from_dict
 
     data = tiny_dict()
     data["tasks"][3]["predecessors"] = ["K-A", "X-B"]

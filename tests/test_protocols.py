@@ -14,9 +14,9 @@ from agents.lookahead import LookaheadEvaluator, LookaheadSettings
 from agents.navigator import Navigator
 from agents.steering import steer
 from cmdp_pymunk import TINY_CASE, CMDPEnv, load_case
+from cmdp_pymunk.adapters.stage2 import DecisionLoop
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import Evaluator, TargetEvaluator
-from cmdp_pymunk.highlevel import Floor
 from cmdp_pymunk.policy import LowLevel
 from cmdp_pymunk.rollout import play, run_episode
 from training.runs.episodes import EpisodeRunner
@@ -80,7 +80,7 @@ def test_a_recipe_low_level_runs_in_stage_1_stage_2_and_the_lookahead():
     while env.agents:
         observations, *_ = env.step(env.agent_actions(low, observations))
     assert env.engine.memory["counting"] > 0
-    floor = Floor(None, CountingSteering, max_time_s=600.0)  # stage 2's loop, built-in floor
+    floor = DecisionLoop(None, CountingSteering, max_time_s=600.0)  # stage 2's loop, built-in floor
     floor.reset(seed=0)
     floor.decide((0.0, 0.0))
     assert floor.engine.memory["counting"] > 0
@@ -110,7 +110,7 @@ def test_a_clone_alone_continues_to_the_same_schedule():
 @pytest.mark.parametrize("blocked", ["pettingzoo", "gymnasium"])
 def test_the_core_imports_without_the_rl_libraries(blocked):
     code = (f"import sys; sys.modules[{blocked!r}] = None\n"
-            "import cmdp_pymunk.engine, cmdp_pymunk.case, cmdp_pymunk.state, "
+            "import cmdp_pymunk.engine, cmdp_pymunk.cases.load, cmdp_pymunk.state, "
             "cmdp_pymunk.decide, cmdp_pymunk.rollout, cmdp_pymunk.evaluate\n"
             "from cmdp_pymunk import load_case, TINY_CASE\n"
             "from cmdp_pymunk.engine import Engine\n"

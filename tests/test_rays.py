@@ -6,7 +6,7 @@ import pytest
 from conftest import place, tiny_dict
 
 from cmdp_pymunk import parallel_env
-from cmdp_pymunk.case import case_from_dict
+from cmdp_pymunk.cases.load import case_from_dict
 from cmdp_pymunk.observe import observe_crew
 from cmdp_pymunk.streams import RandomStreams
 from cmdp_pymunk.world import COMPONENT, CREW, STORAGE, TASK_AREA, WALL

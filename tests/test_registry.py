@@ -9,8 +9,8 @@ from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test, see
 from pettingzoo.test.state_test import state_test
 
 import cmdp_pymunk
+from cmdp_pymunk.adapters.registry import GENERATED, VARIANTS
 from cmdp_pymunk.evaluate import make_evaluator
-from cmdp_pymunk.registry import GENERATED, VARIANTS
 
 # warnings we accept, each by design: MultiDiscrete actions (section 3.6.2), the constant
 # all-zero observation of a crew that needs no movement decision, crew ids as agent names

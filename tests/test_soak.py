@@ -17,7 +17,7 @@ import pettingzoo
 import pytest
 
 import cmdp_pymunk  # noqa: F401  (registers the variants)
-from cmdp_pymunk.registry import VARIANTS
+from cmdp_pymunk.adapters.registry import VARIANTS
 from cmdp_pymunk.state import CrewStatus
 
 EPISODES = 30  # the full soak: nightly set (make test-nightly, before a release)

@@ -9,7 +9,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import cmdp_pymunk
 from agents.navigator import Navigator
-from cmdp_pymunk.highlevel import Floor, TargetEvaluationEnv
+from cmdp_pymunk.adapters.stage2 import DecisionLoop, TargetEvaluationEnv
 from training import stage2
 from training.scaffold import vec_env
 from training.vec_env import FloorsVecEnv, ProcessGroupsVecEnv
@@ -93,10 +93,10 @@ def test_attributes_and_methods_reach_the_right_copies():
         ProcessGroupsVecEnv([Dice] * 5, 6)
 
 
-def short_floor() -> Floor:
+def short_floor() -> DecisionLoop:
     """A built-in floor cut at 2,000 s: episodes of 3 decisions, so 8 steps of a vector
     cross episode ends."""
-    return Floor(None, Navigator, park_idle=True, max_time_s=2000.0, with_state=True)
+    return DecisionLoop(None, Navigator, park_idle=True, max_time_s=2000.0, with_state=True)
 
 
 def lean(info: dict) -> dict:

@@ -8,7 +8,7 @@ under it::
         ``MultiDiscrete([4, 3, 3])``: ...
 
 Markdown would show the indented text as a code block; this turns each such term into a
-heading and dedents its text, so ``::: cmdp_pymunk.env`` renders the env's page as written.
+heading and dedents its text, so ``::: cmdp_pymunk.adapters.env`` renders the env's page as written.
 """
 
 from __future__ import annotations

@@ -5,7 +5,7 @@ holds the reconstruction (see docs/case-study.md): a 5 x 3 grid of precast compo
 (JC -> HI -> G) and 21 cast-in-place joints between them (R -> F), each joint's R waiting for
 the installation (HI) of the precast components it connects. The task chains
 (``PRECAST_RECIPE``) and the placing of crews, storages, crane and outlet (``plan_case``) are
-``cmdp_pymunk.floorplan``'s, shared with the generated layouts and the IFC importer
+``cmdp_pymunk.cases.floorplan``'s, shared with the generated layouts and the IFC importer
 (tests/test_case.py checks the file is what this writes). Run it after changing a rule:
 
     python tools/make_precast_floor.py
@@ -17,7 +17,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from cmdp_pymunk.floorplan import PRECAST_RECIPE, StorageSpot, plan_case  # noqa: E402
+from cmdp_pymunk.cases.floorplan import PRECAST_RECIPE, StorageSpot, plan_case  # noqa: E402
 
 OUT = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "cases" / "precast_floor.toml"
 

@@ -17,8 +17,8 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 import cmdp_pymunk  # noqa: E402
+from cmdp_pymunk.cases.ifc_export import model_from_case  # noqa: E402
 from cmdp_pymunk.events import write_atomic  # noqa: E402
-from cmdp_pymunk.ifc import model_from_case  # noqa: E402
 
 OUT = ROOT / "cmdp_pymunk" / "cases" / "precast_floor.ifc"
 ORIGIN_M = (40.0, 25.0)

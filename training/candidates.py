@@ -1,6 +1,6 @@
 """Stage 2 with the masked choice over a crew's best targets (``action = "candidate"``).
 
-``CandidateFloor`` wraps a ``cmdp_pymunk.highlevel.Floor`` with the action of
+``CandidateLoop`` wraps a ``cmdp_pymunk.adapters.stage2.DecisionLoop`` with the action of
 ``agents.candidates`` (the index of one of the crew's ``cap`` best targets by Eq. 9) in place
 of Eq. 4's desired position. It has the floor's interface (``reset``, ``decide``, ``observe``,
 ``low``/``high``, ``end_info``), so ``vec_env.FloorsVecEnv`` steps it as it steps a floor, plus
@@ -15,7 +15,7 @@ import numpy as np
 from gymnasium import spaces
 
 from agents.candidates import CandidateView, has_choice, observation_bounds
-from cmdp_pymunk.highlevel import Floor, Outcome
+from cmdp_pymunk.adapters.stage2 import DecisionLoop, Outcome
 
 
 def terminal_term(per_second: float, heuristic_s: float, time_s: float, finished: bool,
@@ -28,18 +28,18 @@ def terminal_term(per_second: float, heuristic_s: float, time_s: float, finished
     return -per_second * heuristic_s + per_second * (makespan - time_s)
 
 
-class CandidateFloor:
+class CandidateLoop:
     """A floor whose decisions are a choice among the deciding crew's best targets.
 
     ``against_heuristic``: a factory of a second floor like this one, to play Eq. 9 on each
     seed once (cached) for ``terminal_term``; ``seed_pool`` (> 0): episode seeds are taken
     modulo it (so the heuristic's makespans are reused)."""
 
-    def __init__(self, floor: Floor, cap: int, against_heuristic=None, seed_pool: int = 0):
+    def __init__(self, floor: DecisionLoop, cap: int, against_heuristic=None, seed_pool: int = 0):
         self.floor, self.view = floor, CandidateView(cap)
         self.against_heuristic, self.seed_pool = against_heuristic, seed_pool
         self._heuristic_s: dict[int, float] = {}
-        self._reference: Floor | None = None  # where Eq. 9 plays each seed, made when needed
+        self._reference: DecisionLoop | None = None  # where Eq. 9 plays each seed, made when needed
         self._seed: int | None = None
         self.low, self.high = observation_bounds(cap)
         self.actor_size = len(self.low)

@@ -5,11 +5,11 @@
 
 The storey's elements of the recipe's classes become components (their plan footprints),
 tasks come from the recipe (or the model's 4D sequences), crews, crane and storages from the
-overlay (defaults fit the built-in case); see ``cmdp_pymunk.ifc`` and docs/ifc.md. The case
-passes the case check before it is written. Bad input (not an IFC file, an unknown storey, no
-elements of the recipe's classes, an element that does not sit on its storey, overlapping
-footprints, a cycle in the model's sequences, an overlay naming an unknown crew or task type)
-exits with 2 and one message; nothing is written.
+overlay (defaults fit the built-in case); see ``cmdp_pymunk.cases.ifc_import`` and
+docs/ifc.md. The case passes the case check before it is written. Bad input (not an IFC
+file, an unknown storey, no elements of the recipe's classes, an element that does not sit
+on its storey, overlapping footprints, a cycle in the model's sequences, an overlay naming an
+unknown crew or task type) exits with 2 and one message; nothing is written.
 Needs the ``[ifc]`` extra: ``pip install 'cmdp-pymunk[ifc]'``.
 """
 
@@ -54,14 +54,14 @@ def parse_args(argv: list[str] | None = None) -> ImportArgs:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    from cmdp_pymunk.case import CaseError
+    from cmdp_pymunk.cases.generated import to_toml
+    from cmdp_pymunk.cases.ifc_import import IfcUnavailable, import_storey, load_overlay, open_model
+    from cmdp_pymunk.cases.load import CaseError
     from cmdp_pymunk.events import write_atomic
-    from cmdp_pymunk.ifc import IfcUnavailable, import_storey, load_overlay, open_model
-    from cmdp_pymunk.layouts import to_toml
 
     try:
         if args.list_storeys:
-            from cmdp_pymunk.ifc import storey_names
+            from cmdp_pymunk.cases.ifc_import import storey_names
 
             for name in storey_names(open_model(args.model)):
                 print(name)

@@ -30,7 +30,7 @@ from typing import Any, ClassVar
 
 from pydantic import field_validator, model_validator
 
-from cmdp_pymunk.case import Case
+from cmdp_pymunk.cases.load import Case
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.rollout import versions
 

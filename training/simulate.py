@@ -15,8 +15,9 @@ seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.p
 ``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
 (tasks ended over time, with the spread over seeds). With ``--ifc MODEL.ifc`` (a case made by
 ``cmdp-import-ifc`` from that model) each episode's folder also gets ``MODEL-4d.ifc``: the
-model with the simulated schedule as an IfcWorkSchedule (``cmdp_pymunk.ifc.export_4d``; IFC4
-or IFC2X3, as the model), simulated second 0 at ``--ifc-start``.
+model with the simulated schedule as an IfcWorkSchedule
+(``cmdp_pymunk.cases.ifc_export.export_4d``; IFC4 or IFC2X3, as the model), simulated second
+0 at ``--ifc-start``.
 
 The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/episodes.py``): in this
 process (the default, ``--workers 1``), in ``--workers N`` worker processes, or on Ray actors
@@ -238,7 +239,7 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     if args.ifc is not None:
         import datetime
 
-        from cmdp_pymunk.ifc import export_4d
+        from cmdp_pymunk.cases.ifc_export import export_4d
         from cmdp_pymunk.schedule import task_bars
 
         export_4d(args.ifc, case, task_bars(run.events),
@@ -332,7 +333,8 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         case = cmdp_pymunk.load_case(args.case)
         evaluator = make_evaluator(args.evaluator)
         if args.ifc is not None:  # before simulating: a model that cannot take it fails now
-            from cmdp_pymunk.ifc import IfcUnavailable, open_for_4d
+            from cmdp_pymunk.cases.ifc_export import open_for_4d
+            from cmdp_pymunk.cases.ifc_import import IfcUnavailable
 
             try:
                 open_for_4d(args.ifc, case)

@@ -3,14 +3,14 @@
     cmdp-train stage2 [--config training/configs/stage2.toml] [--set key=value ...]
                       [--out runs/stage2] [--resume CHECKPOINT.zip]
 
-Data flow: ``make_floor`` (``cmdp_pymunk.highlevel.Floor``, an engine: one decision = one
-target evaluation; between two decisions the floor runs on with the low level, the scripted
+Data flow: ``make_floor`` (``cmdp_pymunk.adapters.stage2.DecisionLoop``, an engine: one decision
+= one target evaluation; between two decisions the floor runs on with the low level, the scripted
 navigator or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs``
 floors in ``num_cpus`` processes, each stepping its share in one ``vec_env.FloorsVecEnv``) ->
 ``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
 position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
 sequence, each rewarded with the team's R_e until the next decision) is written down in
-``cmdp_pymunk/highlevel.py``.
+``cmdp_pymunk/adapters/stage2.py``.
 
 With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
 global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
@@ -41,8 +41,8 @@ import numpy as np
 from pydantic import Field, Strict, model_validator
 
 import cmdp_pymunk
+from cmdp_pymunk.adapters.stage2 import IDLE_CAUSES, DecisionLoop
 from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.highlevel import IDLE_CAUSES, Floor
 from cmdp_pymunk.reward import EVALUATION_TERMS
 
 from . import scaffold
@@ -139,7 +139,7 @@ def training_case(config: Stage2Config):
 
 
 def low_level_factory(spec: str):
-    """``make_low_level()`` for ``highlevel.Floor``: the scripted navigator, or a stage-1
+    """``make_low_level()`` for ``stage2.DecisionLoop``: the scripted navigator, or a stage-1
     model sampling its actions (the floor binds it to its engine)."""
     def make():
         from agents.specs import make_navigator
@@ -153,16 +153,16 @@ def make_floor(config: Stage2Config, case):
     """A training floor: the config's low level and stall guard, the global state after O^e
     with ``central_critic``. The scripted navigator reads the state, not the rays: idle crews
     are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast. With
-    ``action = "candidate"`` it is wrapped in ``training.candidates.CandidateFloor``."""
-    floor = Floor(case, low_level_factory(config.low_level), stall_s=config.stall_s,
+    ``action = "candidate"`` it is wrapped in ``training.candidates.CandidateLoop``."""
+    floor = DecisionLoop(case, low_level_factory(config.low_level), stall_s=config.stall_s,
                   park_idle=config.low_level == "scripted", with_state=config.central_critic)
     if config.action == "candidate":
-        from .candidates import CandidateFloor
+        from .candidates import CandidateLoop
 
         plain = config.model_copy(update={"action": "desired_position", "start_rule": "",
                                           "start_model": ""})
         reference = partial(make_floor, plain, case) if config.against_heuristic else None
-        return CandidateFloor(floor, config.candidates, reference, config.seed_pool)
+        return CandidateLoop(floor, config.candidates, reference, config.seed_pool)
     return floor
 
 
@@ -189,7 +189,7 @@ class Decision(NamedTuple):
     info: dict
 
 
-def play_floor(floor: Floor, seed: int, choose: Callable[[np.ndarray], np.ndarray]) \
+def play_floor(floor: DecisionLoop, seed: int, choose: Callable[[np.ndarray], np.ndarray]) \
         -> list[Decision]:
     """One episode of ``floor`` on ``seed``, ``choose(observation)`` making every decision;
     the last decision's info is the episode's end."""

@@ -10,7 +10,7 @@
 disruption profile of docs/disruptions.md), ``cmdp/TinyFloor-v1`` (the tiny case of the docs
 and tests),
 and the generated layouts' split ``cmdp/GeneratedFloor-train0-v1`` ... and
-``cmdp/GeneratedFloor-test0-v1`` ... (``cmdp_pymunk.layouts``).
+``cmdp/GeneratedFloor-test0-v1`` ... (``cmdp_pymunk.cases.generated``).
 
 Every variant takes the env's arguments as keyword overrides (``seed``, ``render_mode``,
 ``max_time_s``, ...). Targets are valued by the priority heuristic (Eq. 9), the env's default,
@@ -24,9 +24,9 @@ from __future__ import annotations
 from pettingzoo import register
 from pettingzoo.utils.conversions import parallel_to_aec
 
-from .case import DISRUPTED_CASE, TINY_CASE
+from ..cases.generated import layout_files
+from ..cases.load import DISRUPTED_CASE, TINY_CASE
 from .env import CMDPEnv
-from .layouts import layout_files
 
 STAGE1_EPISODE_S = 3000.0  # stage-1 episodes are cut here, as in training/configs/stage1.toml
 
@@ -40,7 +40,7 @@ VARIANTS: dict[str, dict] = {
     # (the profile of docs/disruptions.md, cases/precast_floor_disrupted.toml)
     "cmdp/PrecastFloor-disrupted-v1": {"stage": 2, "case": str(DISRUPTED_CASE)},
 }
-# the published split of generated layouts (cmdp_pymunk.layouts): train on the first,
+# the published split of generated layouts (cmdp_pymunk.cases.generated): train on the first,
 # measure generalisation to an unseen floor on the second
 GENERATED = {f"cmdp/GeneratedFloor-{split}{k}-v1": {"stage": 2, "case": str(path)}
              for split in ("train", "test") for k, path in enumerate(layout_files(split))}

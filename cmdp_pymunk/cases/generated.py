@@ -30,10 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .case import BUILTIN_CASE, case_from_dict
 from .floorplan import PRECAST_RECIPE, StorageSpot, plan_case
+from .load import BUILTIN_CASE, case_from_dict
 
-LAYOUT_DIR = Path(__file__).with_name("cases") / "layouts"
+LAYOUT_DIR = Path(__file__).parent / "layouts"
 TRAIN_SEEDS = tuple(range(6))
 TEST_SEEDS = (1000, 1001, 1002)
 
@@ -173,14 +173,14 @@ def layout_toml(split: str, k: int) -> str:
     data = generate_layout(seed, name=f"generated-{split}-{k}")
     case_from_dict(data, f"{split}-{k}.toml")  # every published layout passes the case check
     header = (f"# Generated layout {split}-{k} (seed {seed}) of the published split; written "
-              "by\n# `python tools/make_layouts.py` (cmdp_pymunk/layouts.py holds the rules). "
-              "Do not edit by hand.\n")
+              "by\n# `python tools/make_layouts.py` (cmdp_pymunk/cases/generated.py holds the "
+              "rules). Do not edit by hand.\n")
     return to_toml(data, header)
 
 
 def write_split(folder: Path = LAYOUT_DIR) -> list[Path]:
     """Write every layout of the split into ``folder``; returns the files."""
-    from .events import write_atomic
+    from ..events import write_atomic
 
     written = []
     for split, seeds in (("train", TRAIN_SEEDS), ("test", TEST_SEEDS)):
@@ -194,7 +194,7 @@ def write_split(folder: Path = LAYOUT_DIR) -> list[Path]:
 def main(argv: list[str] | None = None) -> int:
     import argparse
 
-    from . import add_version_flag
+    from .. import add_version_flag
 
     parser = argparse.ArgumentParser(prog="make_layouts.py",
                                      description="Write the published split of generated layouts.")

@@ -10,20 +10,20 @@ from test_layering import imported_modules
 
 from agents.navigator import Navigator
 from cmdp_pymunk import parallel_env
+from cmdp_pymunk.adapters.stage2 import DecisionLoop, TargetEvaluationEnv
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import (
     DesiredPositionEvaluator,
     PriorityEvaluator,
     desired_position_of_first_choice,
 )
-from cmdp_pymunk.highlevel import Floor, TargetEvaluationEnv
 
 SHORT_S = 5000.0  # long enough for several decisions, short enough for a fast test
-HIGHLEVEL = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "highlevel.py"
+HIGHLEVEL = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "adapters" / "stage2.py"
 
 
-def floor(**kwargs) -> Floor:
-    return Floor(None, Navigator, max_time_s=SHORT_S, **kwargs)
+def floor(**kwargs) -> DecisionLoop:
+    return DecisionLoop(None, Navigator, max_time_s=SHORT_S, **kwargs)
 
 
 def schedule(log, values: bool = True):
@@ -33,13 +33,13 @@ def schedule(log, values: bool = True):
             if values or e.kind != "reach"]
 
 
-def play(fl: Floor, seed: int, choose) -> list:
+def play(fl: DecisionLoop, seed: int, choose) -> list:
     """Every decision's (crew, reward, terminated, truncated) of one episode on ``seed``."""
     fl.reset(seed)
     return play_on(fl, choose)
 
 
-def play_on(fl: Floor, choose) -> list:
+def play_on(fl: DecisionLoop, choose) -> list:
     """``play`` from the floor's current decision on."""
     trace = []
     while True:
@@ -54,7 +54,7 @@ def test_the_floor_steps_the_engine_alone():
     """No PettingZoo env under the stage-2 env: the floor holds an engine and asks only for
     decisions among several targets, by crew index."""
     names = imported_modules(HIGHLEVEL)
-    assert "cmdp_pymunk.env" not in names and "pettingzoo" not in {n.split(".")[0]
+    assert "cmdp_pymunk.adapters.env" not in names and "pettingzoo" not in {n.split(".")[0]
                                                                      for n in names}
     fl = floor()
     assert isinstance(fl.engine, Engine) and fl.engine.evaluator is None
@@ -124,7 +124,7 @@ def test_a_value_for_a_crew_that_was_not_asked_is_refused():
 
 
 def test_a_finished_floor_asks_for_a_reset():
-    fl = Floor(None, Navigator, max_time_s=600.0)
+    fl = DecisionLoop(None, Navigator, max_time_s=600.0)
     fl.reset(seed=0)
     while not (out := fl.decide((0.0, 0.0))).truncated:
         assert not out.terminated
@@ -198,7 +198,7 @@ def test_a_stalled_floor_is_cut_by_the_engine_guard_and_says_so():
         def actions(self, engine, observations=None):
             return [(0, 1, 1)] * len(engine.site.crews)
 
-    fl = Floor(None, StandStill, stall_s=600.0)
+    fl = DecisionLoop(None, StandStill, stall_s=600.0)
     fl.reset(seed=0)
     while not (out := fl.decide((0.0, 0.0))).truncated:
         assert not out.terminated

@@ -71,7 +71,7 @@ Global state
     ``state()`` and ``state_space``: one fixed-size float32 vector (578 floats in the built-in
     case) of every crew's position, heading, status, load and target, every task's pool and
     progress, storage stocks, the crane and its queue, and the time, for a centralized critic;
-    the layout is documented in ``cmdp_pymunk.global_state`` (``state_layout(case)``).
+    the layout is documented in ``cmdp_pymunk.adapters.global_state`` (``state_layout(case)``).
 
 One step, in the paper's order (section 3.2)
     The actions move the crews (P_phy), construction advances (P_cons), and the next second
@@ -92,12 +92,12 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
-from . import ENV_NAME, move, observe
-from .case import Case, as_case
-from .engine import Engine
-from .evaluate import DEFAULT_EVALUATOR, TargetEvaluator
+from .. import ENV_NAME, move, observe
+from ..cases.load import Case, as_case
+from ..engine import Engine
+from ..evaluate import DEFAULT_EVALUATOR, TargetEvaluator
+from ..policy import LowLevel
 from .global_state import global_state, state_bounds
-from .policy import LowLevel
 
 # The renderer used when none is injected: named, not imported (the core imports no pygame).
 DEFAULT_RENDERER = "media.render:draw_frame"
@@ -222,7 +222,7 @@ class CMDPEnv(ParallelEnv):
         """The global state: a fixed-size float32 vector in ``state_space`` with every crew's
         position, heading, status, load and target, every task's pool and progress, the
         storages' stocks, the crane and its queue, and the time (layout:
-        ``cmdp_pymunk.global_state``), for centralized critics."""
+        ``cmdp_pymunk.adapters.global_state``), for centralized critics."""
         engine = self.engine
         if engine.site is None:
             raise RuntimeError("state() before the first reset(); call reset() first")

@@ -20,7 +20,8 @@ from typing import get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
-from .case_model import (  # noqa: F401  (re-exported: the models are part of this API)
+from .floorplan import Rect
+from .model import (  # noqa: F401  (re-exported: the models are part of this API)
     Case,
     CaseInfo,
     Component,
@@ -42,13 +43,12 @@ from .case_model import (  # noqa: F401  (re-exported: the models are part of th
     TaskType,
     UnitIndex,
 )
-from .floorplan import Rect
 
-BUILTIN_CASE = Path(__file__).with_name("cases") / "precast_floor.toml"
+BUILTIN_CASE = Path(__file__).parent / "precast_floor.toml"
 # the tiny case of the docs, the command-line tests and cmdp/TinyFloor-v1
-TINY_CASE = Path(__file__).with_name("cases") / "tiny_floor.toml"
+TINY_CASE = Path(__file__).parent / "tiny_floor.toml"
 # the built-in case with the documented disruption profile (docs/disruptions.md)
-DISRUPTED_CASE = Path(__file__).with_name("cases") / "precast_floor_disrupted.toml"
+DISRUPTED_CASE = Path(__file__).parent / "precast_floor_disrupted.toml"
 
 
 @dataclass
@@ -468,7 +468,7 @@ def _time_problems(case: Case) -> list[str]:
     the crane's total busy time, one fetch, walking across the plane, and the makespan lower
     bound (``bounds``). A run that could never finish would only stall.
     """
-    from .bounds import expected_duration_s, lower_bound
+    from ..bounds import expected_duration_s, lower_bound
 
     limit = case.simulation.max_time_s
     over = f"beyond simulation.max_time_s = {limit:g} s, so no episode could finish"

@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from . import disruptions
-from .case_model import Case
-from .state import Site
+from .. import disruptions
+from ..cases.model import Case
+from ..state import Site
 
 CREW_FEATURES = 17
 TASK_FEATURES = 5

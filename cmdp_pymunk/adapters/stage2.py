@@ -1,6 +1,6 @@
 """The stage-2 high-level env: one step is one target evaluation (sections 3.6, 3.6.1).
 
-``Floor`` is the stage-2 decision loop directly on an ``engine.Engine`` (no PettingZoo, no
+``DecisionLoop`` is the stage-2 decision loop directly on an ``engine.Engine`` (no PettingZoo, no
 agent names: crews are indices): the engine runs, with the low level's actions every second
 (the scripted navigator or the stage-1 reaching policy), until a crew needs its target scope
 valued; the policy's action values that crew's scope by Eq. 4. ``TargetEvaluationEnv`` is the
@@ -44,7 +44,7 @@ Info
     ``tasks_ended``, ``time_s``, ``episode_terms`` (R_e's terms summed over the episode) and
     ``idle_steps`` by cause.
 
-Arguments (``Floor``)
+Arguments (``DecisionLoop``)
     ``case``, ``make_low_level()`` (makes the ``policy.LowLevel``, which is then bound to the
     floor's engine; e.g. the class ``agents.navigator.Navigator``), ``max_time_s`` (None: the
     case's), ``park_idle`` (see ``env``; for the scripted navigator), ``stall_s``,
@@ -60,13 +60,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from . import observe
-from .case import Case, as_case
-from .engine import Engine
-from .evaluate import desired_position_of_first_choice, desired_position_values
+from .. import observe
+from ..cases.load import Case, as_case
+from ..engine import Engine
+from ..evaluate import desired_position_of_first_choice, desired_position_values
+from ..policy import LowLevel
+from ..reward import EVALUATION_TERMS
 from .global_state import global_state, state_bounds
-from .policy import LowLevel
-from .reward import EVALUATION_TERMS
 
 IDLE_CAUSES = ("predecessor", "area", "no_target")  # state.IdleCause's names
 
@@ -81,7 +81,7 @@ class Outcome:
     truncated: bool
 
 
-class Floor:
+class DecisionLoop:
     """One stage-2 floor: decisions in, R_e out (see the module doc)."""
 
     def __init__(self, case: Case | None, make_low_level: Callable[[], LowLevel], *,
@@ -219,7 +219,7 @@ class TargetEvaluationEnv(gym.Env):
 
     metadata = {"render_modes": []}
 
-    def __init__(self, floor: Floor):
+    def __init__(self, floor: DecisionLoop):
         self.floor = floor
         self.observation_space = spaces.Box(floor.low, floor.high, dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
