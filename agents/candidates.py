@@ -1,5 +1,5 @@
 """The masked choice over a crew's best targets (issue 17, item 3): what the policy reads and
-what its choice does, the same in training (``training.candidates``) and deployment
+what its choice does, the same in training (``training.candidate_loop``) and deployment
 (``CandidateModelEvaluator``).
 
 A decision of a crew with a task scope of two or more targets shows the policy its ``cap``

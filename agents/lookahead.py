@@ -17,7 +17,7 @@ first choice, so the values stay the base's set. A crew holds a choice that over
 until it reaches a target or the target leaves its scope; a choice equal to the base's is not
 held, so with ``candidates=1`` the floor runs exactly as the base rule (a test checks it).
 
-With an ``acting`` evaluator (DAgger's labelling, ``training.distill label --acting``) the
+With an ``acting`` evaluator (DAgger's labelling, ``training.research.distill label --acting``) the
 lookahead only labels: it values the base's candidates at every decision as above, records the
 decision, and returns the acting evaluator's values, so the floor goes where that policy takes
 it (the student's own states) while the labels say what one step of lookahead would pick there.

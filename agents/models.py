@@ -306,7 +306,7 @@ def check_not_stuck(engine, caps: int) -> None:
 class ModelEvaluator(DesiredPositionEvaluator):
     """A trained evaluation policy: its desired position values the targets by Eq. 4.
 
-    The route of training (``cmdp_pymunk.adapters.stage2``): O^e from
+    The route of training (``cmdp_pymunk.adapters.decision_loop``): O^e from
     ``observe.evaluation_observation`` (clipped into the case's bounds, the crew's pose read
     from the engine), the actor's mean action, and ``evaluate.desired_position_values`` (Eq. 4
     as V_Tar). ``prepare(case)`` checks that the model reads this case's O^e.

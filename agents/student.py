@@ -3,7 +3,7 @@
 It re-ranks the ``candidates`` best targets of Eq. 9 by V' + w_type . phi, where phi are the
 candidate features of ``agents.features`` and w_type a weight vector per crew type. With every
 weight 0 it is exactly Eq. 9 (a test checks it); the weights are fitted to the lookahead's
-choices (``training.distill``), so it is as cheap to run as Eq. 9 and can be the next
+choices (``training.research.distill``), so it is as cheap to run as Eq. 9 and can be the next
 lookahead's base (a step of approximate policy iteration).
 
 Like the lookahead, a choice that overrides Eq. 9 is held until the crew reaches a target or
@@ -103,8 +103,9 @@ class StudentEvaluator(Evaluator):
             data = json.loads(path.read_text(encoding="utf-8"))
         except (OSError, json.JSONDecodeError) as err:
             raise ValueError(f"--evaluator student:{path}: cannot read it ({err}); give a file "
-                             f"written by training.distill") from err
+                             f"written by training.research.distill") from err
         if data.get("kind") != "cmdp-student" or data.get("features") != list(FEATURE_NAMES):
             raise ValueError(f"--evaluator student:{path}: not a student file for these features "
-                             f"({', '.join(FEATURE_NAMES)}); refit it with training.distill")
+                             f"({', '.join(FEATURE_NAMES)}); refit it with "
+                             "training.research.distill")
         return cls(data["weights"], data["candidates"])

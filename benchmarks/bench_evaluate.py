@@ -5,7 +5,7 @@ run on the built-in case (priority heuristic, scripted navigator), and their rat
 
 The rounds alternate 1 and 2 workers so that a change in the machine's load hits both; each
 measurement includes starting the worker processes (as a ``cmdp-evaluate`` run pays it once).
-The episodes are the same either way (``training.runs.episodes.Workers`` keeps job order), which is
+The episodes are the same either way (``training.runs.runner.Workers`` keeps job order), which is
 checked. With other jobs on the cores the ratio falls: it says what this machine gave now.
 """
 
@@ -16,7 +16,7 @@ import statistics
 import time
 
 import cmdp_pymunk
-from training.evaluate import _episode_job
+from training.compare import _episode_job
 from training.runs.backends import Workers
 
 

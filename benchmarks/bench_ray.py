@@ -9,7 +9,7 @@ case, priority heuristic, scripted navigator) on 1 local process, ``--cpus`` loc
 and a Ray started here with ``--cpus`` CPUs (``--cpus`` actors); each measurement starts its
 workers (actors are started anew; Ray itself once) and gives each a first job, timed apart
 from the measured jobs: the rates are those of warm workers. Part 2: the lookahead teacher's
-labelling (``training.distill``'s floors, tiny case, 3 candidates x ``--futures`` sampled
+labelling (``training.research.distill``'s floors, tiny case, 3 candidates x ``--futures`` sampled
 futures) with the same three backends. Rounds alternate the order so that a change in the
 machine's load hits every backend; the medians and their ratios to 1 local process are
 printed, then the two ratios asked for: Ray against local processes on the same cores (Ray's
@@ -27,8 +27,8 @@ import time
 
 import cmdp_pymunk
 from cmdp_pymunk.rollout import versions
-from training.distill import _label_job
-from training.evaluate import _episode_job
+from training.compare import _episode_job
+from training.research.distill import _label_job
 from training.runs.backends import open_backend
 
 

@@ -1,7 +1,7 @@
 """Stage-2 decisions per second per core: the stage-2 env of a given commit (by default
 c5777ae, the four layers ``TargetEvaluationEnv`` -> ``CMDPEnv`` -> ``Engine``) against this
-checkout's (``stage2.DecisionLoop`` on the engine, and k floors in one ``FloorsVecEnv``), in one
-process, with their ratio.
+checkout's (``decision_loop.DecisionLoop`` on the engine, and k floors in one ``FloorsVecEnv``), in
+one process, with their ratio.
 
     python benchmarks/bench_stage2.py [--before c5777ae] [--decisions 30] [--k 4] [--rounds 3]
 
@@ -37,7 +37,7 @@ sys.path.insert(0, str(ROOT))
 
 import cmdp_pymunk  # noqa: E402
 from agents.navigator import Navigator  # noqa: E402
-from cmdp_pymunk.adapters.stage2 import DecisionLoop  # noqa: E402
+from cmdp_pymunk.adapters.decision_loop import DecisionLoop  # noqa: E402
 from cmdp_pymunk.evaluate import desired_position_of_first_choice  # noqa: E402
 
 

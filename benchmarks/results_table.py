@@ -18,7 +18,7 @@ env's reward, the reaching reward R_r (Eqs. 6-7), and ``infos[agent]["evaluation
 the evaluation reward R_e (Eq. 5) the high level is trained on.
 
 Statistics over the seeds (finished floors only for the makespan): the mean with its 95 %
-Student-t interval (``training.comparison.mean_ci``), and the interquartile mean (the mean of
+Student-t interval (``training.runs.paired.mean_ci``), and the interquartile mean (the mean of
 the middle 50 %: ``scipy.stats.trim_mean(x, 0.25)``, rliable's ``aggregate_iqm``) with a 95 %
 percentile-bootstrap interval over the seeds (2,000 resamples, a fixed generator), the
 interval rliable's ``get_interval_estimates`` gives for one task. rliable itself (1.2.0) is
@@ -133,7 +133,7 @@ def bootstrap_ci(values, statistic=iqm, reps: int = BOOTSTRAP_REPS,
 
 
 def describe(values) -> dict:
-    from training.comparison import mean_ci
+    from training.runs.paired import mean_ci
 
     mean, _, ci = mean_ci(values)
     out = {"n": len(values), "mean": mean, "ci95": ci,
@@ -197,8 +197,8 @@ def _registered_ids() -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     import cmdp_pymunk
     from cmdp_pymunk.events import write_atomic
-    from training.comparison import csv_text
-    from training.evaluate import seed_list, spec_list
+    from training.compare import seed_list, spec_list
+    from training.runs.paired import csv_text
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     cmdp_pymunk.add_version_flag(p)

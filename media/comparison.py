@@ -3,7 +3,7 @@ space-constrained idle steps (idle because a task area blocked the crew's queued
 
 By default each figure is a box and strip plot, one column per strategy (and low level): every
 episode a dot, the box its quartiles, and a diamond with an error bar for the mean and its 95 %
-interval (``training.comparison.summarize``'s); the makespan figure draws the lower bound and,
+interval (``training.runs.paired.summarize``'s); the makespan figure draws the lower bound and,
 when it was solved, CP-SAT's bound as dashed lines. Episodes that did not finish are drawn as
 an x at the value they stopped with (makespan: the simulated time) and left out of the box.
 ``per_seed=True`` draws the paper's style instead: one line per strategy over the seeds, with
@@ -89,7 +89,7 @@ def strategy_plot(rows: list[dict], key: str, ylabel: str, title: str,
                   summary: list[dict] | None = None, bounds: dict | None = None) -> Figure:
     """One column per (strategy, low level): episodes as dots, their quartiles as a box, the
     mean with its 95 % interval (from ``summary``, the entries of
-    ``training.comparison.summarize``; none drawn without it), and ``bounds`` (label ->
+    ``training.runs.paired.summarize``; none drawn without it), and ``bounds`` (label ->
     seconds, e.g. the lower bound and CP-SAT's) as dashed lines."""
     groups = _groups(rows)
     navigators = {r["navigator"] for r in rows}

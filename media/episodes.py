@@ -112,7 +112,7 @@ def draw_episodes(folder: str | Path, stats: dict, finishes: Sequence[Sequence[f
 
 
 def strategy_stats(entry: dict) -> dict:
-    """P50/P80/P90 of a ``training.comparison.summarize`` entry under ``_mark_percentiles``'s
+    """P50/P80/P90 of a ``training.runs.paired.summarize`` entry under ``_mark_percentiles``'s
     keys (``p50_s`` ...)."""
     return {f"p{q}_s": entry.get(f"makespan_p{q}_s") for q in PERCENTILES}
 
@@ -138,7 +138,7 @@ def strategy_histograms(rows: Sequence[dict], summary: Sequence[dict], path: str
     Args:
         rows: ``cmdp-evaluate``'s episode rows (``strategy``, ``navigator``, ``makespan_s``,
             ``finished``).
-        summary: ``training.comparison.summarize`` of the same rows.
+        summary: ``training.runs.paired.summarize`` of the same rows.
         path: the PNG to write.
         lower_bound_s: drawn as a grey dashed line when given.
     """
@@ -181,7 +181,7 @@ def strategy_s_curves(rows: Sequence[dict], summary: Sequence[dict], total_tasks
     Args:
         rows: ``cmdp-evaluate``'s episode rows with ``task_end_times_s`` (rows without it,
             from a run before the field existed, are left out).
-        summary: ``training.comparison.summarize`` of the same rows (order and labels).
+        summary: ``training.runs.paired.summarize`` of the same rows (order and labels).
         total_tasks: the case's number of tasks (a horizontal line).
         path: the PNG to write.
     """

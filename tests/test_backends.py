@@ -1,4 +1,4 @@
-"""Where episodes run (training/runs/episodes.py): the local backend gives the same results in the
+"""Where episodes run (training/runs/runner.py): the local backend gives the same results in the
 same order with 1 or 2 workers, a dead worker's jobs run again or are reported, the default
 path never imports Ray, and ``cmdp-evaluate`` streams its episodes and resumes. The Ray
 backend's own tests are in test_ray.py."""
@@ -15,7 +15,7 @@ import pytest
 from test_interrupt import default_sigint
 
 import cmdp_pymunk
-from training import evaluate
+from training import compare as evaluate
 from training.runs.backends import WorkerLost, Workers, open_backend
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,8 +93,8 @@ def test_the_default_path_never_imports_ray(tmp_path):
     argv = [*QUICK, "--seeds", "0-1", "--workers", "2", "--out", str(tmp_path)]
     simulate = ["--case", TINY, "--episodes", "2", "--workers", "2", "--no-charts",
                 "--no-progress", "--out", str(tmp_path / "simulate")]
-    code = ("import sys; from training import evaluate, simulate, stage2; "
-            f"assert evaluate.main({argv!r}) == 0; "
+    code = ("import sys; from training import compare, simulate, stage2; "
+            f"assert compare.main({argv!r}) == 0; "
             f"assert simulate.main({simulate!r}) == 0; "
             f"config = stage2.Stage2Config(case={TINY!r}, n_envs=2, num_cpus=2); "
             "venv = stage2.make_vec_env(config, stage2.training_case(config), 0); "
@@ -164,7 +164,7 @@ def interrupt_evaluate(argv: list[str], lines: int = 2) -> tuple[int, str]:
 
     out = Path(argv[argv.index("--out") + 1])
     env = dict(os.environ, PYTHONPATH=str(ROOT), SDL_VIDEODRIVER="dummy", PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "training.evaluate", *argv], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "training.compare", *argv], cwd=ROOT,
                             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True, preexec_fn=default_sigint)
     try:

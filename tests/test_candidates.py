@@ -1,4 +1,4 @@
-"""The masked choice over a crew's best targets (agents/candidates.py, training/candidates.py,
+"""The masked choice over a crew's best targets (agents/candidates.py, training/candidate_loop.py,
 agents/candidate_policy.py): it starts as Eq. 9, trains with MaskablePPO, and deploys."""
 
 import json
@@ -10,7 +10,7 @@ from test_ga import far_start_case
 
 from agents.candidates import CANDIDATE_COLUMNS, CandidateView, observation_bounds
 from training import stage2
-from training.runs.episodes import EpisodeRunner
+from training.runs.runner import EpisodeRunner
 from training.stage2 import Stage2Config
 
 
@@ -135,7 +135,7 @@ def test_a_short_candidate_run_resumes_and_deploys(tmp_path):
 
 
 def test_terminal_term_against_the_heuristic_by_hand():
-    from training.candidates import terminal_term
+    from training.candidate_loop import terminal_term
 
     # R_e's makespan term -0.001 per second; Eq. 9 took 30,000 s on this seed.
     # Finished in 32,000 s: +30 at the end, so the floor's makespan part is
@@ -166,7 +166,7 @@ def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
 
 def test_a_run_can_start_from_a_distilled_model(tmp_path):
     # PPO fine-tuning after distillation: the new model's scorer is the distilled one's
-    from training import distill
+    from training.research import distill
 
     distilled = distill.new_choice_model(3, "", seed=0)
     with th.no_grad():

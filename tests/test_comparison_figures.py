@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from media import comparison
-from training.comparison import summarize
+from training.runs.paired import summarize
 
 
 def rows_for(strategies: dict[str, dict[int, float | None]]) -> list[dict]:

@@ -10,7 +10,7 @@ from test_layering import imported_modules
 
 from agents.navigator import Navigator
 from cmdp_pymunk import parallel_env
-from cmdp_pymunk.adapters.stage2 import DecisionLoop, TargetEvaluationEnv
+from cmdp_pymunk.adapters.decision_loop import DecisionLoop, TargetEvaluationEnv
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import (
     DesiredPositionEvaluator,
@@ -19,7 +19,7 @@ from cmdp_pymunk.evaluate import (
 )
 
 SHORT_S = 5000.0  # long enough for several decisions, short enough for a fast test
-HIGHLEVEL = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "adapters" / "stage2.py"
+HIGHLEVEL = Path(__file__).resolve().parent.parent / "cmdp_pymunk" / "adapters" / "decision_loop.py"
 
 
 def floor(**kwargs) -> DecisionLoop:

@@ -492,7 +492,7 @@ def test_evaluate_reports_p80_paired_differences_and_idle_by_disruption(tmp_path
     import csv
     import json
 
-    from training import evaluate
+    from training import compare as evaluate
 
     case = tmp_path / "tiny_disrupted.toml"
     case.write_text(TINY_CASE.read_text(encoding="utf-8") + """

@@ -1,5 +1,5 @@
-"""The student (agents.student) and its distillation (training.distill): plumbing and by-hand
-numbers, not learning."""
+"""The student (agents.student) and its distillation (training.research.distill): plumbing and
+by-hand numbers, not learning."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from conftest import play_floor
 import cmdp_pymunk
 from agents.features import FEATURE_NAMES, FloorFacts
 from agents.student import StudentEvaluator
-from training import distill
+from training.research import distill
 
 
 def test_a_student_without_weights_is_eq_9_exactly(priority_floor):
@@ -82,7 +82,7 @@ def test_label_fit_and_simulate_on_the_tiny_case(tmp_path):
 def test_a_bad_student_file_says_what_to_do(tmp_path):
     bad = tmp_path / "x.json"
     bad.write_text('{"kind": "other"}')
-    with pytest.raises(ValueError, match="refit it with training.distill"):
+    with pytest.raises(ValueError, match="refit it with training.research.distill"):
         StudentEvaluator.load(bad)
     with pytest.raises(ValueError, match="cannot read it"):
         StudentEvaluator.load(tmp_path / "missing.json")
@@ -178,7 +178,7 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
     from agents.features import FloorFacts, candidate_features
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.streams import EXPECTED
-    from training import label_noise
+    from training.research import label_noise
 
     tiny = str(cmdp_pymunk.TINY_CASE)
     plain, kept = tmp_path / "plain", tmp_path / "kept"

@@ -1,4 +1,4 @@
-"""``cmdp-evaluate`` and its statistics (training/comparison.py), on the tiny example case."""
+"""``cmdp-evaluate`` and its statistics (training/runs/paired.py), on the tiny example case."""
 
 import argparse
 import csv
@@ -11,8 +11,8 @@ import pytest
 import cmdp_pymunk
 from agents.task_priority import save_priorities
 from cmdp_pymunk.bounds import lower_bound
-from training import evaluate
-from training.comparison import mean_ci, paired
+from training import compare as evaluate
+from training.runs.paired import mean_ci, paired
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 FILES = ("episodes.jsonl", "episodes.csv", "summary.csv", "summary.md", "summary.json",
@@ -49,7 +49,7 @@ def test_mean_ci_by_hand():
 
 
 def test_summary_has_the_planners_percentiles():
-    from training.comparison import markdown_table, summarize
+    from training.runs.paired import markdown_table, summarize
 
     rows = [{"strategy": "priority", "navigator": "scripted", "seed": s, "finished": True,
              "makespan_s": m, "stalled": False, "timed_out": False}

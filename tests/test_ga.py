@@ -14,7 +14,7 @@ from agents.task_priority import (
     task_priority_value,
 )
 from cmdp_pymunk.cases.load import case_from_dict
-from training.runs.episodes import EpisodeRunner
+from training.runs.runner import EpisodeRunner
 from training.search.genetic import GAConfig, episode_fitness, run_ga, successor_genes
 
 

@@ -1,4 +1,5 @@
-"""The label-noise report (training/label_noise.py): by hand, and replayed on the tiny case."""
+"""The label-noise report (training/research/label_noise.py): by hand, and replayed on the tiny
+case."""
 
 import json
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 
 import cmdp_pymunk
-from training import distill, label_noise
+from training.research import distill, label_noise
 
 
 def test_summarize_by_hand():

@@ -161,10 +161,11 @@ ROOM_RULES = {
     # room: rooms it must not import (anything not listed is allowed)
     "agents": {"training", "media", "benchmarks", "tools", "examples"},  # policies, evaluators
     "media": {"agents", "training", "benchmarks", "tools"},  # drawing from logs and engines
-    "training/runs": {"training.search", "training.simulate", "training.evaluate",
+    "training/runs": {"training.search", "training.simulate", "training.compare",
                       "training.train", "training.ga", "training.search_rule",
-                      "training.distill", "training.label_noise"},  # machinery, no commands
-    "training/search": {"training.simulate", "training.evaluate", "training.train",
+                      "training.research.distill",
+                      "training.research.label_noise"},  # machinery, no commands
+    "training/search": {"training.simulate", "training.compare", "training.train",
                         "training.ga", "training.search_rule"},  # searches, not commands
     # case input and output: the case as data, files, generators, IFC; no simulation stage
     "cmdp_pymunk/cases": {"cmdp_pymunk.engine", "cmdp_pymunk.world", "cmdp_pymunk.state",
@@ -246,3 +247,23 @@ def test_no_module_of_the_project_imports_itself_round_a_circle():
     # a package's __init__ that registers its own adapters is not a circle of rooms
     circles = [c for c in circles if not (c[0] == "cmdp_pymunk" or "cmdp_pymunk" in c)]
     assert not circles, " ; ".join(" -> ".join(c) for c in circles)
+
+
+def test_no_two_modules_share_a_name():
+    """One name per module across the rooms (tests, benchmarks, tools, examples aside): a reader
+    who sees ``evaluate`` knows which one is meant."""
+    seen: dict[str, list[str]] = {}
+    for room in ("cmdp_pymunk", "agents", "training", "media"):
+        for path in _room_modules(room):
+            if path.name != "__init__.py":
+                seen.setdefault(path.stem, []).append(str(path.relative_to(ROOT)))
+    assert not {k: v for k, v in seen.items() if len(v) > 1}
+
+
+def test_nothing_imports_the_research_tools():
+    """``training/research`` builds on the rest; nothing of the package depends on it."""
+    bad = [f"{p.relative_to(ROOT)} imports {n}"
+           for room in ("cmdp_pymunk", "agents", "training", "media")
+           for p in _room_modules(room) if "research" not in p.parts
+           for n in imported_modules(p) if n.startswith("training.research")]
+    assert not bad, bad

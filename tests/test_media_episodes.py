@@ -47,7 +47,7 @@ def test_a_comparisons_histograms_and_s_curves(tmp_path, monkeypatch):
     S-curve colour per strategy; an episode from before ``task_end_times_s`` is left out of
     the S-curve, a strategy with no finished episode still gets its panel."""
     import media.episodes as episodes
-    from training.comparison import summarize
+    from training.runs.paired import summarize
 
     def row(strategy, seed, makespan, ends):
         r = {"strategy": strategy, "navigator": "scripted", "seed": seed, "stalled": False,

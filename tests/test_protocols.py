@@ -14,12 +14,12 @@ from agents.lookahead import LookaheadEvaluator, LookaheadSettings
 from agents.navigator import Navigator
 from agents.steering import steer
 from cmdp_pymunk import TINY_CASE, CMDPEnv, load_case
-from cmdp_pymunk.adapters.stage2 import DecisionLoop
+from cmdp_pymunk.adapters.decision_loop import DecisionLoop
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import Evaluator, TargetEvaluator
 from cmdp_pymunk.policy import LowLevel
 from cmdp_pymunk.rollout import play, run_episode
-from training.runs.episodes import EpisodeRunner
+from training.runs.runner import EpisodeRunner
 
 
 class FarthestFirst(Evaluator):

@@ -21,7 +21,7 @@ from test_backends import (
 )
 
 import cmdp_pymunk
-from training import evaluate
+from training import compare as evaluate
 from training.runs.backends import WorkerLost
 
 # As a cluster of `ray start --head` (Ray 2.60's default), with a token: the commands run in a
@@ -181,7 +181,7 @@ def test_the_ga_searches_the_same_on_ray(cluster, tmp_path):
 def test_the_teachers_labels_are_the_same_on_ray(cluster, tmp_path):
     import numpy as np
 
-    from training import distill
+    from training.research import distill
 
     tiny = str(cmdp_pymunk.TINY_CASE)
     for name, extra in (("local", []), ("ray", ["--ray", cluster.address, "--workers", "0"])):

@@ -6,7 +6,7 @@ import pytest
 from test_ga import far_start_case
 
 from agents.features import FEATURE_NAMES
-from training.runs.episodes import EpisodeRunner
+from training.runs.runner import EpisodeRunner
 from training.search.rule import (
     RuleSearchConfig,
     _rule_job,

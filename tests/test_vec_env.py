@@ -9,7 +9,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import cmdp_pymunk
 from agents.navigator import Navigator
-from cmdp_pymunk.adapters.stage2 import DecisionLoop, TargetEvaluationEnv
+from cmdp_pymunk.adapters.decision_loop import DecisionLoop, TargetEvaluationEnv
 from training import stage2
 from training.scaffold import vec_env
 from training.vec_env import FloorsVecEnv, ProcessGroupsVecEnv

@@ -19,7 +19,7 @@ model with the simulated schedule as an IfcWorkSchedule
 (``cmdp_pymunk.cases.ifc_export.export_4d``; IFC4 or IFC2X3, as the model), simulated second
 0 at ``--ifc-start``.
 
-The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/episodes.py``): in this
+The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/runner.py``): in this
 process (the default, ``--workers 1``), in ``--workers N`` worker processes, or on Ray actors
 with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster; docs/ray.md). A worker
 plays its seed and sends back the summary and the event log; this process writes each seed's
@@ -206,7 +206,7 @@ def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb) -> SeedRu
 
 def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: str, lb,
                   seed: int, progress: bool) -> SeedRun:
-    """One seed in a worker (``training.runs.episodes.open_backend``): played on the worker's
+    """One seed in a worker (``training.runs.runner.open_backend``): played on the worker's
     engine."""
     from agents.models import PolicyStuck
 
@@ -326,7 +326,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     from agents.specs import make_evaluator, make_navigator
     from cmdp_pymunk.bounds import lower_bound
     from training.runs.backends import BackendError, open_backend
-    from training.runs.episodes import make_engine
+    from training.runs.runner import make_engine
 
     args = parse_args(argv)
     try:
@@ -380,7 +380,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                 from agents.cpsat import save_plan
 
                 spec = f"cpsat:{save_plan(args.out / 'cpsat_plan.json', case, cpsat)}"
-            from training.runs.episodes import check_worker
+            from training.runs.runner import check_worker
 
             problems = [p for p in pool.check_each(check_worker, [spec], [args.navigator],
                                                    args.deterministic) if p]

@@ -3,14 +3,15 @@
     cmdp-train stage2 [--config training/configs/stage2.toml] [--set key=value ...]
                       [--out runs/stage2] [--resume CHECKPOINT.zip]
 
-Data flow: ``make_floor`` (``cmdp_pymunk.adapters.stage2.DecisionLoop``, an engine: one decision
-= one target evaluation; between two decisions the floor runs on with the low level, the scripted
+Data flow: ``make_floor`` (``cmdp_pymunk.adapters.decision_loop.DecisionLoop``, an engine: one
+decision = one target evaluation; between two decisions the floor runs on with the low level, the
+scripted
 navigator or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs``
 floors in ``num_cpus`` processes, each stepping its share in one ``vec_env.FloorsVecEnv``) ->
 ``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
 position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
 sequence, each rewarded with the team's R_e until the next decision) is written down in
-``cmdp_pymunk/adapters/stage2.py``.
+``cmdp_pymunk/adapters/decision_loop.py``.
 
 With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
 global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
@@ -41,7 +42,7 @@ import numpy as np
 from pydantic import Field, Strict, model_validator
 
 import cmdp_pymunk
-from cmdp_pymunk.adapters.stage2 import IDLE_CAUSES, DecisionLoop
+from cmdp_pymunk.adapters.decision_loop import IDLE_CAUSES, DecisionLoop
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.reward import EVALUATION_TERMS
 
@@ -87,11 +88,11 @@ class Stage2Config(scaffold.PPOSettings):
     # the candidate policy starts as this searched rule (a student file of cmdp-search-rule,
     # one weight vector for every crew type) instead of Eq. 9; "" for Eq. 9
     start_rule: str = ""
-    # or from this masked-choice model's weights (e.g. `python -m training.distill fit-model`:
-    # PPO fine-tunes the distilled policy); "" for none
+    # or from this masked-choice model's weights (e.g. `python -m training.research.distill
+    # fit-model`: PPO fine-tunes the distilled policy); "" for none
     start_model: str = ""
     # reward: at a floor's end, R_e's makespan term against Eq. 9's makespan on the same seed
-    # (training.candidates.terminal_term; candidate action only), and the training seeds
+    # (training.candidate_loop.terminal_term; candidate action only), and the training seeds
     # taken modulo seed_pool (0: any seed) so that Eq. 9 plays each seed once
     against_heuristic: bool = False
     seed_pool: CountOrZero = 0
@@ -110,7 +111,8 @@ class Stage2Config(scaffold.PPOSettings):
                              "fix: --set action=candidate and drop start_rule")
         if self.start_model and not Path(self.start_model).is_file():
             raise ValueError(f"start_model = {self.start_model!r}: no such file; fix: give a "
-                             "masked-choice model .zip (python -m training.distill fit-model)")
+                             "masked-choice model .zip (python -m training.research.distill "
+                             "fit-model)")
         if self.start_rule and not Path(self.start_rule).is_file():
             raise ValueError(f"start_rule = {self.start_rule!r}: no such file; fix: give the "
                              "rule.json of a cmdp-search-rule run")
@@ -139,7 +141,7 @@ def training_case(config: Stage2Config):
 
 
 def low_level_factory(spec: str):
-    """``make_low_level()`` for ``stage2.DecisionLoop``: the scripted navigator, or a stage-1
+    """``make_low_level()`` for ``decision_loop.DecisionLoop``: the scripted navigator, or a stage-1
     model sampling its actions (the floor binds it to its engine)."""
     def make():
         from agents.specs import make_navigator
@@ -153,11 +155,11 @@ def make_floor(config: Stage2Config, case):
     """A training floor: the config's low level and stall guard, the global state after O^e
     with ``central_critic``. The scripted navigator reads the state, not the rays: idle crews
     are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast. With
-    ``action = "candidate"`` it is wrapped in ``training.candidates.CandidateLoop``."""
+    ``action = "candidate"`` it is wrapped in ``training.candidate_loop.CandidateLoop``."""
     floor = DecisionLoop(case, low_level_factory(config.low_level), stall_s=config.stall_s,
                   park_idle=config.low_level == "scripted", with_state=config.central_critic)
     if config.action == "candidate":
-        from .candidates import CandidateLoop
+        from .candidate_loop import CandidateLoop
 
         plain = config.model_copy(update={"action": "desired_position", "start_rule": "",
                                           "start_model": ""})

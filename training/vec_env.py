@@ -6,8 +6,9 @@ copies, in order, into one vector env per worker process (``vectorize``: a ``Dum
 default, as SuperSuit's ``concat_vec_envs_v1`` does for stage 1), so the copies, their seeds
 (copy k: seed + k), their resets and their infos are those of one such vector of all of them.
 
-``FloorsVecEnv``: k stage-2 floors (``cmdp_pymunk.adapters.stage2.DecisionLoop``) stepped in one
-process behind one SB3 vector env: actions in, arrays out, no Gymnasium env, dict or info on the way
+``FloorsVecEnv``: k stage-2 floors (``cmdp_pymunk.adapters.decision_loop.DecisionLoop``) stepped in
+one process behind one SB3 vector env: actions in, arrays out, no Gymnasium env, dict or info on
+the way
 (an info only where an episode ended). Stage 2 trains on ``num_cpus`` processes, each holding
 its share of the ``n_envs`` floors in one of these.
 """
@@ -27,8 +28,8 @@ from stable_baselines3.common.vec_env.base_vec_env import CloudpickleWrapper
 
 class FloorsVecEnv(VecEnv):
     """``len(floor_fns)`` stage-2 floors in this process behind one SB3 vector env (see the
-    module doc). DecisionLoop k's episodes are those of ``stage2.TargetEvaluationEnv`` over it in a
-    ``DummyVecEnv``: the same seeds (the first given by ``seed``, the next drawn from a
+    module doc). DecisionLoop k's episodes are those of ``decision_loop.TargetEvaluationEnv`` over
+    it in a ``DummyVecEnv``: the same seeds (the first given by ``seed``, the next drawn from a
     generator made from it), observations, rewards (float32), ends and end infos
     (``terminal_observation`` all zeros; ``TimeLimit.truncated`` only when true)."""
 
@@ -36,7 +37,7 @@ class FloorsVecEnv(VecEnv):
         self.floors = [make() for make in floor_fns]
         first = self.floors[0]
         self.actor_size = first.actor_size
-        # Eq. 4's desired position, unless the floor says otherwise (training.candidates)
+        # Eq. 4's desired position, unless the floor says otherwise (training.candidate_loop)
         action_space = getattr(first, "action_space", spaces.Box(-1.0, 1.0, (2,), np.float32))
         super().__init__(len(self.floors), spaces.Box(first.low, first.high, dtype=np.float32),
                          action_space)

@@ -1,10 +1,10 @@
 """Episodes on Ray actors: ``--ray`` (a Ray started on this machine) or ``--ray ADDRESS`` (a
 cluster started with ``ray start --head``, or KubeRay's head service); docs/ray.md.
 
-Imported only when ``--ray`` is given (``training.runs.episodes.open_backend``): the default install
+Imported only when ``--ray`` is given (``training.runs.runner.open_backend``): the default install
 needs no Ray. Each actor builds its ``EpisodeRunner`` once and runs many jobs on it, two in
 flight at a time so that it never waits for the driver. Results come back through the same
-interface as the local worker processes (``training.runs.episodes.Backend``): in job order for
+interface as the local worker processes (``training.runs.runner.Backend``): in job order for
 ``imap``, as they arrive for ``as_completed``.
 
 A worker process that dies (killed, out of memory, its node lost) loses its actor: a new

@@ -34,7 +34,7 @@ from cmdp_pymunk.events import write_atomic
 
 from ..runs.backends import Backend, open_backend
 from ..runs.checkpoint import resume_state
-from ..runs.episodes import EpisodeRunner
+from ..runs.runner import EpisodeRunner
 
 Count = Annotated[int, Strict(), Field(gt=0)]
 CountOrZero = Annotated[int, Strict(), Field(ge=0)]
@@ -161,7 +161,7 @@ def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: b
     ``out/best.json`` (the best priority file so far). ``resume`` continues from the
     checkpoint (which must come from the same config, up to ``generations``). The episodes
     run on ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
-    address; ``training.runs.episodes.open_backend``)."""
+    address; ``training.runs.runner.open_backend``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)

@@ -44,7 +44,7 @@ from cmdp_pymunk.events import write_atomic
 
 from ..runs.backends import open_backend
 from ..runs.checkpoint import resume_state
-from ..runs.episodes import EpisodeRunner
+from ..runs.runner import EpisodeRunner
 from .genetic import unfinished_makespan_s
 
 Count = Annotated[int, Strict(), Field(gt=0)]
@@ -179,7 +179,7 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
     selected mean (``choose``) with its selection result at the end. The checkpoint is also
     written after each checked mean, so a stopped selection resumes too. The floors run on
     ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
-    address; ``training.runs.episodes.open_backend``)."""
+    address; ``training.runs.runner.open_backend``)."""
     from tqdm import tqdm
 
     out.mkdir(parents=True, exist_ok=True)
@@ -271,9 +271,9 @@ def choose(state: SearchState, config: RuleSearchConfig) -> dict:
 
 def selection_result(rows: list[dict], baseline: dict, limit_s: float) -> dict:
     """The searched rule against Eq. 9 on the selection seeds: the paired mean difference with
-    its 95 % interval (``training.comparison.paired``), the ratio of mean makespans, and how
+    its 95 % interval (``training.runs.paired.paired``), the ratio of mean makespans, and how
     many floors either left unfinished."""
-    from training.comparison import paired
+    from training.runs.paired import paired
 
     mine = [{"seed": r["seed"], "finished": r["finished"], "makespan_s": r["makespan_s"]}
             for r in rows]

@@ -1,10 +1,11 @@
 """Distil the lookahead into a cheap evaluator: label decisions, then fit a residual over Eq. 9.
 
-    python -m training.distill label --seeds 0-19 --out runs/labels [--futures 0|N|expected]
+    python -m training.research.distill label --seeds 0-19 --out runs/labels [--futures
+    0|N|expected]
                                      [--acting SPEC] [--workers 2] [--ray [ADDRESS]]
-    python -m training.distill fit runs/labels --out models/student_priority.json
-    python -m training.distill fit-model runs/labels --out runs/distilled/model.zip
-    python -m training.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
+    python -m training.research.distill fit runs/labels --out models/student_priority.json
+    python -m training.research.distill fit-model runs/labels --out runs/distilled/model.zip
+    python -m training.research.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
 decision with two or more candidates, the candidates' features (``agents.features``), their
@@ -16,7 +17,7 @@ lookahead (every task not yet started at its expected pace: a choice that depend
 alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
 evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
 its states. ``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``)
-to the labels by cross-entropy. ``noise`` (``training.label_noise``) replays labelled
+to the labels by cross-entropy. ``noise`` (``training.research.label_noise``) replays labelled
 decisions kept with ``--states`` in other sampled futures: how much of a label is the future's
 noise. ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
@@ -159,7 +160,7 @@ def _label_job(runner, case_path, seed, candidates, futures, acting=None, states
 def label(args) -> int:
     from tqdm import tqdm
 
-    from training.evaluate import seed_list
+    from training.compare import seed_list
     from training.runs.backends import open_backend
 
     futures = futures_option(args.futures)
@@ -201,7 +202,7 @@ def load_labels(folder: Path) -> dict:
     files = sorted(Path(folder).glob("seed-*.npz"), key=lambda p: int(p.stem.split("-")[1]))
     if not files:
         raise ValueError(f"{folder}: no seed-N.npz label files; make them with "
-                         f"`python -m training.distill label --out {folder}`")
+                         f"`python -m training.research.distill label --out {folder}`")
     parts = [np.load(f) for f in files]
     return {"crew_type": np.concatenate([p["crew_type"] for p in parts]),
             "values": np.concatenate([p["values"] for p in parts]),
@@ -269,7 +270,7 @@ def fit(args) -> int:
     weights, report = fit_weights(data, args.tau_s, args.l2)
     student = StudentEvaluator({k: v.tolist() for k, v in weights.items()},
                                candidates=data["values"].shape[1])
-    meta = {"command": "python -m training.distill " + " ".join(args.argv),
+    meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
             "labels": str(args.labels), "label_seeds": data["seeds"],
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
             "tau_s": args.tau_s, "l2": args.l2, "fit": report}
@@ -315,7 +316,7 @@ def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def choice_venv(cap: int):
-    """A vector env with only the spaces of a masked-choice floor (``training.candidates``):
+    """A vector env with only the spaces of a masked-choice floor (``training.candidate_loop``):
     enough to build the model without running floors."""
     import gymnasium
     from gymnasium import spaces
@@ -458,7 +459,7 @@ def fit_model(args) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.stem + ".tmp.zip")
     model.save(tmp)
-    meta = {"command": "python -m training.distill " + " ".join(args.argv),
+    meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
             "labels": str(args.labels), "label_seeds": data["seeds"],
             "teachers": sorted(set(data["teachers"])), "acting": sorted(set(data["acting"])),
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
@@ -476,7 +477,8 @@ def main(argv: list[str] | None = None) -> int:
     from training.runs.backends import BackendError
 
     argv = list(sys.argv[1:] if argv is None else argv)
-    parser = OneLineParser(prog="python -m training.distill", description=__doc__.split("\n")[0])
+    parser = OneLineParser(prog="python -m training.research.distill",
+                           description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("label", help="label decisions with the lookahead, one file per seed")
     p.add_argument("--case", default=None, help="case file (default: built-in)")
@@ -519,7 +521,7 @@ def main(argv: list[str] | None = None) -> int:
         m.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value,
                        help=f"{MODEL_FIT_HELP[key]} (default {value})")
     n = sub.add_parser("noise", help="how much of the teacher's labels holds in other "
-                       "futures (needs label --states; training/label_noise.py)")
+                       "futures (needs label --states; training/research/label_noise.py)")
     n.add_argument("labels", help="label folder made by `label --states`")
     n.add_argument("--every", type=int, default=5, help="replay every N-th decision")
     n.add_argument("--futures", type=int, default=2,
@@ -528,7 +530,7 @@ def main(argv: list[str] | None = None) -> int:
     n.add_argument("--out", default="", help="also write the report (JSON) here")
     args = parser.parse_args(argv)
     args.argv = argv
-    from training.label_noise import noise
+    from training.research.label_noise import noise
 
     commands = {"label": label, "fit": fit, "fit-model": fit_model, "noise": noise}
     try:

@@ -1,4 +1,5 @@
-"""How much of a teacher's label is the future's noise? (``python -m training.distill noise``)
+"""How much of a teacher's label is the future's noise? (``python -m training.research.distill
+noise``)
 
 A lookahead label says which of Eq. 9's best candidates finished the floor first in the
 teacher's branches: one future each (the expected paces, or the floor's own). A student can
@@ -114,8 +115,8 @@ def plan(folder: Path, every: int, futures: int) -> tuple[list[tuple], list[tupl
                 jobs.append((str(states), row, k, scenario))
                 keys.append((seed, row, future, k))
     if not labels:
-        raise ValueError(f"{folder}: no seed-N.states.pkl beside the label files; make them "
-                         f"with `python -m training.distill label --states --out {folder}`")
+        raise ValueError(f"{folder}: no seed-N.states.pkl beside the label files; make them with "
+                         f"`python -m training.research.distill label --states --out {folder}`")
     return jobs, keys, labels
 
 
@@ -186,7 +187,7 @@ def noise(args) -> int:
         for n, makespan in pool.as_completed(jobs):
             makespans[n] = makespan
             bar.update(1)
-    report = {"command": "python -m training.distill " + " ".join(args.argv),
+    report = {"command": "python -m training.research.distill " + " ".join(args.argv),
               "labels": str(args.labels), "seeds": sorted(labels),
               **summarize(keys, makespans, labels, args.futures)}
     print(json.dumps(report, indent=1))

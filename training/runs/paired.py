@@ -1,7 +1,7 @@
 """Summing up a comparison of strategies: means with 95 % intervals, paired differences to the
 priority heuristic over the same seeds, and the table in Markdown and CSV.
 
-Rows are ``training.runs.episodes.episode_row`` dicts with ``strategy``, ``navigator`` and ``seed``
+Rows are ``training.runs.runner.episode_row`` dicts with ``strategy``, ``navigator`` and ``seed``
 added. Means of makespan are over the finished episodes; the other columns over every
 episode. A strategy's episodes that stalled or timed out are counted and listed, never
 dropped silently.

@@ -1,6 +1,6 @@
 """Stage 2 with the masked choice over a crew's best targets (``action = "candidate"``).
 
-``CandidateLoop`` wraps a ``cmdp_pymunk.adapters.stage2.DecisionLoop`` with the action of
+``CandidateLoop`` wraps a ``cmdp_pymunk.adapters.decision_loop.DecisionLoop`` with the action of
 ``agents.candidates`` (the index of one of the crew's ``cap`` best targets by Eq. 9) in place
 of Eq. 4's desired position. It has the floor's interface (``reset``, ``decide``, ``observe``,
 ``low``/``high``, ``end_info``), so ``vec_env.FloorsVecEnv`` steps it as it steps a floor, plus
@@ -15,7 +15,7 @@ import numpy as np
 from gymnasium import spaces
 
 from agents.candidates import CandidateView, has_choice, observation_bounds
-from cmdp_pymunk.adapters.stage2 import DecisionLoop, Outcome
+from cmdp_pymunk.adapters.decision_loop import DecisionLoop, Outcome
 
 
 def terminal_term(per_second: float, heuristic_s: float, time_s: float, finished: bool,

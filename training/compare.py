@@ -59,10 +59,10 @@ from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
 from training.cli import OneLineParser, add_ray_option, plain, positive_int, positive_seconds
-from training.comparison import csv_text, markdown_table, summarize
 from training.runs.backends import BackendError, WorkerLost, open_backend
-from training.runs.episodes import ROW_FIELDS, EpisodeRunner, check_worker
-from training.runs.episodes import check_specs as check_episode_specs
+from training.runs.paired import csv_text, markdown_table, summarize
+from training.runs.runner import ROW_FIELDS, EpisodeRunner, check_worker
+from training.runs.runner import check_specs as check_episode_specs
 
 DEFAULT_STRATEGIES = ("priority", "nearest")  # CP-SAT (about 20 s on the built-in floor) on request
 
@@ -181,7 +181,7 @@ def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) ->
 
 def check_specs(case, strategies: list[str], navigators: list[str],
                 deterministic: bool) -> None:
-    """``training.runs.episodes.check_specs``, before any episode, its errors naming this command's
+    """``training.runs.runner.check_specs``, before any episode, its errors naming this command's
     options."""
     for spec in strategies:
         with _named_as("--evaluator", "--strategies"):
