@@ -32,9 +32,8 @@ from pydantic import BaseModel, ConfigDict, Field, Strict
 from agents.task_priority import TaskPriorityEvaluator
 from cmdp_pymunk.events import write_atomic
 
-from ..runs.backends import Backend, open_backend
-from ..runs.checkpoint import resume_state
 from ..runs.runner import EpisodeRunner
+from . import harness as search
 
 Count = Annotated[int, Strict(), Field(gt=0)]
 CountOrZero = Annotated[int, Strict(), Field(ge=0)]
@@ -162,45 +161,32 @@ def run_ga(case, config: GAConfig, out: Path, workers: int | None = 1, resume: b
     checkpoint (which must come from the same config, up to ``generations``). The episodes
     run on ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
     address; ``training.runs.runner.open_backend``)."""
-    from tqdm import tqdm
-
-    out.mkdir(parents=True, exist_ok=True)
-    checkpoint = out / "checkpoint.pkl"
-    settings = config.model_dump()
-    limit = config.max_time_s or case.simulation.max_time_s
+    state: GAState = search.start(out, config, resume,
+                                  lambda: GAState(0, [], [], config=config.model_dump()))
     if resume:
-        state: GAState = resume_state(checkpoint, config)
         random.setstate(state.random_state)
     else:
         random.seed(config.seed)
-        state = GAState(0, [], [], config=settings)
+    limit = config.max_time_s or case.simulation.max_time_s
     task_ids = [t.id for t in case.tasks]
     runner_args = (case, config.stall_s, config.max_time_s)
-    total = episodes_after(config, config.generations)
-    bar = tqdm(total=total, unit="episode", disable=not progress, mininterval=1.0,
-               desc="GA", initial=episodes_after(config, state.generation) if state.population
-               else 0)
+    bar = search.progress_bar(episodes_after(config, config.generations),
+                              episodes_after(config, state.generation) if state.population
+                              else 0, "episode", "GA", progress)
 
-    def evaluate(genes_list: list[tuple], pool: Backend) -> list[float]:
+    def evaluate(genes_list: list[tuple], play) -> list[float]:
         todo = [g for g in dict.fromkeys(genes_list) if g not in state.cache]
-        jobs = [(g, s, config.distance_weight, config.navigator, config.base)
-                for g in todo for s in config.train_seeds]
-        rows = []
-        for row in pool.imap(jobs):
-            rows.append(row)
-            bar.update(1)
+        rows = play([(g, s, config.distance_weight, config.navigator, config.base)
+                     for g in todo for s in config.train_seeds])
         n = len(config.train_seeds)
         for i, g in enumerate(todo):
             fits = [episode_fitness(r["makespan_s"], r["idle_steps"], config.idle_weight,
                                     limit) for r in rows[i * n:(i + 1) * n]]
             state.cache[g] = float(np.mean(fits))
-        state.evaluations += len(jobs)
         bar.update(n * (len(genes_list) - len(todo)))  # cached: counted as done
         return [state.cache[g] for g in genes_list]
 
-    rng_state = random.getstate()  # DEAP draws from the global `random`, and ray.init
-    with open_backend(_evaluate_job, runner_args, workers, ray) as pool:  # draws from it too
-        random.setstate(rng_state)
+    with search.episodes(_evaluate_job, runner_args, workers, ray, bar, state) as pool:
         if not state.population:
             first = successor_genes(case) if config.base == "none" else [0.5] * len(task_ids)
             genes = [tuple(first)] if config.seed_successors else []
@@ -239,14 +225,13 @@ def _record(state: GAState, out: Path, case, config: GAConfig, bar) -> None:
     state.log.append({"generation": state.generation, "evaluations": state.evaluations,
                       "best": best, "mean": float(np.mean(fits)), "worst": max(fits)})
     bar.set_postfix_str(f"gen {state.generation}, best {best:.0f}", refresh=True)
-    lines = ["generation,episodes,best_fitness,mean_fitness,worst_fitness"]
-    lines += [f"{r['generation']},{r['evaluations']},{r['best']:.1f},{r['mean']:.1f},"
-              f"{r['worst']:.1f}" for r in state.log]
-    write_atomic(out / "history.csv", "\n".join(lines) + "\n")
+    search.write_history(out, "generation,episodes,best_fitness,mean_fitness,worst_fitness",
+                         [f"{r['generation']},{r['evaluations']},{r['best']:.1f},"
+                          f"{r['mean']:.1f},{r['worst']:.1f}" for r in state.log])
     ids = [t.id for t in case.tasks]
     save_priorities(out / "best.json", case, dict(zip(ids, best_genes, strict=True)),
                     config.distance_weight, "ga", config.base, fitness=round(best, 1),
                     generation=state.generation, train_seeds=config.train_seeds,
                     navigator=config.navigator)
     state.random_state = random.getstate()
-    write_atomic(out / "checkpoint.pkl", pickle.dumps(state))
+    write_atomic(out / search.CHECKPOINT, pickle.dumps(state))

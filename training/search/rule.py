@@ -42,9 +42,8 @@ from agents.features import FEATURE_NAMES
 from agents.student import StudentEvaluator
 from cmdp_pymunk.events import write_atomic
 
-from ..runs.backends import open_backend
-from ..runs.checkpoint import resume_state
 from ..runs.runner import EpisodeRunner
+from . import harness as search
 from .genetic import unfinished_makespan_s
 
 Count = Annotated[int, Strict(), Field(gt=0)]
@@ -180,42 +179,21 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
     written after each checked mean, so a stopped selection resumes too. The floors run on
     ``workers`` local processes, or on Ray actors with ``ray`` ("local" or a cluster's
     address; ``training.runs.runner.open_backend``)."""
-    from tqdm import tqdm
-
-    out.mkdir(parents=True, exist_ok=True)
-    checkpoint = out / "checkpoint.pkl"
-    settings = config.model_dump()
+    state: SearchState = search.start(
+        out, config, resume,
+        lambda: SearchState(0, new_strategy(config), config=config.model_dump()))
+    state.checked = getattr(state, "checked", {})  # a checkpoint from before select_every
     limit = config.max_time_s or case.simulation.max_time_s
-    if resume:
-        state: SearchState = resume_state(checkpoint, config)
-        state.checked = getattr(state, "checked", {})  # a checkpoint from before select_every
-    else:
-        state = SearchState(0, new_strategy(config), config=settings)
     popsize = state.es.popsize
     crew_types = sorted(case.crew_types)
-    total = total_episodes(config, popsize)
     done = (len(state.baseline) + state.generation * popsize * config.seeds_per_generation
             + len(set(state.checked) & set(generations_checked(config)))
             * len(config.select_seeds))
-    bar = tqdm(total=total, initial=min(done, total), unit="floor", desc="rule search",
-               disable=not progress, mininterval=1.0)
+    bar = search.progress_bar(total_episodes(config, popsize), done, "floor", "rule search",
+                              progress)
     runner_args = (case, config.stall_s, config.max_time_s)
 
-    def play(jobs: list[tuple]) -> list[dict]:
-        rows = []
-        for row in pool.imap(jobs):
-            rows.append(row)
-            bar.update(1)
-        state.evaluations += len(jobs)
-        return rows
-
-    import numpy as np
-
-    # CMA-ES samples from numpy's global generator. Starting Ray moved the stdlib's `random`
-    # (the GA's) but not numpy's here; kept across it anyway, as the GA keeps its own.
-    rng_state = np.random.get_state()
-    with open_backend(_rule_job, runner_args, workers, ray) as pool:
-        np.random.set_state(rng_state)
+    with search.episodes(_rule_job, runner_args, workers, ray, bar, state) as play:
         need = [s for s in sorted(set(config.train_seeds) | set(config.select_seeds))
                 if s not in state.baseline]
         for row in play([(None, config.candidates, s, config.navigator) for s in need]):
@@ -246,7 +224,7 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
             rows = play([(weights, config.candidates, s, config.navigator)
                          for s in config.select_seeds])
             state.checked[g] = selection_result(rows, state.baseline, limit)
-            write_atomic(checkpoint, pickle.dumps(state))
+            write_atomic(out / search.CHECKPOINT, pickle.dumps(state))
         selection = choose(state, config)  # cheap, and the same for the same checks
         if selection != state.selection:
             state.selection = selection
@@ -289,12 +267,11 @@ def selection_result(rows: list[dict], baseline: dict, limit_s: float) -> dict:
 def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
             popsize: int) -> None:
     """history.csv, rule.json (the distribution's mean) and the checkpoint, each atomically."""
-    lines = ["generation,episodes,best_paired_s,mean_paired_s,sigma,"
-             + ",".join(f"w_{name}" for name in config.features)]
-    lines += [f"{r['generation']},{r['episodes']},{r['best']:.1f},{r['mean']:.1f},"
-              f"{r['sigma']:.4f}," + ",".join(f"{v:.4f}" for v in r["mean_x"])
-              for r in state.log]
-    write_atomic(out / "history.csv", "\n".join(lines) + "\n")
+    search.write_history(
+        out, "generation,episodes,best_paired_s,mean_paired_s,sigma,"
+        + ",".join(f"w_{name}" for name in config.features),
+        [f"{r['generation']},{r['episodes']},{r['best']:.1f},{r['mean']:.1f},{r['sigma']:.4f},"
+         + ",".join(f"{v:.4f}" for v in r["mean_x"]) for r in state.log])
     x = state.selection["weights"] if state.selection else state.es.mean
     rule = StudentEvaluator(rule_weights(config, x, crew_types), config.candidates)
     rule.save(out / "rule.json", {
@@ -304,4 +281,4 @@ def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
         "generations_run": state.generation, "popsize": popsize,
         "train_seeds": config.train_seeds, "seeds_per_generation": config.seeds_per_generation,
         "selection": state.selection})
-    write_atomic(out / "checkpoint.pkl", pickle.dumps(state))
+    write_atomic(out / search.CHECKPOINT, pickle.dumps(state))
