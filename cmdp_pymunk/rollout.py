@@ -30,6 +30,25 @@ from .policy import LowLevel
 from .state import DISRUPTION_CAUSES, CrewStatus, IdleCause, Pool, activity
 
 PERCENTILES = (50, 80, 90)  # the makespan percentiles a run of many episodes reports
+# Below this many finished floors a P80 or P90 rests on the two or three largest makespans:
+# outputs say so (issue 31). With n floors, P90 is interpolated between the n*0.9-th order
+# statistics; 20 floors put two of them above it.
+MIN_FLOORS_FOR_PERCENTILES = 20
+
+
+def percentiles_note(finished: int) -> str:
+    """A warning for P80/P90 taken from too few finished floors ("" from
+    ``MIN_FLOORS_FOR_PERCENTILES`` on)."""
+    if finished >= MIN_FLOORS_FOR_PERCENTILES:
+        return ""
+    return (f"P80/P90 from {finished} finished floor{'s' if finished != 1 else ''} (fewer than "
+            f"{MIN_FLOORS_FOR_PERCENTILES}): they rest on the few longest; run more episodes "
+            "before planning on them")
+
+
+def seconds_and_hours(seconds: float) -> str:
+    """A duration for people: "33,943 s (9.43 h)"."""
+    return f"{seconds:,.0f} s ({seconds / 3600:.2f} h)"
 
 
 @dataclass
@@ -204,6 +223,7 @@ def makespan_stats(rows: list[dict]) -> dict:
             "lower_bound_s": lower,
             "mean_over_lower_bound": float(np.mean(done)) / lower if done and lower else None,
             "mean_reach_rate": float(np.mean([r["reach_rate"] for r in rows])),
+            "percentiles_note": percentiles_note(len(done)),
             "makespans_s": [r["makespan_s"] for r in rows]}
 
 

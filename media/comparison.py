@@ -73,6 +73,15 @@ def consecutive_runs(seeds: list[int]) -> list[slice]:
     return runs
 
 
+def _error_bar(entry: dict, mean_key: str, ci_key: str) -> list[list[float]]:
+    """The mean's 95 % interval as matplotlib's (below, above) error: a count's interval is
+    clipped at 0 (``training.runs.paired.count_interval``: ``{key}_ci95_low``)."""
+    mean, half = entry[mean_key], entry.get(ci_key) or 0.0
+    low = entry.get(ci_key + "_low")
+    below = mean - low if low is not None else half
+    return [[below], [half]]
+
+
 def strip_offsets(n: int, width: float = 0.28) -> np.ndarray:
     """Horizontal offsets that spread n dots evenly across a column (deterministic, no
     random jitter): 0 for one dot, -width..width for several."""
@@ -111,7 +120,7 @@ def strategy_plot(rows: list[dict], key: str, ylabel: str, title: str,
                     markersize=4 if r["finished"] else 8, alpha=0.75)
         e = stats.get(gkey)
         if e is not None and mean_key and e.get(mean_key) is not None:
-            ax.errorbar(i + 0.42, e[mean_key], yerr=e.get(ci_key) or 0.0, fmt="D",
+            ax.errorbar(i + 0.42, e[mean_key], yerr=_error_bar(e, mean_key, ci_key), fmt="D",
                         color="black", markersize=5, capsize=4, linewidth=1.2)
     if stats:
         handles.append(Line2D([], [], marker="D", color="black", linestyle="-",

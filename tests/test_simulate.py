@@ -76,7 +76,11 @@ def test_episodes_write_percentiles_histogram_and_s_curve(tmp_path, capsys):
         assert (out / name).stat().st_size > 1000
     assert (out / "seed-2" / "gantt_tasks.png").exists()
     stats = json.loads((out / "makespans.json").read_text())
-    assert f"P80 {stats['p80_s']:.0f} s" in capsys.readouterr().out
+    printed = capsys.readouterr()
+    assert f"P80 {stats['p80_s']:.0f} s" in printed.out
+    # 3 floors: P80/P90 flagged in the file and on the console
+    assert "from 3 finished floors (fewer than 20)" in stats["percentiles_note"]
+    assert "warning: P80/P90 from 3 finished floors" in printed.err
 
 
 def documented_files(heading: str) -> list[list[str]]:

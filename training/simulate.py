@@ -430,7 +430,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
 
     from agents.models import PolicyStuck
     from cmdp_pymunk import interrupt
-    from cmdp_pymunk.rollout import run_episode
+    from cmdp_pymunk.rollout import run_episode, seconds_and_hours
     from cmdp_pymunk.schedule import finish_times
     from training.runs.backends import WorkerLost, Workers
 
@@ -510,7 +510,8 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                           f"{data['tasks_finished']}/{len(case.tasks)} tasks finished",
                           file=sys.stderr)
             else:
-                bar.write(f"cmdp-simulate: seed {seed}: makespan {data['makespan_s']:.0f} s "
+                bar.write(f"cmdp-simulate: seed {seed}: makespan "
+                          f"{seconds_and_hours(data['makespan_s'])} "
                           f"({data['makespan_over_lower_bound']:.2f} x lower bound), "
                           f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
                           file=sys.stdout)
@@ -519,7 +520,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
 
 def write_makespans(out: Path, rows: list[dict]) -> dict:
     from cmdp_pymunk.events import write_atomic
-    from cmdp_pymunk.rollout import makespan_stats
+    from cmdp_pymunk.rollout import makespan_stats, seconds_and_hours
 
     lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished,reach_rate"]
     lines += [f"{r['seed']},{r['makespan_s'] or ''},{r['makespan_over_lower_bound'] or ''},"
@@ -529,10 +530,13 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
     write_json(out / "makespans.json", stats)
     if stats["finished"]:
         print(f"cmdp-simulate: {stats['finished']}/{len(rows)} episodes finished; makespan mean "
-              f"{stats['mean_s']:.0f} s, std {stats['std_s']:.0f} s, min {stats['min_s']:.0f}, "
-              f"max {stats['max_s']:.0f} ({stats['mean_over_lower_bound']:.2f} x lower bound); "
+              f"{seconds_and_hours(stats['mean_s'])}, std {stats['std_s']:.0f} s, min "
+              f"{stats['min_s']:.0f}, max {stats['max_s']:.0f} "
+              f"({stats['mean_over_lower_bound']:.2f} x lower bound); "
               f"P50 {stats['p50_s']:.0f} s, P80 {stats['p80_s']:.0f} s, "
               f"P90 {stats['p90_s']:.0f} s")
+    if stats["percentiles_note"]:
+        print(f"cmdp-simulate: warning: {stats['percentiles_note']}", file=sys.stderr)
     return stats
 
 

@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from cmdp_pymunk.rollout import MIN_FLOORS_FOR_PERCENTILES, percentiles_note
 from cmdp_pymunk.state import DISRUPTION_IDLE_FIELDS
 
 REFERENCE = "priority"
@@ -30,6 +31,15 @@ def mean_ci(values) -> tuple[float | None, float | None, float | None]:
         return float(x[0]), None, None
     std = float(np.std(x, ddof=1))
     return float(x.mean()), std, float(stats.t.ppf(0.975, len(x) - 1) * std / math.sqrt(len(x)))
+
+
+def count_interval(mean: float | None, half: float | None) -> tuple[float | None, float | None]:
+    """The 95 % interval of a mean count (steps, crane waits): mean -/+ the t half-width, its
+    lower end clipped at 0 (a count cannot be negative; Student's t on a handful of skewed
+    counts reached -3,600 idle steps). (None, None) without an interval."""
+    if mean is None or half is None:
+        return None, None
+    return max(0.0, mean - half), mean + half
 
 
 def percentile(values, q: float) -> float | None:
@@ -78,6 +88,7 @@ def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | Non
             "makespan_p80_s": p80(finished),
             "makespan_p50_s": percentile(finished, 50),
             "makespan_p90_s": percentile(finished, 90),
+            "percentiles_note": percentiles_note(len(finished)),
             "over_lower_bound": mean / lower_bound_s if mean else None,
             "over_cpsat_bound": mean / cpsat_bound_s if mean and cpsat_bound_s else None,
         }
@@ -86,6 +97,7 @@ def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | Non
                     "crane_wait_s", *DISRUPTION_IDLE_FIELDS):
             m, _, c = mean_ci([r.get(key, 0) for r in group])
             entry[f"{key}_mean"], entry[f"{key}_ci95"] = m, c
+            entry[f"{key}_ci95_low"], entry[f"{key}_ci95_high"] = count_interval(m, c)
         reference = groups.get((REFERENCE, navigator))
         entry.update({f"vs_{REFERENCE}_{k}": v for k, v in
                       paired(group, reference or []).items()})
@@ -141,6 +153,11 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
     else:
         lines.append("CP-SAT schedule bound: not solved (ask with the cpsat strategy or "
                      "--cpsat-bound); the bound column is the lower bound above.")
+    few = [e["strategy"] for e in summary if e["finished"] < MIN_FLOORS_FOR_PERCENTILES]
+    if few:
+        lines.append(f"P80/P90 rest on fewer than {MIN_FLOORS_FOR_PERCENTILES} finished floors "
+                     f"for {', '.join(dict.fromkeys(few))}: run more seeds before planning on "
+                     "them.")
     for e in summary:
         for kind in ("stalled", "timed_out"):
             if e[f"{kind}_seeds"]:
