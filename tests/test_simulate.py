@@ -60,10 +60,13 @@ def test_schedule_csv_per_seed(tmp_path):
                           "--no-progress"]) == 0
     for seed in (0, 1):
         header, *rows = (out / f"seed-{seed}" / "schedule.csv").read_text().splitlines()
-        assert header == "task,crew,start_s,end_s,pauses,paused_s,finished"
+        assert header == ("task,crew,start_s,end_s,pauses,paused_s,finished,task_type,"
+                          "component,status,duration_s")
         cells = [r.split(",") for r in rows]
         assert sorted(c[0] for c in cells) == ["HI-P-1", "R-J-1", "R-J-2"]  # the tiny case's tasks
         assert all(c[6] == "true" and float(c[2]) < float(c[3]) for c in cells)
+        assert all(c[9] == "end" and float(c[10]) == float(c[3]) - float(c[2]) for c in cells)
+        assert [c[7:9] for c in cells if c[0] == "HI-P-1"] == [["HI", "P-1"]]
         summary = json.loads((out / f"seed-{seed}" / "summary.json").read_text())
         assert max(float(c[3]) for c in cells) == summary["makespan_s"]
 

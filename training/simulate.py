@@ -234,7 +234,8 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     log = EventLog()
     log.events = run.events
     log.write_csv(folder / "events.csv")
-    write_atomic(folder / "schedule.csv", schedule_csv(run.events))
+    write_atomic(folder / "schedule.csv",
+                 schedule_csv(run.events, case, data.get("simulated_s")))
     write_json(folder / "summary.json", data)
     if args.ifc is not None:
         import datetime
