@@ -289,3 +289,12 @@ def test_draw_run_reads_how_the_run_ended_from_summary_json(run_dir, tiny_case, 
     assert drawn[-1].axes[0].get_title() == \
         "Tasks: tiny\nunfinished at t = 0.11 h (400 s), 3 of 4 tasks ended"
 
+
+def test_s_curve_title_says_how_many_episodes_finished():
+    from media.episodes import s_curve_title
+
+    assert s_curve_title([[1, 2, 3], [1, 2, 3]], 3) == "Tasks ended over time (S-curve)"
+    assert s_curve_title([[1, 2, 3], [1], []], 3) == \
+        "Tasks ended over time (S-curve): 1 of 3 episodes finished; P50/P80/P90 over those"
+    assert s_curve_title([[1]], 3, percentiles=False) == \
+        "Tasks ended over time (S-curve): 0 of 1 episodes finished"
