@@ -83,20 +83,24 @@ def test_episodes_write_percentiles_histogram_and_s_curve(tmp_path, capsys):
 
 
 def documented_files(heading: str) -> list[list[str]]:
-    """The files named in the first column of each table under ``heading`` in
-    docs/simulating.md, one list per table."""
+    """The files named in the first column of each ``| file | what |`` table under ``heading``
+    in docs/simulating.md, one list per table (other tables, such as schedule.csv's columns,
+    are left out)."""
     import re
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "simulating.md").read_text()
     section = text.split(heading, 1)[1].split("\n## ", 1)[0]
-    tables, rows = [], []
+    tables, rows, files = [], [], False
     for line in section.splitlines() + [""]:
-        if line.startswith("| `"):
-            rows.append(re.findall(r"`([\w.-]+\.\w+)`", line.split("|")[1])[0])
-        elif rows:
-            tables.append(rows)
-            rows = []
+        if line.startswith("|"):
+            files = files or line.startswith("| file |")
+            if files and line.startswith("| `"):
+                rows.append(re.findall(r"`([\w.-]+\.\w+)`", line.split("|")[1])[0])
+        else:
+            if rows:
+                tables.append(rows)
+            rows, files = [], False
     return tables
 
 
