@@ -1,8 +1,9 @@
 """The schedule an event log records: each task's worked segments and pauses, the schedule
 table a planner takes into other tools (``schedule.csv``), and tasks ended over time.
 
-Pure functions of the log (``events.Event``); the charts (``media.charts``) and
-``cmdp-simulate`` draw and write from them. Times are simulated seconds.
+Pure functions of the log (``events.Event``; ``schedule.csv`` also reads the case, for the tasks
+that never started); the charts (``media.charts``) and ``cmdp-simulate`` draw and write from
+them. Times are simulated seconds.
 """
 
 from __future__ import annotations
@@ -11,13 +12,20 @@ import csv
 import io
 from collections.abc import Sequence
 from itertools import pairwise
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from .events import Event
+from .precedence import Pool
 
-SCHEDULE_FIELDS = ("task", "crew", "start_s", "end_s", "pauses", "paused_s", "finished")
+if TYPE_CHECKING:
+    from .cases.load import Case
+
+# The first seven columns are those of schedule.csv before it listed every task (readers that
+# take them by position keep working); the four after them came with it.
+SCHEDULE_FIELDS = ("task", "crew", "start_s", "end_s", "pauses", "paused_s", "finished",
+                   "task_type", "component", "status", "duration_s")
 
 
 class TaskBar(NamedTuple):
@@ -92,22 +100,83 @@ def task_bars(events: Sequence[Event], end_s: float | None = None) -> list[TaskB
     return sorted(bars, key=lambda b: b.start_s)  # stable: ties keep the log's order
 
 
-def schedule_csv(events: Sequence[Event]) -> str:
-    """The schedule as CSV, one row per started task in order of start (``schedule.csv``).
+def task_pools(events: Sequence[Event], case: Case) -> dict[str, Pool]:
+    """Each task of the case -> its pool when the log ends (section 3.5), in the case's order.
 
-    Columns: ``task``, ``crew`` (the crew that started it), ``start_s``, ``end_s`` (its finish;
-    empty when the log ends before it), ``pauses`` (how many times it was paused),
-    ``paused_s`` (seconds between its pauses and resumes, a pause still open at the log's end
-    counted up to that end), ``finished`` (true or false). Times in simulated seconds.
+    ``end`` once it has a ``task_finish``, ``on`` once it has a ``task_start`` (paused or not),
+    else ``queue`` when every predecessor has ended, else ``wait``: the flow of
+    ``precedence`` replayed from the log.
     """
+    started = {e.subject for e in events if e.kind == "task_start"}
+    ended = {e.subject for e in events if e.kind == "task_finish"}
+    pools = {}
+    for t in case.tasks:
+        if t.id in ended:
+            pools[t.id] = Pool.END
+        elif t.id in started:
+            pools[t.id] = Pool.ON
+        else:
+            pools[t.id] = Pool.QUEUE if all(p in ended for p in t.predecessors) else Pool.WAIT
+    return pools
+
+
+def paused_at_end(events: Sequence[Event]) -> dict[str, float]:
+    """Task -> the time of its last ``task_pause``, for the tasks still paused when the log
+    ends (their last task event is that pause)."""
+    last: dict[str, Event] = {}
+    for e in events:
+        if e.kind in ("task_start", "task_pause", "task_resume", "task_finish"):
+            last[e.subject] = e
+    return {t: e.time_s for t, e in last.items() if e.kind == "task_pause"}
+
+
+def schedule_csv(events: Sequence[Event], case: Case, end_s: float | None = None) -> str:
+    """The schedule as CSV, one row per task of ``case`` (``schedule.csv``): the tasks that
+    started in order of start (ties: log order), then those that never did in the case's order.
+
+    Columns: ``task``, ``crew`` (the crew that started it; empty if none did), ``start_s``,
+    ``end_s`` (its finish; empty when it did not finish), ``pauses`` (how many times it was
+    paused), ``paused_s`` (seconds between its pauses and resumes, a pause still open when the
+    run stopped counted up to that stop), ``finished`` (true or false), ``task_type``,
+    ``component``, ``status`` (its pool when the run stopped, section 3.5: ``end``, ``on``
+    (started, not finished, paused or not), ``queue`` (not started, its predecessors all
+    ended), ``wait`` (not started, a predecessor not ended)), ``duration_s`` (``end_s`` minus
+    ``start_s``, pauses included; empty when it did not finish). Times in simulated seconds;
+    a task that never started has its times empty and 0 pauses.
+
+    Args:
+        events: the run's event log.
+        case: the case the run was made with (its tasks, types, components, predecessors).
+        end_s: when the run stopped (``summary.json``'s ``simulated_s``), which may come after
+            the log's last event; default the log's last event.
+    """
+    end = log_end_s(events) if end_s is None else max(end_s, log_end_s(events))
+    pools = task_pools(events, case)
+    spec = {t.id: t for t in case.tasks}
+    paused_since = paused_at_end(events)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
     writer.writerow(SCHEDULE_FIELDS)
-    for bar in task_bars(events):
+    bars = task_bars(events, end)
+    for bar in bars:
         paused_s = sum(b - a for a, b in bar.pauses)
+        pauses = len(bar.pauses)
+        if not bar.finished and bar.task in paused_since:  # paused when the run stopped
+            paused_s += end - paused_since[bar.task]
+            pauses += 1
+        task = spec.get(bar.task)
+        status = pools[bar.task].name.lower() if task is not None else \
+            (Pool.END if bar.finished else Pool.ON).name.lower()
         writer.writerow((bar.task, bar.crew, f"{bar.start_s:g}",
-                         f"{bar.end_s:g}" if bar.finished else "", len(bar.pauses),
-                         f"{paused_s:g}", "true" if bar.finished else "false"))
+                         f"{bar.end_s:g}" if bar.finished else "", pauses,
+                         f"{paused_s:g}", "true" if bar.finished else "false",
+                         task.type if task else "", task.component if task else "", status,
+                         f"{bar.end_s - bar.start_s:g}" if bar.finished else ""))
+    started = {b.task for b in bars}
+    for task in case.tasks:
+        if task.id not in started:
+            writer.writerow((task.id, "", "", "", 0, "0", "false", task.type, task.component,
+                             pools[task.id].name.lower(), ""))
     return buf.getvalue()
 
 

@@ -1,4 +1,4 @@
-"""Charts of a finished run, drawn from its event log alone (section 5.2, Figs. 9, 10 and 11).
+"""Charts of a run, drawn from its event log (section 5.2, Figs. 9, 10 and 11).
 
 - :func:`gantt_agents`, Fig. 9: one row per crew, a bar per ``activity`` interval: idle grey
   (a lighter grey per cause: predecessor, task area, no target), navigating and deregistered
@@ -11,6 +11,13 @@
   (b) every crew's path, one small panel per crew.
 - :func:`draw_run` draws all three into a run folder; :class:`GifStream` writes frames as a GIF
   as they come (:func:`write_gif` for a sequence of them).
+
+Both Gantt charts mark how the run ended (:class:`RunEnd`): a finished run's makespan (the
+last ``task_finish``) as a dashed line, or, for a run that stalled or reached its time limit,
+a dotted red line where it stopped, labelled and added to the title as "stalled at t = 0.61 h
+(2191 s), 2 of 3 tasks ended" ("time limit at ...", or "unfinished at ..." when only the log
+and the case are known). :func:`draw_run` learns it from the run folder's ``summary.json``
+(``all_finished``, ``stalled``, ``simulated_s``) and the case's number of tasks.
 
 With disruptions (docs/disruptions.md), both Gantt charts shade a band across the chart for
 every crane breakdown, late delivery and weather stop (``disruption_intervals``), and a crew
@@ -47,7 +54,7 @@ from matplotlib.patches import Circle, Patch, Rectangle
 
 from cmdp_pymunk.cases.load import Case
 from cmdp_pymunk.events import Event, position, read_csv, write_atomic
-from cmdp_pymunk.schedule import log_end_s, makespan_s, task_bars
+from cmdp_pymunk.schedule import log_end_s, makespan_s, paused_at_end, task_bars
 
 HOUR_S = 3600.0
 DPI = 110
@@ -84,6 +91,68 @@ LEFT = "left"
 
 PRECAST_FILL = "#f5d742"
 PATH_COLOUR = "#d95f02"  # panel (a): orange reads on both the yellow and the grey components
+
+
+class RunEnd(NamedTuple):
+    """How a run ended, as its charts say it.
+
+    ``kind``: ``finished``, ``stalled`` (no task moved on for ``--stall-s``), ``time limit``,
+    or ``unfinished`` (a log without its ``summary.json``: why it stopped is not known).
+    ``time_s``: the makespan when finished, else when the run stopped. ``ended`` of ``total``
+    tasks had ended by then.
+    """
+
+    kind: str
+    time_s: float
+    ended: int
+    total: int
+
+    @property
+    def finished(self) -> bool:
+        return self.kind == FINISHED
+
+    def label(self) -> str:
+        """``makespan 0.69 h (2473 s)``, or ``stalled at t = 0.61 h (2191 s), 2 of 3 tasks
+        ended``."""
+        when = f"{self.time_s / HOUR_S:.2f} h ({self.time_s:.0f} s)"
+        if self.finished:
+            return f"makespan {when}"
+        return f"{self.kind} at t = {when}, {self.ended} of {self.total} tasks ended"
+
+
+FINISHED = "finished"
+
+
+def run_end(events: Sequence[Event], total: int, summary: dict | None = None) -> RunEnd:
+    """How the run of ``events`` ended, for a case of ``total`` tasks.
+
+    With ``summary`` (``cmdp-simulate``'s ``summary.json``): finished when ``all_finished``,
+    else ``stalled`` when it holds a stall report, else ``time limit``, stopped at
+    ``simulated_s``. Without it (or without those keys), from the log alone: finished when
+    ``total`` distinct tasks have a ``task_finish``, else ``unfinished`` at the log's last
+    event. A finished run's time is its makespan (the last ``task_finish``).
+    """
+    ended = len({e.subject for e in events if e.kind == "task_finish"})
+    if summary is not None and "all_finished" in summary:
+        done = bool(summary["all_finished"])
+        kind = FINISHED if done else "stalled" if summary.get("stalled") else "time limit"
+    else:
+        done = ended >= total
+        kind = FINISHED if done else "unfinished"
+    if done:
+        return RunEnd(kind, makespan_s(events) or 0.0, ended, total)
+    stop = (summary or {}).get("simulated_s")
+    return RunEnd(kind, max(log_end_s(events), stop or 0.0), ended, total)
+
+
+def read_summary(run_dir: Path) -> dict | None:
+    """``run_dir/summary.json`` as a dict; None when it is absent or unreadable (the charts
+    then judge the run from its log and case alone)."""
+    try:
+        data = json.loads((run_dir / "summary.json").read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return None
+    return data if isinstance(data, dict) else None
 
 
 class ActivityInterval(NamedTuple):
@@ -239,22 +308,50 @@ def save_png(fig: Figure, path: str | Path) -> Path:
     return path
 
 
-def _mark_makespan(ax, events: Sequence[Event]) -> Line2D | None:
-    span = makespan_s(events)
-    if span is None:
-        return None
-    return ax.axvline(span / HOUR_S, color="black", linestyle="--", linewidth=1.2,
-                      label=f"makespan {span / HOUR_S:.2f} h ({span:.0f} s)")
+def _mark_end(ax, events: Sequence[Event], end: RunEnd | None) -> Line2D | None:
+    """A finished run's makespan, dashed black; an unfinished run's stop, dotted red. Without
+    ``end`` the last ``task_finish`` is drawn as the makespan (the log alone cannot tell)."""
+    if end is None:
+        span = makespan_s(events)
+        if span is None:
+            return None
+        end = RunEnd(FINISHED, span, 0, 0)
+    if end.finished:
+        return ax.axvline(end.time_s / HOUR_S, color="black", linestyle="--", linewidth=1.2,
+                          label=end.label())
+    return ax.axvline(end.time_s / HOUR_S, color="#b2182b", linestyle=":", linewidth=1.6,
+                      label=end.label())
 
 
-def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = None) -> Path:
+def _chart_end_s(events: Sequence[Event], end: RunEnd | None) -> float | None:
+    """Where bars still open close: an unfinished run's stop (it may come after the log's last
+    event), else the log's last event (None)."""
+    return None if end is None or end.finished else max(end.time_s, log_end_s(events))
+
+
+def _titled(title: str, end: RunEnd | None) -> str:
+    """The title, with how an unfinished run stopped on a second line."""
+    return title if end is None or end.finished else f"{title}\n{end.label()}"
+
+
+def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = None,
+                 end: RunEnd | None = None) -> Path:
+    """Fig. 9, the agents' Gantt chart (:func:`gantt_agents_figure`), written as a PNG to
+    ``path``; returns the path."""
+    return save_png(gantt_agents_figure(events, title, end), path)
+
+
+def gantt_agents_figure(events: Sequence[Event], title: str | None = None,
+                        end: RunEnd | None = None) -> Figure:
     """Fig. 9, the agents' Gantt chart: one row per crew, a bar per activity interval.
 
     Rows in the order crews first appear in ``activity`` events, the first on top. Nothing is
-    drawn after a crew's ``left``. The dashed line is the makespan (the last ``task_finish``).
-    Writes a PNG to ``path`` and returns it.
+    drawn after a crew's ``left``. ``end`` (:func:`run_end`) marks how the run ended: the
+    makespan as a dashed line, or where an unfinished run stopped as a dotted red line, said
+    in the title too; without it the dashed line is the last ``task_finish``.
     """
-    intervals = activity_intervals(events)
+    stop = _chart_end_s(events, end)
+    intervals = activity_intervals(events, stop)
     crews = list(intervals)
     fig = Figure(figsize=(11, 1.6 + 0.45 * max(len(crews), 1)), layout="constrained")
     ax = fig.add_subplot()
@@ -273,7 +370,7 @@ def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = 
                 seen.append(category)
     ax.set_yticks(range(len(crews)), crews)
     ax.set_ylim(len(crews) - 0.5, -0.5)
-    ax.set_xlim(0, max(log_end_s(events), 1.0) / HOUR_S * 1.01)
+    ax.set_xlim(0, max(log_end_s(events), stop or 0.0, 1.0) / HOUR_S * 1.01)
     ax.set_xlabel("simulated time (h)")
     ax.set_ylabel("crew")
     ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
@@ -287,14 +384,14 @@ def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = 
                              edgecolor=style.get("edge", style["color"]), linewidth=0,
                              label=style["label"]))
     handles += bands
-    line = _mark_makespan(ax, events)
+    line = _mark_end(ax, events, end)
     if line is not None:
         handles.append(line)
     if handles:
         fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 5),
                    fontsize=8, frameon=False)
-    ax.set_title(title or "Crews' activities (Fig. 9)")
-    return save_png(fig, path)
+    ax.set_title(_titled(title or "Crews' activities (Fig. 9)", end))
+    return fig
 
 
 def _type_colours(types: Sequence[str]) -> dict[str, str]:
@@ -304,14 +401,27 @@ def _type_colours(types: Sequence[str]) -> dict[str, str]:
 
 
 def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = None,
-                title: str | None = None) -> Path:
+                title: str | None = None, end: RunEnd | None = None) -> Path:
+    """Fig. 10, the tasks' Gantt chart (:func:`gantt_tasks_figure`), written as a PNG to
+    ``path``; returns the path."""
+    return save_png(gantt_tasks_figure(events, case, title, end), path)
+
+
+def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
+                       title: str | None = None, end: RunEnd | None = None) -> Figure:
     """Fig. 10, the tasks' Gantt chart: a bar per task from its start to its finish.
 
     Tasks sorted by start time, the first on top, each row labelled with its task id; pauses
     drawn as lighter segments; colours by task type (from ``case`` when given, else the task
-    id's prefix before '-'). Writes a PNG to ``path`` and returns it.
+    id's prefix before '-'). ``end`` (default: :func:`run_end` of the log and ``case``) marks
+    how the run ended: the makespan as a dashed line, or where an unfinished run stopped as a
+    dotted red line, said in the title too; without ``end`` and ``case`` the dashed line is
+    the last ``task_finish``.
     """
-    bars = task_bars(events)
+    if end is None and case is not None:
+        end = run_end(events, len(case.tasks))
+    stop = _chart_end_s(events, end)
+    bars = task_bars(events, stop)
     type_of = task_types(case, (b.task for b in bars))
     present = list(dict.fromkeys(type_of[b.task] for b in bars))
     if case is not None:  # the case's order, so colours are the same from run to run
@@ -322,18 +432,24 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
     row_in = min(TASK_ROW_IN, (MAX_FIGURE_IN - 2.2) / max(n, 1))
     fig = Figure(figsize=(11, 2.2 + row_in * max(n, 1)), layout="constrained")
     ax = fig.add_subplot()
+    # An unfinished run's task still paused when it stopped: its pause runs to the stop.
+    still_paused = paused_at_end(events) if stop is not None else {}
     for row, bar in enumerate(bars):
         colour = colours[type_of[bar.task]]
-        if bar.pauses:
-            ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.pauses],
+        pauses = bar.pauses
+        if bar.task in still_paused and not bar.finished:
+            pauses += ((still_paused[bar.task], stop),)
+        if pauses:
+            ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in pauses],
                            (row - 0.4, 0.8), facecolors=colour, alpha=0.25, edgecolor="none")
         ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.segments],
                        (row - 0.4, 0.8), facecolors=colour, edgecolor="none")
     ax.set_yticks(range(n), [b.task for b in bars], fontsize=min(7.0, 0.75 * 72 * row_in))
     ax.set_ylim(max(n, 1) - 0.5, -0.5)
-    ax.set_xlim(0, max(log_end_s(events), 1.0) / HOUR_S * 1.01)
+    ax.set_xlim(0, max(log_end_s(events), stop or 0.0, 1.0) / HOUR_S * 1.01)
     ax.set_xlabel("simulated time (h)")
-    ax.set_ylabel(f"{n} tasks, by start time")
+    ax.set_ylabel(f"{n} tasks, by start time" if end is None or n >= end.total else
+                  f"{n} of {end.total} tasks started, by start time")
     ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
     ax.set_axisbelow(True)
 
@@ -343,16 +459,16 @@ def gantt_tasks(events: Sequence[Event], path: str | Path, case: Case | None = N
         return t
 
     handles: list = [Patch(facecolor=colours[t], label=type_label(t)) for t in present]
-    if any(b.pauses for b in bars):
+    if still_paused or any(b.pauses for b in bars):
         handles.append(Patch(facecolor="#777777", alpha=0.25, label="paused"))
     handles += _draw_bands(ax, events)
-    line = _mark_makespan(ax, events)
+    line = _mark_end(ax, events, end)
     if line is not None:
         handles.append(line)
     if handles:
         ax.legend(handles=handles, loc="upper right", fontsize=8, framealpha=0.9)
-    ax.set_title(title or "Tasks (Fig. 10)")
-    return save_png(fig, path)
+    ax.set_title(_titled(title or "Tasks (Fig. 10)", end))
+    return fig
 
 
 def _draw_layout(ax, case: Case, faint: bool = False) -> None:
@@ -492,9 +608,11 @@ CHART_FILES = ("gantt_agents.png", "gantt_tasks.png", "trajectories.png")
 def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
     """Draw Figs. 9-11 of a saved run from ``run_dir/events.csv`` into ``run_dir``.
 
-    Returns the paths of ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png``.
-    Raises FileNotFoundError when there is no ``events.csv`` and ValueError when the log names
-    tasks that ``case`` does not define (the run was made with another case).
+    How the run ended (:func:`run_end`) comes from ``run_dir/summary.json`` when there is one,
+    else from the log and the case's number of tasks. Returns the paths of
+    ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png``. Raises
+    FileNotFoundError when there is no ``events.csv`` and ValueError when the log names tasks
+    that ``case`` does not define (the run was made with another case).
     """
     run_dir = Path(run_dir)
     log = run_dir / "events.csv"
@@ -508,9 +626,12 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
         raise ValueError(f"{log}: {len(unknown)} task(s) not in case {case.case.name!r} "
                          f"({shown}); fix: pass the case the run was made with")
     name = case.case.name
+    end = run_end(events, len(case.tasks), read_summary(run_dir))
     return [
-        gantt_agents(events, run_dir / CHART_FILES[0], title=f"Crews' activities: {name}"),
-        gantt_tasks(events, run_dir / CHART_FILES[1], case=case, title=f"Tasks: {name}"),
+        gantt_agents(events, run_dir / CHART_FILES[0], title=f"Crews' activities: {name}",
+                     end=end),
+        gantt_tasks(events, run_dir / CHART_FILES[1], case=case, title=f"Tasks: {name}",
+                    end=end),
         trajectories(events, case, run_dir / CHART_FILES[2]),
     ]
 

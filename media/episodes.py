@@ -4,7 +4,8 @@
   (``makespans.json`` holds the numbers).
 - :func:`s_curve`: tasks ended over time, every episode's curve thin, the median over episodes
   thick, the band between the 10th and 90th percentile over episodes at each time, and the
-  P50/P80/P90 makespans where the curves reach the total.
+  P50/P80/P90 makespans where the curves reach the total; when an episode stalled or reached
+  its time limit, the title says how many finished (:func:`s_curve_title`).
 - :func:`draw_episodes` draws both into a run folder.
 - :func:`draw_strategy_episodes` draws the same two for a comparison (``cmdp-evaluate``):
   the histograms one panel per strategy on a shared time axis, the S-curves one colour per
@@ -97,10 +98,24 @@ def s_curve(finishes: Sequence[Sequence[float]], total_tasks: int, path: str | P
     ax.set_ylim(0, total_tasks * 1.04)
     ax.set_xlabel("simulated time (h)")
     ax.set_ylabel(f"tasks ended (of {total_tasks})")
-    ax.set_title("Tasks ended over time (S-curve)")
+    ax.set_title(s_curve_title(finishes, total_tasks, stats is not None))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     return save_png(fig, path)
+
+
+def s_curve_title(finishes: Sequence[Sequence[float]], total_tasks: int,
+                  percentiles: bool = True) -> str:
+    """The S-curve's title; when an episode stalled or reached its time limit (fewer than
+    ``total_tasks`` finishes), it says how many of the episodes finished, and that P50/P80/P90
+    are over those."""
+    title = "Tasks ended over time (S-curve)"
+    done = sum(len(f) >= total_tasks for f in finishes)
+    if done < len(finishes):
+        title += f": {done} of {len(finishes)} episodes finished"
+        if percentiles:
+            title += "; P50/P80/P90 over those"
+    return title
 
 
 def draw_episodes(folder: str | Path, stats: dict, finishes: Sequence[Sequence[float]],

@@ -8,7 +8,7 @@ import json
 import imageio.v3 as iio
 import numpy as np
 import pytest
-from conftest import make_events, make_log
+from conftest import RUN, make_events, make_log
 
 from cmdp_pymunk.events import write_atomic
 from media import charts
@@ -188,3 +188,113 @@ def test_every_crew_gets_its_own_small_panel(tiny_case):
     segments = [len(c.get_segments()) for ax in axes for c in ax.collections
                 if isinstance(c, charts.LineCollection)]
     assert segments == [1, 2]  # a path of k points is k - 1 segments
+
+
+def chart_texts(fig) -> list[str]:
+    """Every text a figure shows: titles, tick labels, legend entries."""
+    from matplotlib.text import Text
+
+    return [t.get_text() for t in fig.findobj(Text) if t.get_text()]
+
+
+# conftest.RUN cut at 400 s: X-A, X-B and K-A ended; M-C on, paused at 400.
+CUT = [r for r in RUN if r[0] <= 400]
+
+
+def test_run_end_by_hand():
+    events = make_events()
+    # finished: the makespan is M-C's finish, 500 s = 0.139 h
+    end = charts.run_end(events, 4)
+    assert end == charts.RunEnd("finished", 500, 4, 4) and end.finished
+    assert end.label() == "makespan 0.14 h (500 s)"
+    assert charts.run_end(events, 4, {"all_finished": True, "stalled": None,
+                                      "simulated_s": 500.0}) == end
+    cut = make_events(CUT)
+    # summary.json says it stalled at 720 s (after the log's last event, 400 s): 0.2 h
+    stalled = charts.run_end(cut, 4, {"all_finished": False, "simulated_s": 720.0,
+                                      "stalled": {"time_s": 720.0, "after_s": 320.0}})
+    assert stalled == charts.RunEnd("stalled", 720, 3, 4) and not stalled.finished
+    assert stalled.label() == "stalled at t = 0.20 h (720 s), 3 of 4 tasks ended"
+    limit = charts.run_end(cut, 4, {"all_finished": False, "stalled": None, "simulated_s": 900})
+    assert limit.label() == "time limit at t = 0.25 h (900 s), 3 of 4 tasks ended"
+    # no summary.json (or one without the keys): the log and the case's count alone
+    for summary in (None, {"case": "tiny"}):
+        assert charts.run_end(cut, 4, summary).label() == \
+            "unfinished at t = 0.11 h (400 s), 3 of 4 tasks ended"
+    # a log that reads as finished by count, with no summary: the makespan
+    assert charts.run_end(cut, 3).label() == "makespan 0.08 h (300 s)"
+
+
+def test_a_stalled_run_s_gantt_charts_say_so_instead_of_a_makespan(tiny_case):
+    cut = make_events(CUT)
+    end = charts.RunEnd("stalled", 720.0, 3, 4)
+    label = "stalled at t = 0.20 h (720 s), 3 of 4 tasks ended"
+    tasks = charts.gantt_tasks_figure(cut, tiny_case, "Tasks: tiny", end)
+    agents = charts.gantt_agents_figure(cut, "Crews' activities: tiny", end)
+    assert tasks.axes[0].get_title() == f"Tasks: tiny\n{label}"
+    assert agents.axes[0].get_title() == f"Crews' activities: tiny\n{label}"
+    for fig in (tasks, agents):
+        texts = chart_texts(fig)
+        assert label in texts  # the legend's entry for the dotted line at 720 s
+        assert not [t for t in texts if "makespan" in t]
+        line = [ln for ln in fig.axes[0].lines if ln.get_label() == label]
+        assert len(line) == 1 and line[0].get_xdata()[0] == pytest.approx(0.2)
+        assert fig.axes[0].get_xlim()[1] >= 0.2  # the axis reaches the stop
+    assert tasks.axes[0].get_ylabel() == "4 tasks, by start time"
+    # M-C, paused at 400 and never resumed, is drawn paused up to the stop: 400-720 s
+    paused = [c for c in tasks.axes[0].collections if c.get_alpha() == 0.25]
+    assert [p.get_paths()[0].get_extents().x1 * 3600 for p in paused] == pytest.approx([720])
+    # without ``end``, the tasks chart judges by the case: 3 of its 4 tasks ended
+    texts = chart_texts(charts.gantt_tasks_figure(cut, tiny_case))
+    assert "unfinished at t = 0.11 h (400 s), 3 of 4 tasks ended" in texts
+
+
+def test_a_run_that_started_few_tasks_says_how_many(tiny_case):
+    # the log ends at 160 s (0.044 h): X-A ended, X-B and K-A just started, M-C not
+    events = make_events([r for r in CUT if r[0] <= 160])
+    fig = charts.gantt_tasks_figure(events, tiny_case, end=charts.run_end(events, 4))
+    assert fig.axes[0].get_ylabel() == "3 of 4 tasks started, by start time"
+    assert fig.axes[0].get_title() == \
+        "Tasks (Fig. 10)\nunfinished at t = 0.04 h (160 s), 1 of 4 tasks ended"
+
+
+def test_a_finished_run_s_gantt_charts_still_say_makespan(tiny_case):
+    events = make_events()
+    for fig in (charts.gantt_tasks_figure(events, tiny_case, "Tasks: tiny"),
+                charts.gantt_agents_figure(events, "Crews' activities: tiny",
+                                           charts.run_end(events, 4))):
+        assert fig.axes[0].get_title() in ("Tasks: tiny", "Crews' activities: tiny")
+        texts = chart_texts(fig)
+        assert "makespan 0.14 h (500 s)" in texts
+        assert not [t for t in texts if "stalled" in t or "unfinished" in t]
+    # no case, no end (an old caller): the last finish is the makespan, as before
+    assert "makespan 0.14 h (500 s)" in chart_texts(charts.gantt_agents_figure(events))
+
+
+def test_draw_run_reads_how_the_run_ended_from_summary_json(run_dir, tiny_case, monkeypatch):
+    write_atomic(run_dir / "events.csv", make_log(CUT).to_csv())
+    write_atomic(run_dir / "summary.json", json.dumps(
+        {"all_finished": False, "stalled": {"time_s": 720.0}, "simulated_s": 720.0}))
+    drawn = []
+    real = charts.gantt_tasks_figure
+    monkeypatch.setattr(charts, "gantt_tasks_figure",
+                        lambda *a, **k: drawn.append(real(*a, **k)) or drawn[-1])
+    assert charts.main([str(run_dir), "--case", str(run_dir / "case.json")]) == 2  # no such
+    write_atomic(run_dir / "case.json", json.dumps(tiny_case.model_dump(mode="json")))
+    assert charts.main([str(run_dir)]) == 0
+    assert drawn[-1].axes[0].get_title() == \
+        "Tasks: tiny\nstalled at t = 0.20 h (720 s), 3 of 4 tasks ended"
+    (run_dir / "summary.json").unlink()  # an old or partial run folder: the log and the case
+    assert charts.main([str(run_dir)]) == 0
+    assert drawn[-1].axes[0].get_title() == \
+        "Tasks: tiny\nunfinished at t = 0.11 h (400 s), 3 of 4 tasks ended"
+
+
+def test_s_curve_title_says_how_many_episodes_finished():
+    from media.episodes import s_curve_title
+
+    assert s_curve_title([[1, 2, 3], [1, 2, 3]], 3) == "Tasks ended over time (S-curve)"
+    assert s_curve_title([[1, 2, 3], [1], []], 3) == \
+        "Tasks ended over time (S-curve): 1 of 3 episodes finished; P50/P80/P90 over those"
+    assert s_curve_title([[1]], 3, percentiles=False) == \
+        "Tasks ended over time (S-curve): 0 of 1 episodes finished"

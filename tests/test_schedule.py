@@ -1,6 +1,6 @@
 """The schedule of an event log (cmdp_pymunk/schedule.py), on the hand-made log of
-``conftest.RUN``: X-A 10-130 and X-B 160-280 by X-1, K-A 160-300 by K-1, M-C 370-500 by M-1
-with one pause 400-440."""
+``conftest.RUN`` and the tiny case of conftest.py: X-A 10-130 and X-B 160-280 by X-1, K-A
+160-300 by K-1, M-C 370-500 by M-1 with one pause 400-440."""
 
 import numpy as np
 from conftest import RUN, make_events
@@ -40,23 +40,64 @@ def test_makespan_log_end_and_finish_times():
     assert schedule.finish_times(events) == [130, 280, 300, 500]
 
 
-def test_schedule_csv_by_hand():
-    assert schedule.schedule_csv(make_events()).splitlines() == [
-        "task,crew,start_s,end_s,pauses,paused_s,finished",
-        "X-A,X-1,10,130,0,0,true",
-        "X-B,X-1,160,280,0,0,true",
-        "K-A,K-1,160,300,0,0,true",
-        "M-C,M-1,370,500,1,40,true",  # paused 400-440
+def test_schedule_csv_by_hand(tiny_case):
+    # duration = end - start, pauses included: M-C 500 - 370 = 130 (worked 90, paused 40)
+    assert schedule.schedule_csv(make_events(), tiny_case).splitlines() == [
+        "task,crew,start_s,end_s,pauses,paused_s,finished,task_type,component,status,"
+        "duration_s",
+        "X-A,X-1,10,130,0,0,true,X,A,end,120",
+        "X-B,X-1,160,280,0,0,true,X,B,end,120",
+        "K-A,K-1,160,300,0,0,true,K,A,end,140",
+        "M-C,M-1,370,500,1,40,true,M,C,end,130",  # paused 400-440
     ]
 
 
-def test_schedule_csv_of_an_unfinished_task_has_no_end():
+def test_schedule_csv_of_an_unfinished_task_has_no_end(tiny_case):
     events = make_events([(0, "task_start", "X-1", "X-A"),
                           (100, "task_pause", "X-1", "X-A"),
                           (130, "task_resume", "X-1", "X-A"),
                           (150, "activity", "X-1", "tasking")])
-    # worked 0-100 and 130-150 (the log's end): one pause of 30 s, no finish
-    assert schedule.schedule_csv(events).splitlines()[1] == "X-A,X-1,0,,1,30,false"
+    # worked 0-100 and 130-150 (the log's end): one pause of 30 s, no finish, still on
+    rows = schedule.schedule_csv(events, tiny_case).splitlines()[1:]
+    assert rows[0] == "X-A,X-1,0,,1,30,false,X,A,on,"
+    # the tasks that never started, in the case's order: X-B has no predecessor (queue), K-A
+    # waits for X-A and M-C for K-A (wait)
+    assert rows[1:] == ["K-A,,,,0,0,false,K,A,wait,", "X-B,,,,0,0,false,X,B,queue,",
+                        "M-C,,,,0,0,false,M,C,wait,"]
+
+
+def test_schedule_csv_of_a_run_that_stalled_with_a_task_paused(tiny_case):
+    """``conftest.RUN`` cut at 400 s, M-1 walking to fetch bars after pausing M-C at 400, and
+    the run stopped (stalled) at 460 s: M-C is on, paused once for 460 - 400 = 60 s."""
+    events = make_events([r for r in RUN if r[0] <= 400])
+    rows = schedule.schedule_csv(events, tiny_case, end_s=460).splitlines()[1:]
+    assert rows == ["X-A,X-1,10,130,0,0,true,X,A,end,120",
+                    "X-B,X-1,160,280,0,0,true,X,B,end,120",
+                    "K-A,K-1,160,300,0,0,true,K,A,end,140",
+                    "M-C,M-1,370,,1,60,false,M,C,on,"]
+    # without the stop, the pause runs to the log's last event (400): 0 s, still counted
+    assert schedule.schedule_csv(events, tiny_case).splitlines()[-1] == \
+        "M-C,M-1,370,,1,0,false,M,C,on,"
+
+
+def test_schedule_csv_of_a_run_that_never_started_a_task(tiny_case):
+    events = make_events(RUN[:7])  # activities and positions up to 5 s, no task event
+    assert schedule.schedule_csv(events, tiny_case, end_s=200).splitlines()[1:] == [
+        "X-A,,,,0,0,false,X,A,queue,", "K-A,,,,0,0,false,K,A,wait,",
+        "X-B,,,,0,0,false,X,B,queue,", "M-C,,,,0,0,false,M,C,wait,"]
+
+
+def test_task_pools_replay_the_flow(tiny_case):
+    from cmdp_pymunk.precedence import Pool
+
+    # at 300 s: X-A, X-B and K-A ended, so M-C (after K-A) is in the queue
+    at_300 = schedule.task_pools(make_events([r for r in RUN if r[0] <= 300]), tiny_case)
+    assert at_300 == {"X-A": Pool.END, "K-A": Pool.END, "X-B": Pool.END, "M-C": Pool.QUEUE}
+    # at 160 s: X-A ended, X-B and K-A just started, M-C waits for K-A
+    at_160 = schedule.task_pools(make_events([r for r in RUN if r[0] <= 160]), tiny_case)
+    assert at_160 == {"X-A": Pool.END, "K-A": Pool.ON, "X-B": Pool.ON, "M-C": Pool.WAIT}
+    assert schedule.paused_at_end(make_events([r for r in RUN if r[0] <= 400])) == {"M-C": 400}
+    assert schedule.paused_at_end(make_events()) == {}  # M-C resumed and finished
 
 
 def test_tasks_ended_counts_finishes_at_or_before_each_time():

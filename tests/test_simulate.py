@@ -60,10 +60,13 @@ def test_schedule_csv_per_seed(tmp_path):
                           "--no-progress"]) == 0
     for seed in (0, 1):
         header, *rows = (out / f"seed-{seed}" / "schedule.csv").read_text().splitlines()
-        assert header == "task,crew,start_s,end_s,pauses,paused_s,finished"
+        assert header == ("task,crew,start_s,end_s,pauses,paused_s,finished,task_type,"
+                          "component,status,duration_s")
         cells = [r.split(",") for r in rows]
         assert sorted(c[0] for c in cells) == ["HI-P-1", "R-J-1", "R-J-2"]  # the tiny case's tasks
         assert all(c[6] == "true" and float(c[2]) < float(c[3]) for c in cells)
+        assert all(c[9] == "end" and float(c[10]) == float(c[3]) - float(c[2]) for c in cells)
+        assert [c[7:9] for c in cells if c[0] == "HI-P-1"] == [["HI", "P-1"]]
         summary = json.loads((out / f"seed-{seed}" / "summary.json").read_text())
         assert max(float(c[3]) for c in cells) == summary["makespan_s"]
 
@@ -84,20 +87,24 @@ def test_episodes_write_percentiles_histogram_and_s_curve(tmp_path, capsys):
 
 
 def documented_files(heading: str) -> list[list[str]]:
-    """The files named in the first column of each table under ``heading`` in
-    docs/simulating.md, one list per table."""
+    """The files named in the first column of each ``| file | what |`` table under ``heading``
+    in docs/simulating.md, one list per table (other tables, such as schedule.csv's columns,
+    are left out)."""
     import re
     from pathlib import Path
 
     text = (Path(__file__).resolve().parents[1] / "docs" / "simulating.md").read_text()
     section = text.split(heading, 1)[1].split("\n## ", 1)[0]
-    tables, rows = [], []
+    tables, rows, files = [], [], False
     for line in section.splitlines() + [""]:
-        if line.startswith("| `"):
-            rows.append(re.findall(r"`([\w.-]+\.\w+)`", line.split("|")[1])[0])
-        elif rows:
-            tables.append(rows)
-            rows = []
+        if line.startswith("|"):
+            files = files or line.startswith("| file |")
+            if files and line.startswith("| `"):
+                rows.append(re.findall(r"`([\w.-]+\.\w+)`", line.split("|")[1])[0])
+        else:
+            if rows:
+                tables.append(rows)
+            rows, files = [], False
     return tables
 
 
@@ -144,33 +151,135 @@ def test_a_ctrl_c_while_the_gif_streams_leaves_no_half_gif(tmp_path, monkeypatch
     assert "interrupted in seed 0" in capsys.readouterr().err
 
 
-def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch):
-    from cmdp_pymunk.move import STAND_STILL
+class Frozen:
+    """A low level that never moves anyone: nobody reaches anything."""
 
-    class Frozen:  # a low level that never moves anyone: nobody reaches anything
-        reads_rays = False
+    reads_rays = False
 
-        def reset(self, seed):
-            pass
+    def reset(self, seed):
+        pass
 
-        def bind(self, engine):
-            pass
+    def bind(self, engine):
+        pass
 
-        def actions(self, engine, observations=None):
-            return [STAND_STILL] * len(engine.site.crews)
+    def actions(self, engine, observations=None):
+        from cmdp_pymunk.move import STAND_STILL
 
+        return [STAND_STILL] * len(engine.site.crews)
+
+
+@pytest.fixture
+def gantt_figures(monkeypatch):
+    """The Gantt figures cmdp-simulate draws, by function name (their texts are checked, not
+    their pixels)."""
+    from media import charts
+
+    drawn = {}
+
+    def spying(name):
+        real = getattr(charts, name)
+
+        def spy(*args, **kwargs):
+            drawn[name] = real(*args, **kwargs)
+            return drawn[name]
+        return spy
+
+    for name in ("gantt_agents_figure", "gantt_tasks_figure"):
+        monkeypatch.setattr(charts, name, spying(name))
+    return drawn
+
+
+def figure_texts(fig) -> list[str]:
+    from matplotlib.text import Text
+
+    return [t.get_text() for t in fig.findobj(Text) if t.get_text()]
+
+
+def schedule_rows(folder) -> dict[str, dict]:
+    import csv
+
+    with open(folder / "schedule.csv", newline="") as f:
+        return {r["task"]: r for r in csv.DictReader(f)}
+
+
+def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch, gantt_figures):
     import agents.specs
 
     monkeypatch.setattr(agents.specs, "Navigator", Frozen)
     out = tmp_path / "stall"
     assert simulate.main(["--case", TINY, "--out", str(out), "--stall-s", "200",
-                          "--no-charts", "--no-progress"]) == 1
+                          "--no-progress"]) == 1
     data = json.loads((out / "summary.json").read_text())
     assert data["stalled"]["after_s"] >= 200 and not data["all_finished"]
     # the env's own stall guard (the one training uses) stopped it: at 200 s, not later
     assert data["simulated_s"] == data["stalled"]["time_s"] == 200
     assert {c["crew"] for c in data["stalled"]["crews"]} == {"HIC-1", "RC-1"}
     assert "STALLED" in capsys.readouterr().err
+    # schedule.csv lists every task although none started, in the case's order: HI-P-1 has no
+    # predecessor (queue), both R tasks wait for it; no crew, no times
+    assert (out / "schedule.csv").read_text().splitlines()[1:] == [
+        "HI-P-1,,,,0,0,false,HI,P-1,queue,", "R-J-1,,,,0,0,false,R,J-1,wait,",
+        "R-J-2,,,,0,0,false,R,J-2,wait,"]
+    # the charts say where it stopped (200 s = 0.056 h) and how far it got, not a makespan
+    label = "stalled at t = 0.06 h (200 s), 0 of 3 tasks ended"
+    assert gantt_figures["gantt_tasks_figure"].axes[0].get_title() == f"Tasks: tiny\n{label}"
+    for fig in gantt_figures.values():
+        texts = figure_texts(fig)
+        assert label in texts and not [t for t in texts if "makespan" in t]
+
+
+def test_a_run_that_stalls_midway_lists_every_task_and_its_state(tmp_path, monkeypatch,
+                                                                 gantt_figures):
+    """The scripted low level until the first task_pause (on seed 0, RC-1 leaves R-J-2 to
+    fetch bars), then nobody moves: HI-P-1 and R-J-1 ended, R-J-2 on and paused until the
+    stall, 200 s after its pause (the last progress)."""
+    import agents.specs
+    from agents.navigator import Navigator
+
+    class FreezesAtFirstPause(Navigator):
+        def actions(self, engine, observations=None):
+            if any(e.kind == "task_pause" for e in engine.log.events):
+                return Frozen().actions(engine)
+            return super().actions(engine, observations)
+
+    monkeypatch.setattr(agents.specs, "Navigator", FreezesAtFirstPause)
+    out = tmp_path / "midway"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--stall-s", "200",
+                          "--no-progress"]) == 1
+    data = json.loads((out / "summary.json").read_text())
+    events = (out / "events.csv").read_text().splitlines()
+    pause = [float(e.split(",")[0]) for e in events if ",task_pause," in e]
+    stop = data["simulated_s"]
+    assert data["stalled"] and len(pause) == 1 and stop == pause[0] + 200
+    rows = schedule_rows(out)
+    assert list(rows) == ["HI-P-1", "R-J-1", "R-J-2"]  # by start
+    assert [(r["status"], r["finished"], r["crew"]) for r in rows.values()] == [
+        ("end", "true", "HIC-1"), ("end", "true", "RC-1"), ("on", "false", "RC-1")]
+    for r in rows.values():
+        if r["status"] == "end":
+            assert float(r["duration_s"]) == float(r["end_s"]) - float(r["start_s"]) > 0
+    rj2 = rows["R-J-2"]
+    assert (rj2["end_s"], rj2["duration_s"], rj2["pauses"]) == ("", "", "1")
+    assert float(rj2["paused_s"]) == stop - pause[0] == 200  # the open pause, up to the stop
+    label = f"stalled at t = {stop / 3600:.2f} h ({stop:.0f} s), 2 of 3 tasks ended"
+    for fig in gantt_figures.values():
+        assert fig.axes[0].get_title().endswith(f"\n{label}")
+        assert not [t for t in figure_texts(fig) if "makespan" in t]
+
+
+def test_a_run_cut_by_the_time_limit_says_so(tmp_path, gantt_figures):
+    out = tmp_path / "limit"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--max-time-s", "1000",
+                          "--no-progress"]) == 1
+    data = json.loads((out / "summary.json").read_text())
+    assert not data["all_finished"] and not data["stalled"] and data["simulated_s"] == 1000
+    n = data["tasks_finished"]
+    assert 0 < n < 3  # HI-P-1 ends near 800 s on seed 0, the R tasks need longer
+    label = f"time limit at t = 0.28 h (1000 s), {n} of 3 tasks ended"
+    assert gantt_figures["gantt_tasks_figure"].axes[0].get_title() == f"Tasks: tiny\n{label}"
+    rows = schedule_rows(out)
+    assert len(rows) == 3 and sum(r["status"] == "end" for r in rows.values()) == n
+    assert all(r["end_s"] == "" for r in rows.values() if r["status"] != "end")
 
 
 def test_bad_input_exits_2(tmp_path, capsys):

@@ -8,8 +8,10 @@
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
 by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
 seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.py),
-``events.csv`` (the event log), ``schedule.csv`` (per task: crew, start, end, pauses),
-``gantt_agents.png``, ``gantt_tasks.png``, ``trajectories.png``, with ``--gif``
+``events.csv`` (the event log), ``schedule.csv`` (every task of the case: its type, component,
+crew, status, start, end, duration, pauses; unstarted ones with empty times),
+``gantt_agents.png``, ``gantt_tasks.png``, ``trajectories.png`` (an episode that stalled or
+reached the time limit says so on its charts instead of a makespan), with ``--gif``
 ``rollout.gif``, and ``case.json`` (the resolved case). With ``--episodes N`` each episode
 (seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and DIR gets ``makespans.csv``,
 ``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
@@ -234,7 +236,8 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     log = EventLog()
     log.events = run.events
     log.write_csv(folder / "events.csv")
-    write_atomic(folder / "schedule.csv", schedule_csv(run.events))
+    write_atomic(folder / "schedule.csv",
+                 schedule_csv(run.events, case, data.get("simulated_s")))
     write_json(folder / "summary.json", data)
     if args.ifc is not None:
         import datetime
