@@ -525,3 +525,47 @@ def test_duplicate_names_get_class_numbered_ids_and_missing_geometry_is_reported
     f.write(str(path))
     with pytest.raises(CaseError, match='IfcColumn "C-1" .*: has no body geometry'):
         import_storey(path, "Level 1")
+
+
+def test_crews_come_only_for_crew_types_with_work(two_by_two, tmp_path):
+    """A slabs-only recipe on the 2 x 2 floor: JC, HI and G tasks need JCC, HIC and GC; the
+    default overlay's two RC and two FC crews would idle all floor: they are left out, said."""
+    overlay = tmp_path / "slabs.toml"
+    overlay.write_text('[recipe.classes]\nIfcSlab = "precast"\n'
+                       '[recipe.chains]\nprecast = [{type = "JC"}, {type = "HI"}, '
+                       '{type = "G"}]\n')
+    data, report = import_storey(two_by_two[0], "Level 1", load_overlay(overlay))
+    assert sorted(c["id"] for c in data["crews"]) == ["GC-1", "HIC-1", "JCC-1"]
+    assert report.crews_left_out == {"RC": 2, "FC": 2}
+    assert any("no work for crew type(s) RC (2 crews), FC (2 crews)" in n for n in report.notes)
+    # the recipe with beams keeps every crew
+    data, report = import_storey(two_by_two[0], "Level 1")
+    assert len(data["crews"]) == 7 and report.crews_left_out == {}
+
+
+def test_the_import_says_where_each_setting_came_from(two_by_two, tmp_path, capsys):
+    overlay = tmp_path / "site.toml"
+    overlay.write_text("[crews]\nJCC = 1\nHIC = 1\nGC = 1\nRC = 1\nFC = 1\n"
+                       "[crane]\nlift_time_s = 300.0\n")
+    _, report = import_storey(two_by_two[0], "Level 1", load_overlay(overlay))
+    assert report.provenance["crews"] == report.provenance["crane"] == "overlay site.toml"
+    assert report.provenance["storages"] == report.provenance["task_types"] == "default"
+    assert import_ifc.settings_line(report.provenance).startswith(
+        "from the overlay site.toml: crane, crews; defaults (docs/ifc.md): case, crew_types, ")
+    out = tmp_path / "case.toml"
+    assert import_ifc.main([str(two_by_two[0]), "--storey", "Level 1", "--out", str(out),
+                            "--overlay", str(overlay)]) == 0
+    printed = capsys.readouterr().out
+    assert "settings: from the overlay site.toml: crane, crews; defaults" in printed
+    import hashlib
+
+    import cmdp_pymunk
+
+    comments = " ".join(line[2:] for line in out.read_text().split("\n")
+                        if line.startswith("# "))
+    digest = hashlib.sha256(two_by_two[0].read_bytes()).hexdigest()[:16]
+    assert comments.startswith(f"Imported from floor.ifc (SHA-256 {digest}...), storey "
+                               f"'Level 1', by cmdp-import-ifc {cmdp_pymunk.__version__} with "
+                               "the overlay site.toml.")
+    assert "Settings: from the overlay site.toml: crane, crews; defaults" in comments
+    load_case(out)  # the comments keep it a case file

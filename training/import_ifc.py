@@ -15,10 +15,13 @@ Needs the ``[ifc]`` extra: ``pip install 'cmdp-pymunk[ifc]'``.
 
 from __future__ import annotations
 
+import hashlib
 import sys
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 
+import cmdp_pymunk
 from training.cli import OneLineParser, plain
 
 PROG = "cmdp-import-ifc"
@@ -36,8 +39,6 @@ class ImportArgs:
 
 
 def parse_args(argv: list[str] | None = None) -> ImportArgs:
-    import cmdp_pymunk
-
     p = OneLineParser(prog=PROG, description=plain(__doc__))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("model", type=Path, help="the IFC model (IFC2X3, IFC4 or IFC4X3)")
@@ -74,10 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     except CaseError as err:
         print(f"{PROG}: {err}", file=sys.stderr)
         return 2
-    header = (f"# Imported from {args.model.name}, storey {args.storey!r}, by {PROG}"
-              + (f" with the overlay {args.overlay.name}" if args.overlay else "") + ".\n"
-              "# Coordinates: metres, origin at the plane's centre. ifc_guid: the element a\n"
-              "# component stands for (cmdp-simulate --ifc writes the schedule onto it).\n")
+    header = provenance_header(args, report.provenance, report.crews_left_out)
     write_atomic(args.out, to_toml(data, header))
     classes = ", ".join(f"{n} {c}" for c, n in sorted(report.components_by_class.items()))
     print(f"{PROG}: {len(data['components'])} components ({classes}), {report.tasks} tasks, "
@@ -87,9 +85,42 @@ def main(argv: list[str] | None = None) -> int:
     if report.skipped_by_class:
         print(f"{PROG}: skipped (not in the recipe): "
               + ", ".join(f"{n} {c}" for c, n in sorted(report.skipped_by_class.items())))
+    print(f"{PROG}: settings: {settings_line(report.provenance)}")
     for note in report.notes:
         print(f"{PROG}: note: {note}")
     return 0
+
+
+def settings_line(provenance: dict[str, str]) -> str:
+    """Which settings the overlay gave and which are defaults, in one line: "from the overlay
+    site.toml: crews, storages; defaults: crane, import, ..." (the geometry and the elements are
+    the model's)."""
+    given = [k for k, v in provenance.items() if v != "default"]
+    defaults = [k for k, v in provenance.items() if v == "default"]
+    parts = []
+    if given:
+        parts.append(f"from the {provenance[given[0]]}: {', '.join(given)}")
+    if defaults:
+        parts.append(f"defaults (docs/ifc.md): {', '.join(defaults)}")
+    return "; ".join(parts) + "; geometry, elements and units from the model"
+
+
+def provenance_header(args: ImportArgs, provenance: dict[str, str],
+                      crews_left_out: dict[str, int]) -> str:
+    """The written case's first comment lines: what it was made from (the model, its SHA-256,
+    the storey, the overlay), by which version, and where each setting came from."""
+    digest = hashlib.sha256(args.model.read_bytes()).hexdigest()
+    lines = [f"Imported from {args.model.name} (SHA-256 {digest[:16]}...), storey "
+             f"{args.storey!r}, by {PROG} {cmdp_pymunk.__version__}"
+             + (f" with the overlay {args.overlay.name}" if args.overlay else "") + ".",
+             "Settings: " + settings_line(provenance) + "."]
+    if crews_left_out:
+        lines.append("Crews left out (no work on this storey): "
+                     + ", ".join(f"{ct} x {n}" for ct, n in crews_left_out.items()) + ".")
+    lines += ["Coordinates: metres, origin at the plane's centre. ifc_guid: the element a",
+              "component stands for (cmdp-simulate --ifc writes the schedule onto it)."]
+    wrapped = [w for line in lines for w in textwrap.wrap(line, 96, break_on_hyphens=False)]
+    return "".join(f"# {w}\n" for w in wrapped)
 
 
 def entry_point() -> None:

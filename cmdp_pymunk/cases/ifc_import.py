@@ -131,6 +131,14 @@ class Overlay:
     recipe: Recipe
     base: dict  # the built-in case's tables, overridden by the overlay's
     source: str
+    given: frozenset = frozenset()  # the sections the overlay file gave (the rest: defaults)
+
+    def provenance(self) -> dict[str, str]:
+        """Where each setting the model does not hold came from: "overlay FILE" for a section
+        the overlay gave (merged over the defaults for plane, import and crane), "default"
+        for the rest (DEFAULT_OVERLAY; the built-in case's tables; the precast recipe)."""
+        return {section: (f"overlay {self.source}" if section in self.given else "default")
+                for section in sorted(_OVERLAY_SECTIONS)}
 
 
 def _recipe_from(data: dict | None, source: str, problems: list[str]) -> Recipe:
@@ -271,7 +279,8 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
                             'Class.PREDEFINEDTYPE) = "kind", e.g. IfcBeam = "cast-in-place"')
     if problems:
         raise CaseError(source, problems)
-    return Overlay(data=data, recipe=recipe, base=base, source=source)
+    return Overlay(data=data, recipe=recipe, base=base, source=source,
+                   given=frozenset(k for k in raw if k in _OVERLAY_SECTIONS))
 
 
 # -- reading the storey ----------------------------------------------------------------------
@@ -591,6 +600,22 @@ class ImportReport:
     tasks: int
     precedences: str  # "recipe" or "model"
     notes: list[str]
+    provenance: dict[str, str] = field(default_factory=dict)  # ``Overlay.provenance``
+    crews_left_out: dict[str, int] = field(default_factory=dict)  # crew type -> crews, no work
+
+
+def crew_types_with_work(elements: Sequence[Element], recipe: Recipe,
+                         task_types: dict) -> set[str]:
+    """The crew types that the recipe's chains give work on these elements (a slabs-only
+    recipe needs no reinforcing or formwork crew)."""
+    types = {step.type for e in elements for step in recipe.chains.get(e.kind, ())}
+    return {task_types[t]["crew_type"] for t in types if t in task_types}
+
+
+def crews_left_out(elements: Sequence[Element], overlay: Overlay) -> dict[str, int]:
+    """The overlay's crews (type -> count) of the types without work on these elements."""
+    working = crew_types_with_work(elements, overlay.recipe, overlay.base["task_types"])
+    return {ct: n for ct, n in overlay.data["crews"].items() if n and ct not in working}
 
 
 def _r(v: float) -> float:
@@ -699,7 +724,16 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     ends = {} if use_model else {
         ids[k]: [ids[j] for j in neighbours(rects, k, with_tasks, recipe.neighbour_gap_m)]
         for k in with_tasks}
-    crews = [(f"{ct}-{k + 1}", ct) for ct, n in overlay.data["crews"].items() for k in range(n)]
+    # Crews only of the types that have work here: an idle crew type would wait all floor and
+    # become an IfcCrewResource with nothing to do in the 4D model.
+    left_out = crews_left_out(elements, overlay)
+    crews = [(f"{ct}-{k + 1}", ct) for ct, n in overlay.data["crews"].items()
+             if ct not in left_out for k in range(n)]
+    if left_out:
+        notes.append("no work for crew type(s) "
+                     + ", ".join(f"{ct} ({n} crew{'s' if n > 1 else ''})"
+                                 for ct, n in left_out.items())
+                     + " on this storey: left out of the case")
     storages = [StorageSpot(st["id"], st["material"], st["width_m"], st["height_m"],
                             st["capacity"], st.get("congestion_index_full", 0.5),
                             1 if st.get("edge", "top") == "top" else -1,
@@ -780,4 +814,5 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     by_class: dict[str, int] = {}
     for e in elements:
         by_class[e.ifc_class] = by_class.get(e.ifc_class, 0) + 1
-    return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes)
+    return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes,
+                              overlay.provenance(), crews_left_out(elements, overlay))
