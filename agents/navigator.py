@@ -29,6 +29,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from cmdp_pymunk.cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, NEIGHBOURS, PlaneGrid
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.state import CrewStatus, ScopeKind
 
@@ -37,48 +38,21 @@ from .steering import best_target
 AREA_COST = 4.0  # crossing an active task area costs this much more than open floor
 STORAGE_COST = 1.5
 LOOKAHEAD_CELLS = 4
-APPROACH_BAND_M = 0.6  # component targets: plan to within this of the task area
 STUCK_STEPS = 12  # no progress for this many steps: re-plan around the crews
 STUCK_PROGRESS_M = 0.3
 DETOUR_STEPS = 40
-NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 
 
 class _Grid:
-    """Free cells and their 8-connected edges for one crew radius."""
+    """Free cells and their 8-connected edges for one crew radius, on the plane's grid
+    (``cmdp_pymunk.cases.reach.PlaneGrid``, the one the case check proves reachable)."""
 
     def __init__(self, nav: _Plans, radius: float):
         self.radius = radius
-        clearance = radius + nav.clearance_m
-        cx, cy = nav.cx, nav.cy
-        blocked = (np.abs(cx) > nav.half_w - clearance - 0.1) | \
-            (np.abs(cy) > nav.half_h - clearance - 0.1)
-        for comp in nav.site.components:
-            x0, y0, x1, y1 = comp.rect
-            dx = np.maximum(np.maximum(x0 - cx, 0.0), cx - x1)
-            dy = np.maximum(np.maximum(y0 - cy, 0.0), cy - y1)
-            blocked |= dx * dx + dy * dy < clearance * clearance
-        self.blocked = blocked
-        free = ~blocked
-        n = nav.nx * nav.ny
-        idx = np.arange(n).reshape(nav.ny, nav.nx)
-        src, dst, length = [], [], []
-        for dx_, dy_ in NEIGHBOURS:
-            a = idx[max(0, -dy_):nav.ny - max(0, dy_), max(0, -dx_):nav.nx - max(0, dx_)]
-            b = idx[max(0, dy_):nav.ny - max(0, -dy_) or None,
-                    max(0, dx_):nav.nx - max(0, -dx_) or None]
-            ok = free.ravel()[a.ravel()] & free.ravel()[b.ravel()]
-            if dx_ and dy_:  # no corner cutting past a blocked cell
-                side1 = free.ravel()[(a + dx_).ravel()]
-                side2 = free.ravel()[(a + dy_ * nav.nx).ravel()]
-                ok &= side1 & side2
-            src.append(a.ravel()[ok])
-            dst.append(b.ravel()[ok])
-            length.append(np.full(ok.sum(), math.hypot(dx_, dy_) * nav.cell_m))
-        self.src = np.concatenate(src)
-        self.dst = np.concatenate(dst)
-        self.length = np.concatenate(length)
-        self.n = n
+        self.blocked = nav.plane.blocked([c.rect for c in nav.site.components],
+                                         radius + nav.clearance_m)
+        self.src, self.dst, self.length = nav.plane.edges(~self.blocked)
+        self.n = nav.nx * nav.ny
         self.graphs: dict = {}
 
     def __deepcopy__(self, memo):
@@ -108,7 +82,7 @@ class Navigator:
     reads_rays = False
     MEMORY = "navigator"
 
-    def __init__(self, cell_m: float = 0.5, clearance_m: float = -0.2):
+    def __init__(self, cell_m: float = CELL_M, clearance_m: float = CLEARANCE_M):
         self.cell_m = cell_m
         self.clearance_m = clearance_m
 
@@ -139,12 +113,11 @@ class _Plans:
         self.cell_m = cell_m
         self.clearance_m = clearance_m
         self.site = engine.site
-        self.half_w, self.half_h = engine.case.plane.half_extents
-        self.nx = int(math.ceil(2 * self.half_w / self.cell_m))
-        self.ny = int(math.ceil(2 * self.half_h / self.cell_m))
-        xs = -self.half_w + (np.arange(self.nx) + 0.5) * self.cell_m
-        ys = -self.half_h + (np.arange(self.ny) + 0.5) * self.cell_m
-        self.cx, self.cy = np.meshgrid(xs, ys)
+        self.plane = PlaneGrid.of(engine.case.plane.half_extents, cell_m)
+        plane = self.plane
+        self.half_w, self.half_h, self.nx, self.ny = plane.half_w, plane.half_h, plane.nx, \
+            plane.ny
+        self.cx, self.cy = plane.cx, plane.cy
         self.grids: dict[float, _Grid] = {}
         self.crew_grid = []
         for crew in self.site.crews:
@@ -171,9 +144,7 @@ class _Plans:
         return cost
 
     def _rect_mask(self, rect, shrink: float = 0.0) -> np.ndarray:
-        x0, y0, x1, y1 = rect
-        return (self.cx >= x0 + shrink) & (self.cx <= x1 - shrink) & \
-            (self.cy >= y0 + shrink) & (self.cy <= y1 - shrink)
+        return self.plane.rect_mask(rect, shrink)
 
     def _goal_mask(self, crew, target: int) -> np.ndarray:
         site = self.site
@@ -221,9 +192,7 @@ class _Plans:
         return [self.act(crew) for crew in self.site.crews]
 
     def _cell(self, x: float, y: float) -> tuple[int, int]:
-        i = min(self.nx - 1, max(0, int((x + self.half_w) / self.cell_m)))
-        j = min(self.ny - 1, max(0, int((y + self.half_h) / self.cell_m)))
-        return i, j
+        return self.plane.cell(x, y)
 
     def act(self, crew):
         if not crew.moving:

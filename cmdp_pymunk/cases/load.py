@@ -43,6 +43,7 @@ from .model import (  # noqa: F401  (re-exported: the models are part of this AP
     TaskType,
     UnitIndex,
 )
+from .reach import unreachable
 
 BUILTIN_CASE = Path(__file__).parent / "precast_floor.toml"
 # the tiny case of the docs, the command-line tests and cmdp/TinyFloor-v1
@@ -629,6 +630,8 @@ def case_from_dict(data: dict, source: str = "<case>") -> Case:
     problems += [p for p in _disruption_problems(data, case, parts) if p not in problems]
     if case is not None and not problems:
         problems = _time_problems(case)
+    if case is not None and not problems:  # the crews can reach their work: reach.py
+        problems = unreachable(case)
     if problems:
         raise CaseError(source, problems)
     assert case is not None
