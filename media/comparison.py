@@ -196,3 +196,31 @@ def draw_comparison(rows: list[dict], folder: Path, summary: list[dict] | None =
             out.append(strategy_figure(rows, key, ylabel, title, path, summary,
                                        bounds if key == "makespan_s" else None))
     return out
+
+
+def draw_time_use(entries: list[dict], path: Path) -> Path:
+    """Where the time goes: for each strategy and crew type a horizontal bar of its mean
+    crew-hours per floor, stacked by category (``training.runs.paired.time_use_summary``, the
+    whole floor); written atomically."""
+    from cmdp_pymunk.timeuse import CATEGORIES
+
+    floor = [e for e in entries if e["phase"] == "floor"]
+    keys = list(dict.fromkeys((e["strategy"], e["navigator"], e["crew_type"]) for e in floor))
+    hours = {(e["strategy"], e["navigator"], e["crew_type"], e["category"]):
+             (e["mean_s"] or 0.0) / 3600 for e in floor}
+    multi = len({k[1] for k in keys}) > 1
+    labels = [f"{s}{' / ' + n if multi else ''}: {ct}" for s, n, ct in keys]
+    fig = Figure(figsize=(10.0, max(2.6, 1.2 + 0.32 * len(keys))))
+    ax = fig.add_subplot()
+    left = np.zeros(len(keys))
+    for k, category in enumerate(CATEGORIES):
+        width = np.array([hours[(*key, category)] for key in keys])
+        ax.barh(range(len(keys)), width, left=left, color=f"C{k % 10}", label=category)
+        left += width
+    ax.set_yticks(range(len(keys)), labels, fontsize=8)
+    ax.invert_yaxis()
+    ax.set_xlabel("crew-hours per floor (mean over the episodes)")
+    ax.set_title("Where the time goes, by crew type")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    fig.tight_layout()
+    return _save(fig, path)

@@ -60,7 +60,13 @@ from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
 from training.cli import OneLineParser, add_ray_option, plain, positive_int, positive_seconds
 from training.runs.backends import BackendError, WorkerLost, open_backend
-from training.runs.paired import csv_text, markdown_table, summarize
+from training.runs.paired import (
+    csv_text,
+    markdown_table,
+    summarize,
+    time_use_summary,
+    time_use_table,
+)
 from training.runs.runner import ROW_FIELDS, EpisodeRunner, check_worker
 from training.runs.runner import check_specs as check_episode_specs
 
@@ -356,7 +362,10 @@ def _main(args: EvaluateArgs) -> int:
     cpsat_dict = cpsat.as_dict() if cpsat else None
     summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS]
+    time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
+    if time_use:
+        table += "\n" + time_use_table(time_use)
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
                 "lower_bound": lb.as_dict(), "cpsat": cpsat_dict, "episodes": len(rows),
@@ -370,6 +379,8 @@ def _main(args: EvaluateArgs) -> int:
         write_atomic(args.out / "summary.csv", csv_text(summary, list(summary[0])))
         write_atomic(args.out / "summary.md", table)
         write_atomic(args.out / "summary.json", json.dumps(summary, indent=1) + "\n")
+        if time_use:
+            write_atomic(args.out / "time_use.csv", csv_text(time_use, list(time_use[0])))
         write_atomic(args.out / "settings.json",
                      json.dumps(settings, indent=2, default=str) + "\n")
         if args.figures:
@@ -379,6 +390,10 @@ def _main(args: EvaluateArgs) -> int:
             draw_comparison(rows, args.out, summary, lb.lower_bound_s,
                             cpsat.bound_s if cpsat else None, args.per_seed)
             draw_strategy_episodes(args.out, rows, summary, len(case.tasks), lb.lower_bound_s)
+            if time_use:
+                from media.comparison import draw_time_use
+
+                draw_time_use(time_use, args.out / "time_use.png")
     finally:
         interrupt.leave()
     print(table, end="")

@@ -154,6 +154,7 @@ def iso_datetime(text: str) -> str:
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
     from cmdp_pymunk.rollout import crew_summary, episode_reach_rate, versions
+    from cmdp_pymunk.timeuse import time_use
 
     site = engine.site
     makespan = episode.makespan_s
@@ -168,6 +169,8 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         "makespan_over_lower_bound": makespan / lb.lower_bound_s if makespan else None,
         "reach_rate": episode_reach_rate(engine),
         "crews": crew_summary(engine),
+        "time_use_s": time_use(engine.log.events, {c.id: c.type for c in site.crews},
+                               len(site.tasks), site.time_s),
         "stalled": episode.stalled,
         "lookahead": planner_summary(engine.evaluator, "lookahead"),
         "replan": planner_summary(engine.evaluator, "replan"),

@@ -105,6 +105,56 @@ def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | Non
     return out
 
 
+def time_use_summary(rows: list[dict], key: str = "time_use_s") -> list[dict]:
+    """Where the time goes, per (strategy, low level, crew type, phase, category): the mean
+    crew-seconds per floor with their 95 % interval (clipped at 0: ``count_interval``), over
+    the episodes whose rows carry ``key`` (``cmdp_pymunk.timeuse``); phase "floor" is the
+    phases summed."""
+    from cmdp_pymunk.timeuse import CATEGORIES, PHASES
+
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        if r.get(key):
+            groups.setdefault((r["strategy"], r["navigator"]), []).append(r[key])
+    out = []
+    for (strategy, navigator), uses in groups.items():
+        for crew_type in sorted({ct for u in uses for ct in u}):
+            for phase in ("floor", *PHASES):
+                for category in CATEGORIES:
+                    values = [sum(u[crew_type][p][category] for p in PHASES) if phase == "floor"
+                              else u[crew_type][phase][category] for u in uses if crew_type in u]
+                    mean, _, half = mean_ci(values)
+                    low, high = count_interval(mean, half)
+                    out.append({"strategy": strategy, "navigator": navigator,
+                                "crew_type": crew_type, "phase": phase, "category": category,
+                                "episodes": len(values), "mean_s": mean, "ci95_low_s": low,
+                                "ci95_high_s": high})
+    return out
+
+
+def time_use_table(entries: list[dict]) -> str:
+    """``time_use_summary`` as Markdown: crew-hours per floor by category for each strategy and
+    crew type, the middle phase's in parentheses (where a scheduler can win time)."""
+    from cmdp_pymunk.timeuse import CATEGORIES
+
+    cell = {(e["strategy"], e["navigator"], e["crew_type"], e["phase"], e["category"]):
+            e["mean_s"] for e in entries}
+    keys = list(dict.fromkeys((e["strategy"], e["navigator"], e["crew_type"]) for e in entries))
+    if not keys:
+        return ""
+    lines = ["## Where the time goes", "",
+             "Crew-hours per floor, mean over the episodes (the middle phase, between 10 % and "
+             "90 % of the tasks ended, in parentheses):", "",
+             "| strategy | low level | crew type | " + " | ".join(CATEGORIES) + " |",
+             "|" + "---|" * (3 + len(CATEGORIES))]
+    for strategy, navigator, crew_type in keys:
+        values = [f"{cell[(strategy, navigator, crew_type, 'floor', c)] / 3600:.1f} "
+                  f"({cell[(strategy, navigator, crew_type, 'middle', c)] / 3600:.1f})"
+                  for c in CATEGORIES]
+        lines.append(f"| {strategy} | {navigator} | {crew_type} | " + " | ".join(values) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def _num(value, digits: int = 0, pm: float | None = None) -> str:
     if value is None:
         return "-"

@@ -15,6 +15,7 @@ from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
 from cmdp_pymunk.schedule import finish_times
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
+from cmdp_pymunk.timeuse import time_use
 
 ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished",
               "simulated_s", "reaching_steps", "idle_waiting_for_predecessor",
@@ -25,6 +26,8 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
 # Beside ROW_FIELDS, in every row (episodes.jsonl) but not in episodes.csv (a list per cell):
 # the simulated second each task ended, in increasing order, for the S-curve of a comparison.
 TASK_END_TIMES = "task_end_times_s"
+# Beside them too: crew-seconds by crew type, phase and category (``cmdp_pymunk.timeuse``).
+TIME_USE = "time_use_s"
 
 
 def task_end_times(engine: Engine) -> list[float]:
@@ -64,6 +67,8 @@ def episode_row(engine: Engine, episode: Episode | None, stall_reason: str = "")
         **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)
            for c in DISRUPTION_CAUSES},
         TASK_END_TIMES: task_end_times(engine),
+        TIME_USE: time_use(engine.log.events, {c.id: c.type for c in crews}, len(site.tasks),
+                           site.time_s),
     }
 
 
