@@ -26,6 +26,9 @@ if TYPE_CHECKING:
 # take them by position keep working); the four after them came with it.
 SCHEDULE_FIELDS = ("task", "crew", "start_s", "end_s", "pauses", "paused_s", "finished",
                    "task_type", "component", "status", "duration_s")
+# With a working calendar (the case's ``calendar``), after all of those: the dates of
+# ``start_s`` and ``end_s`` (``workcalendar``), ISO 8601 to the second.
+CALENDAR_FIELDS = ("start", "end")
 
 
 class TaskBar(NamedTuple):
@@ -142,7 +145,10 @@ def schedule_csv(events: Sequence[Event], case: Case, end_s: float | None = None
     (started, not finished, paused or not), ``queue`` (not started, its predecessors all
     ended), ``wait`` (not started, a predecessor not ended)), ``duration_s`` (``end_s`` minus
     ``start_s``, pauses included; empty when it did not finish). Times in simulated seconds;
-    a task that never started has its times empty and 0 pauses.
+    a task that never started has its times empty and 0 pauses. When the case has a working
+    calendar, two more columns: ``start`` and ``end``, the dates of ``start_s`` and ``end_s``
+    (``workcalendar.calendar_datetime``, ISO 8601 to the second, e.g. 2026-01-12T08:00:01;
+    empty where those are).
 
     Args:
         events: the run's event log.
@@ -156,7 +162,17 @@ def schedule_csv(events: Sequence[Event], case: Case, end_s: float | None = None
     paused_since = paused_at_end(events)
     buf = io.StringIO()
     writer = csv.writer(buf, lineterminator="\n")
-    writer.writerow(SCHEDULE_FIELDS)
+    calendar = getattr(case, "calendar", None)
+
+    def dates(start_s: float | None, end_s: float | None) -> tuple[str, ...]:
+        if calendar is None:
+            return ()
+        from .workcalendar import calendar_datetime, iso
+
+        return tuple("" if t is None else iso(calendar_datetime(calendar, t))
+                     for t in (start_s, end_s))
+
+    writer.writerow(SCHEDULE_FIELDS + (CALENDAR_FIELDS if calendar is not None else ()))
     bars = task_bars(events, end)
     for bar in bars:
         paused_s = sum(b - a for a, b in bar.pauses)
@@ -171,12 +187,13 @@ def schedule_csv(events: Sequence[Event], case: Case, end_s: float | None = None
                          f"{bar.end_s:g}" if bar.finished else "", pauses,
                          f"{paused_s:g}", "true" if bar.finished else "false",
                          task.type if task else "", task.component if task else "", status,
-                         f"{bar.end_s - bar.start_s:g}" if bar.finished else ""))
+                         f"{bar.end_s - bar.start_s:g}" if bar.finished else "")
+                        + dates(bar.start_s, bar.end_s if bar.finished else None))
     started = {b.task for b in bars}
     for task in case.tasks:
         if task.id not in started:
             writer.writerow((task.id, "", "", "", 0, "0", "false", task.type, task.component,
-                             pools[task.id].name.lower(), ""))
+                             pools[task.id].name.lower(), "") + dates(None, None))
     return buf.getvalue()
 
 

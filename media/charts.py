@@ -26,6 +26,12 @@ kept from working shows the disruption's own idle colour in Fig. 9 (an absence h
 Times in the log are simulated seconds; the charts' time axes are in hours. Coordinates are the
 case's: metres, the plane's origin at its centre, y up.
 
+With a working calendar (the case's ``calendar``; ``cmdp_pymunk.workcalendar``) both Gantt
+charts keep their axis of simulated (working) hours and get a date axis on top (``date_ticks``):
+second 0 with its date and time, then each working day's opening, labelled with its date; the
+axis label names the start and the working time, and the makespan's legend entry (or where an
+unfinished run stopped) its date.
+
 Figures are made with ``matplotlib.figure.Figure`` and rendered by its own Agg canvas, never
 through ``pyplot``: no global backend is switched and no figure is registered anywhere, so
 nothing needs closing and nothing leaks. Every file is rendered into memory first and then
@@ -52,12 +58,19 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Rectangle
 
-from cmdp_pymunk.cases.load import Case
+from cmdp_pymunk.cases.load import Calendar, Case
 from cmdp_pymunk.events import Event, position, read_csv, write_atomic
 from cmdp_pymunk.schedule import log_end_s, makespan_s, paused_at_end, task_bars
+from cmdp_pymunk.workcalendar import (
+    calendar_datetime,
+    describe,
+    first_working_moment,
+    working_day_openings,
+)
 
 HOUR_S = 3600.0
 DPI = 110
+MAX_DATE_TICKS = 12  # beyond this many working days the date axis labels every k-th
 TASK_ROW_IN = 0.16  # Fig. 10's row height (inches): room for a task id in 7-point type
 MAX_FIGURE_IN = 40.0  # beyond this height rows get thinner and the ids smaller
 
@@ -308,19 +321,50 @@ def save_png(fig: Figure, path: str | Path) -> Path:
     return path
 
 
-def _mark_end(ax, events: Sequence[Event], end: RunEnd | None) -> Line2D | None:
+def _mark_end(ax, events: Sequence[Event], end: RunEnd | None,
+              calendar: Calendar | None = None) -> Line2D | None:
     """A finished run's makespan, dashed black; an unfinished run's stop, dotted red. Without
-    ``end`` the last ``task_finish`` is drawn as the makespan (the log alone cannot tell)."""
+    ``end`` the last ``task_finish`` is drawn as the makespan (the log alone cannot tell).
+    With a calendar the label ends with the date: ``makespan 9.43 h (33943 s), Tue
+    2026-01-06 09:25``."""
     if end is None:
         span = makespan_s(events)
         if span is None:
             return None
         end = RunEnd(FINISHED, span, 0, 0)
+    label = end.label()
+    if calendar is not None:
+        label += f", {calendar_datetime(calendar, end.time_s):%a %Y-%m-%d %H:%M}"
     if end.finished:
         return ax.axvline(end.time_s / HOUR_S, color="black", linestyle="--", linewidth=1.2,
-                          label=end.label())
+                          label=label)
     return ax.axvline(end.time_s / HOUR_S, color="#b2182b", linestyle=":", linewidth=1.6,
-                      label=end.label())
+                      label=label)
+
+
+def date_ticks(calendar: Calendar, end_s: float) -> list[tuple[float, str]]:
+    """The date axis's ticks, as (simulated hours, label): second 0 with its date and time
+    (``Fri 09 Jan 15:00``), then the opening of each working day by ``end_s`` (``Mon 12 Jan``),
+    every k-th of them when there are more than ``MAX_DATE_TICKS``."""
+    zero = first_working_moment(calendar)
+    openings = working_day_openings(calendar, end_s)
+    step = -(-len(openings) // (MAX_DATE_TICKS - 1)) if openings else 1
+    ticks = [(0.0, f"{zero:%a %d %b %H:%M}")]
+    ticks += [(t / HOUR_S, f"{day:%a %d %b}") for t, day in openings[step - 1::step]]
+    return ticks
+
+
+def _date_axis(ax, calendar: Calendar | None, end_s: float) -> None:
+    """The date axis on top of a Gantt chart whose x axis is in simulated hours."""
+    if calendar is None:
+        return
+    ax.set_xlabel("simulated working time (h)")
+    top = ax.secondary_xaxis("top")
+    ticks = date_ticks(calendar, end_s)
+    top.set_xticks([t for t, _ in ticks], [label for _, label in ticks], fontsize=8)
+    zero = first_working_moment(calendar)
+    top.set_xlabel(f"date (second 0: {zero:%a %Y-%m-%d %H:%M}; working {describe(calendar)})",
+                   fontsize=8)
 
 
 def _chart_end_s(events: Sequence[Event], end: RunEnd | None) -> float | None:
@@ -335,20 +379,21 @@ def _titled(title: str, end: RunEnd | None) -> str:
 
 
 def gantt_agents(events: Sequence[Event], path: str | Path, title: str | None = None,
-                 end: RunEnd | None = None) -> Path:
+                 end: RunEnd | None = None, calendar: Calendar | None = None) -> Path:
     """Fig. 9, the agents' Gantt chart (:func:`gantt_agents_figure`), written as a PNG to
     ``path``; returns the path."""
-    return save_png(gantt_agents_figure(events, title, end), path)
+    return save_png(gantt_agents_figure(events, title, end, calendar), path)
 
 
 def gantt_agents_figure(events: Sequence[Event], title: str | None = None,
-                        end: RunEnd | None = None) -> Figure:
+                        end: RunEnd | None = None, calendar: Calendar | None = None) -> Figure:
     """Fig. 9, the agents' Gantt chart: one row per crew, a bar per activity interval.
 
     Rows in the order crews first appear in ``activity`` events, the first on top. Nothing is
     drawn after a crew's ``left``. ``end`` (:func:`run_end`) marks how the run ended: the
     makespan as a dashed line, or where an unfinished run stopped as a dotted red line, said
-    in the title too; without it the dashed line is the last ``task_finish``.
+    in the title too; without it the dashed line is the last ``task_finish``. ``calendar``:
+    a date axis on top (:func:`date_ticks`).
     """
     stop = _chart_end_s(events, end)
     intervals = activity_intervals(events, stop)
@@ -372,6 +417,7 @@ def gantt_agents_figure(events: Sequence[Event], title: str | None = None,
     ax.set_ylim(len(crews) - 0.5, -0.5)
     ax.set_xlim(0, max(log_end_s(events), stop or 0.0, 1.0) / HOUR_S * 1.01)
     ax.set_xlabel("simulated time (h)")
+    _date_axis(ax, calendar, max(log_end_s(events), stop or 0.0))
     ax.set_ylabel("crew")
     ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
     ax.set_axisbelow(True)
@@ -384,7 +430,7 @@ def gantt_agents_figure(events: Sequence[Event], title: str | None = None,
                              edgecolor=style.get("edge", style["color"]), linewidth=0,
                              label=style["label"]))
     handles += bands
-    line = _mark_end(ax, events, end)
+    line = _mark_end(ax, events, end, calendar)
     if line is not None:
         handles.append(line)
     if handles:
@@ -416,8 +462,10 @@ def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
     id's prefix before '-'). ``end`` (default: :func:`run_end` of the log and ``case``) marks
     how the run ended: the makespan as a dashed line, or where an unfinished run stopped as a
     dotted red line, said in the title too; without ``end`` and ``case`` the dashed line is
-    the last ``task_finish``.
+    the last ``task_finish``. A case with a working calendar gets a date axis on top
+    (:func:`date_ticks`).
     """
+    calendar = case.calendar if case is not None else None
     if end is None and case is not None:
         end = run_end(events, len(case.tasks))
     stop = _chart_end_s(events, end)
@@ -448,6 +496,7 @@ def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
     ax.set_ylim(max(n, 1) - 0.5, -0.5)
     ax.set_xlim(0, max(log_end_s(events), stop or 0.0, 1.0) / HOUR_S * 1.01)
     ax.set_xlabel("simulated time (h)")
+    _date_axis(ax, calendar, max(log_end_s(events), stop or 0.0))
     ax.set_ylabel(f"{n} tasks, by start time" if end is None or n >= end.total else
                   f"{n} of {end.total} tasks started, by start time")
     ax.grid(axis="x", color="#e5e5e5", linewidth=0.6)
@@ -462,7 +511,7 @@ def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
     if still_paused or any(b.pauses for b in bars):
         handles.append(Patch(facecolor="#777777", alpha=0.25, label="paused"))
     handles += _draw_bands(ax, events)
-    line = _mark_end(ax, events, end)
+    line = _mark_end(ax, events, end, calendar)
     if line is not None:
         handles.append(line)
     if handles:
@@ -609,8 +658,9 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
     """Draw Figs. 9-11 of a saved run from ``run_dir/events.csv`` into ``run_dir``.
 
     How the run ended (:func:`run_end`) comes from ``run_dir/summary.json`` when there is one,
-    else from the log and the case's number of tasks. Returns the paths of
-    ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png``. Raises
+    else from the log and the case's number of tasks; a case with a working calendar (its
+    ``case.json`` keeps the one the run used) gives both Gantt charts a date axis. Returns the
+    paths of ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png``. Raises
     FileNotFoundError when there is no ``events.csv`` and ValueError when the log names tasks
     that ``case`` does not define (the run was made with another case).
     """
@@ -629,7 +679,7 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
     end = run_end(events, len(case.tasks), read_summary(run_dir))
     return [
         gantt_agents(events, run_dir / CHART_FILES[0], title=f"Crews' activities: {name}",
-                     end=end),
+                     end=end, calendar=case.calendar),
         gantt_tasks(events, run_dir / CHART_FILES[1], case=case, title=f"Tasks: {name}",
                     end=end),
         trajectories(events, case, run_dir / CHART_FILES[2]),

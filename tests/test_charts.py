@@ -290,6 +290,35 @@ def test_draw_run_reads_how_the_run_ended_from_summary_json(run_dir, tiny_case, 
         "Tasks: tiny\nunfinished at t = 0.11 h (400 s), 3 of 4 tasks ended"
 
 
+def test_with_a_calendar_the_gantt_charts_get_a_date_axis(tiny_case):
+    """Second 0 is Fri 2026-01-09 15:55, days 08:00-16:00 Mon-Fri, Mon 12th a holiday: the log
+    runs to 540 s, so Tuesday opens on the axis at 300 s = 0.0833 h; the makespan, 500 s, is
+    200 s into Tuesday, 08:03."""
+    from cmdp_pymunk.cases.model import Calendar
+
+    calendar = Calendar(start="2026-01-09T15:55", holidays=["2026-01-12"])
+    case = tiny_case.model_copy(update={"calendar": calendar})
+    events = make_events()
+    assert charts.date_ticks(calendar, 540) == [(0.0, "Fri 09 Jan 15:55"),
+                                                (pytest.approx(300 / 3600), "Tue 13 Jan")]
+    for fig in (charts.gantt_tasks_figure(events, case, "Tasks: tiny"),
+                charts.gantt_agents_figure(events, "Crews' activities: tiny",
+                                           charts.run_end(events, 4), calendar)):
+        ax = fig.axes[0]
+        top = ax.child_axes[0]
+        assert [t.get_text() for t in top.get_xticklabels()] == ["Fri 09 Jan 15:55",
+                                                                 "Tue 13 Jan"]
+        assert top.get_xlabel() == ("date (second 0: Fri 2026-01-09 15:55; working "
+                                    "08:00-16:00 Mon-Fri, 1 holiday)")
+        assert ax.get_xlabel() == "simulated working time (h)"
+        assert "makespan 0.14 h (500 s), Tue 2026-01-13 08:03" in chart_texts(fig)
+    # over many working days every k-th opening is labelled: 40 days -> every 4th
+    ticks = charts.date_ticks(calendar, 300 + 39 * 28800)
+    assert len(ticks) == 11 and ticks[1][1] == "Fri 16 Jan"  # Tue, Wed, Thu, [Fri]
+    # without a calendar: no date axis, as before
+    assert charts.gantt_tasks_figure(events, tiny_case).axes[0].child_axes == []
+
+
 def test_s_curve_title_says_how_many_episodes_finished():
     from media.episodes import s_curve_title
 

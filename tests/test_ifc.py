@@ -569,3 +569,54 @@ def test_the_import_says_where_each_setting_came_from(two_by_two, tmp_path, caps
                                "the overlay site.toml.")
     assert "Settings: from the overlay site.toml: crane, crews; defaults" in comments
     load_case(out)  # the comments keep it a case file
+
+
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_the_4d_export_dates_tasks_through_the_case_s_calendar(tmp_path, schema):
+    """Second 0 is Fri 2026-01-09 15:50 (600 s of Friday left), days 08:00-16:00 Mon-Fri, Mon
+    12th a holiday: by hand, JC-S-11 (0-700 s) runs Fri 15:50 to Tue 13th 08:01:40 and
+    HI-S-11 (700-1500 s) Tue 08:01:40 to 08:15:00; IFC4's durations are working time."""
+    from cmdp_pymunk.cases.ifc_export import export_4d
+    from cmdp_pymunk.cases.load import case_from_dict
+    from cmdp_pymunk.cases.model import Calendar
+    from cmdp_pymunk.schedule import TaskBar
+
+    f, _ = ifc_models.two_by_two(schema)
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    case = case_from_dict(import_storey(model, "Level 1")[0]).model_copy(update={
+        "calendar": Calendar(start="2026-01-09T15:50", holidays=["2026-01-12"])})
+    bars = [TaskBar("JC-S-11", "JCC-1", ((0.0, 700.0),), True),
+            TaskBar("HI-S-11", "HIC-1", ((700.0, 900.0), (1000.0, 1500.0)), True)]
+    export_4d(model, case, bars, tmp_path / "4d.ifc", None)
+    tasks = {t["id"]: t for t in read_4d(tmp_path / "4d.ifc")}
+    assert (tasks["JC-S-11"]["start"], tasks["JC-S-11"]["finish"]) == ("2026-01-09T15:50:00",
+                                                                      "2026-01-13T08:01:40")
+    assert (tasks["HI-S-11"]["start"], tasks["HI-S-11"]["finish"]) == ("2026-01-13T08:01:40",
+                                                                      "2026-01-13T08:15:00")
+    if schema == "IFC4":
+        exported = ifcopenshell.open(str(tmp_path / "4d.ifc"))
+        times = {t.Identification: t.TaskTime for t in exported.by_type("IfcTask")}
+        assert times["JC-S-11"].DurationType == "WORKTIME"
+        assert times["JC-S-11"].ScheduleDuration == "PT11M40S"  # 700 working seconds
+
+
+def test_simulate_with_a_calendar_exports_the_dates_of_schedule_csv(tmp_path):
+    """``cmdp-simulate --ifc --start``: each task's 4D start and finish are its schedule.csv
+    dates (one mapping, ``workcalendar``, for both)."""
+    f, _ = ifc_models.two_by_two("IFC4")
+    model = tmp_path / "floor.ifc"
+    f.write(str(model))
+    case_file = tmp_path / "floor.toml"
+    assert import_ifc.main([str(model), "--storey", "Level 1", "--out", str(case_file)]) == 0
+    run = tmp_path / "run"
+    assert simulate.main(["--case", str(case_file), "--out", str(run), "--no-charts",
+                          "--no-progress", "--ifc", str(model), "--start", "2026-01-09T14:00",
+                          "--holidays", "2026-01-12"]) == 0
+    import csv
+
+    rows = list(csv.DictReader((run / "schedule.csv").open()))
+    tasks = {t["id"]: t for t in read_4d(run / "floor-4d.ifc")}
+    assert {r["task"]: (r["start"], r["end"]) for r in rows} == \
+        {k: (t["start"], t["finish"]) for k, t in tasks.items()}
+    assert max(r["end"] for r in rows) > "2026-01-13"  # past the weekend and the holiday

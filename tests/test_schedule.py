@@ -87,6 +87,31 @@ def test_schedule_csv_of_a_run_that_never_started_a_task(tiny_case):
         "X-B,,,,0,0,false,X,B,queue,", "M-C,,,,0,0,false,M,C,wait,"]
 
 
+def test_schedule_csv_with_a_calendar_dates_across_a_weekend_and_a_holiday(tiny_case):
+    """Second 0 is Fri 2026-01-09 15:55, days 08:00-16:00 Mon-Fri, Mon 12th a holiday: second
+    300 is Friday's closing (16:00) and second 370 is 70 s into Tue 13th (08:01:10)."""
+    from cmdp_pymunk.cases.model import Calendar
+
+    case = tiny_case.model_copy(update={"calendar": Calendar(
+        start="2026-01-09T15:55", working_hours="08:00-16:00", working_days="Mon-Fri",
+        holidays=["2026-01-12"])})
+    assert schedule.schedule_csv(make_events(), case).splitlines() == [
+        "task,crew,start_s,end_s,pauses,paused_s,finished,task_type,component,status,"
+        "duration_s,start,end",
+        "X-A,X-1,10,130,0,0,true,X,A,end,120,2026-01-09T15:55:10,2026-01-09T15:57:10",
+        "X-B,X-1,160,280,0,0,true,X,B,end,120,2026-01-09T15:57:40,2026-01-09T15:59:40",
+        "K-A,K-1,160,300,0,0,true,K,A,end,140,2026-01-09T15:57:40,2026-01-09T16:00:00",
+        # 500 - 300 = 200 s into Tuesday: 08:03:20
+        "M-C,M-1,370,500,1,40,true,M,C,end,130,2026-01-13T08:01:10,2026-01-13T08:03:20",
+    ]
+    # unfinished: no end date; never started: neither
+    rows = schedule.schedule_csv(make_events([r for r in RUN if r[0] <= 400]), case,
+                                 end_s=460).splitlines()
+    assert rows[-1] == "M-C,M-1,370,,1,60,false,M,C,on,,2026-01-13T08:01:10,"
+    rows = schedule.schedule_csv(make_events(RUN[:7]), case, end_s=200).splitlines()
+    assert rows[1] == "X-A,,,,0,0,false,X,A,queue,,,"
+
+
 def test_task_pools_replay_the_flow(tiny_case):
     from cmdp_pymunk.precedence import Pool
 

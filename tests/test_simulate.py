@@ -329,3 +329,85 @@ def test_episodes_are_the_same_with_any_number_of_workers(tmp_path, capsys):
     assert files["one"] == files["two"] == files["gif"]
     assert "3 episodes, 2 worker process(es)" in capsys.readouterr().out
     assert (tmp_path / "gif" / "seed-4" / "rollout.gif").exists()
+
+
+def test_a_calendar_dates_the_schedule_across_a_weekend_and_a_holiday(tmp_path, capsys):
+    """Second 0 is Fri 2026-01-09 15:30, days 08:00-16:00 Mon-Fri, Mon 12th a holiday: by
+    hand, second s <= 1800 is Fri 15:30 + s, and a later one (within a day) Tue 13th 08:00 +
+    (s - 1800). The tiny floor takes longer than Friday's half hour, so its dates cross the
+    weekend and the holiday."""
+    import datetime as dt
+
+    out = tmp_path / "run"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--seed", "3", "--no-progress",
+                          "--no-charts", "--start", "2026-01-09T15:30",
+                          "--holidays", "2026-01-12"]) == 0
+
+    def by_hand(seconds: str) -> str:
+        s = float(seconds)
+        assert s <= 1800 + 28800  # within Tuesday, as this rule assumes
+        at = dt.datetime(2026, 1, 9, 15, 30) + dt.timedelta(seconds=s) if s <= 1800 else \
+            dt.datetime(2026, 1, 13, 8) + dt.timedelta(seconds=s - 1800)
+        return at.isoformat(timespec="seconds")
+
+    lines = (out / "schedule.csv").read_text().splitlines()
+    assert lines[0] == ("task,crew,start_s,end_s,pauses,paused_s,finished,task_type,"
+                        "component,status,duration_s,start,end")
+    rows = [line.split(",") for line in lines[1:]]
+    assert len(rows) == 3
+    for row in rows:
+        assert (row[11], row[12]) == (by_hand(row[2]), by_hand(row[3]))
+    data = json.loads((out / "summary.json").read_text())
+    assert data["makespan_s"] > 1800  # the run does cross the weekend
+    assert data["calendar"]["finish"] == by_hand(data["makespan_s"])
+    assert data["calendar"]["finish"].startswith("2026-01-13T")
+    assert (data["calendar"]["second_0"], data["calendar"]["start_moved"]) == \
+        ("2026-01-09T15:30:00", False)
+    assert json.loads((out / "case.json").read_text())["calendar"]["holidays"] == ["2026-01-12"]
+    printed = capsys.readouterr().out
+    assert "calendar 08:00-16:00 Mon-Fri, 1 holiday, second 0 = Fri 2026-01-09 15:30" in printed
+    assert f"finish {by_hand(data['makespan_s']).replace('T', ' ')[:16]}" in printed
+
+
+def test_a_calendar_file_and_a_start_outside_working_time(tmp_path, capsys):
+    site = tmp_path / "site.toml"
+    site.write_text('[calendar]\nstart = 2026-01-10T10:00:00\nworking_hours = "07:00-15:00"\n',
+                    encoding="utf-8")
+    out = tmp_path / "run"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--no-progress", "--no-charts",
+                          "--calendar", str(site)]) == 0
+    data = json.loads((out / "summary.json").read_text())["calendar"]
+    # Saturday 10:00 is not working time: second 0 is Monday 07:00
+    assert (data["second_0"], data["start_moved"]) == ("2026-01-12T07:00:00", True)
+    assert "(the start Sat 2026-01-10 10:00 is not working time: moved to the next working " \
+           "moment)" in capsys.readouterr().out
+
+
+def test_without_a_calendar_the_outputs_are_as_before(tmp_path):
+    out = tmp_path / "run"
+    assert simulate.main(["--case", TINY, "--out", str(out), "--no-progress",
+                          "--no-charts"]) == 0
+    assert (out / "schedule.csv").read_text().splitlines()[0].endswith(",status,duration_s")
+    assert "calendar" not in json.loads((out / "summary.json").read_text())
+    assert "calendar" not in json.loads((out / "case.json").read_text())
+
+
+@pytest.mark.parametrize("options, words", [
+    (["--working-hours", "16:00-08:00"], "command line: --working-hours: "
+                                         '"16:00-08:00" ends before it starts'),
+    (["--start", "2026-01-09", "--working-days", "Mon-Fry"],
+     'command line: --working-days: "Fry" is not a weekday; fix: did you mean "Fri"?'),
+    (["--start", "2026-02-30T08:00"], 'command line: --start: "2026-02-30T08:00" is not a '
+                                      "date and time; fix:"),
+    (["--start", "2026-01-09T08:00", "--holidays", "2026-01-12,12/01/2026"],
+     'command line: --holidays: "12/01/2026" is not a date; fix: write YYYY-MM-DD'),
+    (["--start", "2026-01-09T08:00", "--ifc-start", "2026-01-09T08:00:00"],
+     "command line: --ifc-start: a working calendar gives the 4D export its dates"),
+    (["--calendar", "nowhere.toml"], "nowhere.toml: cannot read the file"),
+])
+def test_a_bad_calendar_option_exits_2_before_anything_runs(tmp_path, capsys, options, words):
+    out = tmp_path / "o"
+    assert simulate.main(["--case", TINY, "--out", str(out), *options]) == 2
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err and ("fix:" in err)
+    assert not out.exists()

@@ -4,6 +4,8 @@
                   [--navigator scripted|MODEL.zip] [--seed N] [--episodes N] [--out DIR] [--gif]
                   [--workers N] [--ray [ADDRESS]]
                   [--cpsat-s SECONDS] [--ifc MODEL.ifc [--ifc-start ISO-DATETIME]]
+                  [--calendar FILE.toml] [--start ISO-DATETIME] [--working-hours HH:MM-HH:MM]
+                  [--working-days DAYS] [--holidays DATES]
 
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
 by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
@@ -20,6 +22,14 @@ reached the time limit says so on its charts instead of a makespan), with ``--gi
 model with the simulated schedule as an IfcWorkSchedule
 (``cmdp_pymunk.cases.ifc_export.export_4d``; IFC4 or IFC2X3, as the model), simulated second
 0 at ``--ifc-start``.
+
+A working calendar (the case's ``[calendar]``, replaced by ``--calendar FILE.toml``'s, its
+entries overridden by ``--start``, ``--working-hours``, ``--working-days``, ``--holidays``;
+``--start`` alone gives one with 08:00-16:00, Mon-Fri) turns simulated seconds into dates
+(``cmdp_pymunk.workcalendar``): simulated time is working time, second 0 the start or the next
+working moment. Then ``schedule.csv`` gets ``start`` and ``end`` dates, the Gantt charts a date
+axis, ``summary.json`` a ``calendar`` entry (the calendar, second 0, the finish date), the 4D
+export the calendar's dates, and ``case.json`` the calendar used. Without one nothing changes.
 
 The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/runner.py``): in this
 process (the default, ``--workers 1``), in ``--workers N`` worker processes, or on Ray actors
@@ -55,6 +65,10 @@ from training.cli import (
     positive_seconds,
 )
 
+DEFAULT_IFC_START = "2026-01-05T08:00:00"  # second 0 of the 4D export without a calendar
+# the calendar's entries and the options that override them
+CALENDAR_OPTIONS = {"start": "--start", "working_hours": "--working-hours",
+                    "working_days": "--working-days", "holidays": "--holidays"}
 GIF_SECONDS = 30.0
 GIF_FPS = 10
 POSITION_LOG_EVERY_S = 5.0
@@ -78,9 +92,15 @@ class SimulateArgs:
     deterministic: bool = False
     cpsat_s: float | None = None
     ifc: Path | None = None
-    ifc_start: str = "2026-01-05T08:00:00"
+    ifc_start: str | None = None
     workers: int | None = None  # None: this process (local), every CPU of the cluster (Ray)
     ray: str | None = None  # None: worker processes here; "local": a Ray started here
+    # the working calendar (None: the case's, or none); ifc_start None: DEFAULT_IFC_START
+    calendar: Path | None = None
+    start: str | None = None
+    working_hours: str | None = None
+    working_days: str | None = None
+    holidays: str | None = None
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
@@ -123,10 +143,23 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     p.add_argument("--ifc", type=Path, default=None, metavar="MODEL.ifc",
                    help="also write the schedule into a copy of this IFC model (the one the "
                         "case was imported from) as 4D: MODEL-4d.ifc")
-    p.add_argument("--ifc-start", type=iso_datetime, default="2026-01-05T08:00:00",
+    p.add_argument("--ifc-start", type=iso_datetime, default=None,
                    metavar="ISO-DATETIME",
-                   help="the date and time of simulated second 0 in the 4D schedule "
-                        "(default 2026-01-05T08:00:00)")
+                   help="the date and time of simulated second 0 in the 4D schedule, elapsed "
+                        f"time, without a working calendar (default {DEFAULT_IFC_START})")
+    p.add_argument("--calendar", type=Path, default=None, metavar="FILE.toml",
+                   help="the working calendar: the [calendar] table of this file (a case file "
+                        "or one with only that table), instead of the case's")
+    p.add_argument("--start", default=None, metavar="ISO-DATETIME",
+                   help="the calendar's start, e.g. 2026-01-05T08:00 (with no calendar yet: "
+                        "one with 08:00-16:00, Mon-Fri); dates in schedule.csv, the charts, "
+                        "summary.json and the 4D export")
+    p.add_argument("--working-hours", default=None, metavar="HH:MM-HH:MM",
+                   help="the calendar's working hours, e.g. 07:00-15:30")
+    p.add_argument("--working-days", default=None, metavar="DAYS",
+                   help="the calendar's working days, e.g. Mon-Fri or Mon-Thu,Sat")
+    p.add_argument("--holidays", default=None, metavar="DATES",
+                   help="the calendar's holidays, e.g. 2026-01-12,2026-04-03")
     p.add_argument("--workers", type=positive_int, default=None,
                    help="worker processes for the episodes, or Ray actors with --ray (default: "
                         "this process; with --ray, every CPU of the Ray)")
@@ -136,7 +169,29 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     a = p.parse_args(argv)
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
-                        a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray)
+                        a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray,
+                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays)
+
+
+def with_calendar(case, args: SimulateArgs):
+    """The case with the working calendar the options give: the case's ``[calendar]``, or
+    ``--calendar FILE``'s, with ``--start``, ``--working-hours``, ``--working-days`` and
+    ``--holidays`` replacing its entries. ``CaseError`` (exit 2) naming the file or option,
+    the entry and the fix."""
+    from cmdp_pymunk.cases.load import CaseError, calendar_with, load_calendar
+
+    calendar = load_calendar(args.calendar) if args.calendar is not None else case.calendar
+    given = {field: getattr(args, field) for field in CALENDAR_OPTIONS}
+    if any(value is not None for value in given.values()):
+        calendar = calendar_with(calendar, given, "command line", CALENDAR_OPTIONS)
+    if calendar is not None and args.ifc_start is not None:
+        raise CaseError("command line", [
+            "--ifc-start: a working calendar gives the 4D export its dates, so --ifc-start "
+            "(elapsed time from a date) would be ignored; fix: give the start as --start, or "
+            "leave the calendar out"])
+    if calendar == case.calendar:
+        return case
+    return case.model_copy(update={"calendar": calendar})
 
 
 def iso_datetime(text: str) -> str:
@@ -150,6 +205,18 @@ def iso_datetime(text: str) -> str:
         raise argparse.ArgumentTypeError(f"{text!r} is not an ISO date and time; fix: give e.g. "
                                          "2026-01-05T08:00:00") from None
     return text
+
+
+def calendar_line(calendar) -> str:
+    """``calendar 08:00-16:00 Mon-Fri, second 0 = Fri 2026-01-09 15:00`` (and, when the start
+    is not working time, that it was moved)."""
+    from cmdp_pymunk.workcalendar import describe, first_working_moment
+
+    zero = first_working_moment(calendar)
+    moved = "" if zero == calendar.start else \
+        f" (the start {calendar.start:%a %Y-%m-%d %H:%M} is not working time: moved to the " \
+        "next working moment)"
+    return f"calendar {describe(calendar)}, second 0 = {zero:%a %Y-%m-%d %H:%M}{moved}"
 
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
@@ -236,6 +303,11 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
         data["cpsat"] = cpsat.as_dict()
         data["makespan_over_cpsat_bound"] = makespan / cpsat.bound_s \
             if makespan and cpsat.bound_s > 0 else None
+    if case.calendar is not None:  # the calendar used, second 0 and the finish date
+        from cmdp_pymunk.workcalendar import calendar_summary
+
+        data["calendar"] = calendar_summary(case.calendar, data["makespan_s"],
+                                            data.get("simulated_s"))
     log = EventLog()
     log.events = run.events
     log.write_csv(folder / "events.csv")
@@ -248,9 +320,10 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
         from cmdp_pymunk.cases.ifc_export import export_4d
         from cmdp_pymunk.schedule import task_bars
 
+        start = None if case.calendar is not None else \
+            datetime.datetime.fromisoformat(args.ifc_start or DEFAULT_IFC_START)
         export_4d(args.ifc, case, task_bars(run.events),
-                  folder / f"{args.ifc.stem}-4d.ifc",
-                  datetime.datetime.fromisoformat(args.ifc_start))
+                  folder / f"{args.ifc.stem}-4d.ifc", start)
     if args.charts:
         from media.charts import draw_run
 
@@ -336,7 +409,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
 
     args = parse_args(argv)
     try:
-        case = cmdp_pymunk.load_case(args.case)
+        case = with_calendar(cmdp_pymunk.load_case(args.case), args)
         evaluator = make_evaluator(args.evaluator)
         if args.ifc is not None:  # before simulating: a model that cannot take it fails now
             from cmdp_pymunk.cases.ifc_export import open_for_4d
@@ -402,6 +475,8 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                   f"{args.evaluator}, navigator {args.navigator}"
                   + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
                   flush=True)
+            if case.calendar is not None:
+                print(f"cmdp-simulate: {calendar_line(case.calendar)}", flush=True)
             rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, engine,
                                                navigator, pool, progress)
     except BackendError as err:
@@ -516,10 +591,12 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                           f"{data['tasks_finished']}/{len(case.tasks)} tasks finished",
                           file=sys.stderr)
             else:
+                finish = (data.get("calendar") or {}).get("finish")
                 bar.write(f"cmdp-simulate: seed {seed}: makespan "
                           f"{seconds_and_hours(data['makespan_s'])} "
                           f"({data['makespan_over_lower_bound']:.2f} x lower bound), "
-                          f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
+                          + (f"finish {finish.replace('T', ' ')[:16]}, " if finish else "")
+                          + f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
                           file=sys.stdout)
     return rows, finishes, failed
 

@@ -2,7 +2,8 @@
 
 **Export** (``cmdp-simulate --ifc``, :func:`export_4d`). A copy of the model with an
 IfcWorkSchedule holding one IfcTask per task of the case: IfcTaskTime with the simulated
-start and finish (elapsed time from a given start date, no calendar), the crew that did it as
+start and finish (elapsed time from a given start date, or, with the case's working calendar,
+its dates: ``workcalendar``), the crew that did it as
 an IfcCrewResource assigned to it (IfcRelAssignsToProcess), the element it builds
 (IfcRelAssignsToProduct) and the case's precedences as IfcRelSequence. IFC2X3 has no
 IfcTaskTime: there the times are an IfcScheduleTimeControl, the TimeForTask of the
@@ -116,16 +117,22 @@ def open_for_4d(model_path: str | Path, case):
     return model
 
 
-def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: dt.datetime,
-              name: str = "CMDP simulated schedule") -> dict:
+def export_4d(model_path: str | Path, case, bars, out_path: str | Path,
+              start: dt.datetime | None, name: str = "CMDP simulated schedule") -> dict:
     """Write a copy of the model with the simulated schedule as an IfcWorkSchedule.
+
+    Without a working calendar in ``case``, a task's start and finish are ``start`` plus its
+    simulated seconds (elapsed time; IfcTaskTime's DurationType ELAPSEDTIME). With one, they
+    are the calendar's dates of those seconds (``workcalendar.calendar_datetime``: nights,
+    days off and holidays skipped; DurationType WORKTIME, the duration in working seconds),
+    and the schedule starts at second 0's date.
 
     Args:
         model_path: the IFC model the case was imported from (its components' ``ifc_guid``).
         case: the simulated case.
         bars: the simulation's ``schedule.task_bars`` (start and end in simulated seconds).
         out_path: the IFC file to write (atomically).
-        start: the date and time of simulated second 0.
+        start: the date and time of simulated second 0 without a calendar (None with one).
         name: the work schedule's name.
 
     Returns:
@@ -140,8 +147,9 @@ def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: d
     from ..events import write_atomic
 
     model = open_for_4d(model_path, case)
+    at, start = _clock(case, start)
     if model.schema == "IFC2X3":
-        counts = _write_4d_ifc2x3(model, case, bars, start, name)
+        counts = _write_4d_ifc2x3(model, case, bars, at, start, name)
         write_atomic(Path(out_path), model.to_string())
         return counts
     api = ifcopenshell.api
@@ -171,13 +179,13 @@ def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: d
             continue
         # Set directly: sequence.edit_task_time snaps starts to 09:00 and finishes to 17:00
         # of a working day, and assign_sequence cascades dates by day; a simulated schedule
-        # is in seconds, elapsed time, no calendar.
+        # is in seconds, mapped to dates here (elapsed time, or the case's calendar).
         timed += 1
         duration = dt.timedelta(seconds=bar.end_s - bar.start_s)
         task_time = model.create_entity(
-            "IfcTaskTime", DurationType="ELAPSEDTIME",
-            ScheduleStart=_iso(start + dt.timedelta(seconds=bar.start_s)),
-            ScheduleFinish=_iso(start + dt.timedelta(seconds=bar.end_s)),
+            "IfcTaskTime",
+            DurationType="ELAPSEDTIME" if case.calendar is None else "WORKTIME",
+            ScheduleStart=_iso(at(bar.start_s)), ScheduleFinish=_iso(at(bar.end_s)),
             ScheduleDuration=ifcopenshell.util.date.datetime2ifc(duration, "IfcDuration"))
         ifc_task.TaskTime = task_time
         ifc_task.Status = "FINISHED" if bar.finished else "NOT FINISHED"
@@ -197,14 +205,29 @@ def export_4d(model_path: str | Path, case, bars, out_path: str | Path, start: d
             "crews": len(resources)}
 
 
-def _write_4d_ifc2x3(model, case, bars, start: dt.datetime, name: str) -> dict:
+def _clock(case, start: dt.datetime | None):
+    """(simulated seconds -> date and time, the date of second 0): the case's calendar, or
+    elapsed time from ``start``."""
+    if case.calendar is not None:
+        from ..workcalendar import calendar_datetime, first_working_moment
+
+        calendar = case.calendar
+        return (lambda s: calendar_datetime(calendar, s)), first_working_moment(calendar)
+    if start is None:
+        raise ValueError("export_4d: no start and no working calendar in the case; fix: pass "
+                         "start, the date and time of simulated second 0")
+    return (lambda s: start + dt.timedelta(seconds=s)), start
+
+
+def _write_4d_ifc2x3(model, case, bars, at, start: dt.datetime, name: str) -> dict:
     """:func:`export_4d`'s schedule in IFC2X3, written entity by entity: IFC2X3 has no
     IfcTaskTime, and ``ifcopenshell.api.sequence`` writes IFC4's entities.
 
     Each IfcTask (TaskId and Name: the task's id) is assigned to the IfcWorkSchedule by an
     IfcRelAssignsTasks of its own (the schema's rule: one task each) whose TimeForTask, an
     IfcScheduleTimeControl, holds ScheduleStart and ScheduleFinish (IfcDateAndTime, to the
-    second) and ScheduleDuration (in the model's time unit). The element it builds is
+    second; ``at`` maps simulated seconds to them) and ScheduleDuration (in the model's time
+    unit; working time with a calendar). The element it builds is
     assigned as in IFC4 (IfcRelAssignsToProduct), and so is its crew, an IfcCrewResource
     (IfcRelAssignsToProcess: the task is the relating process, the crew what it uses;
     IfcRelAssignsToResource runs the other way, assigning objects to a resource).
@@ -250,8 +273,8 @@ def _write_4d_ifc2x3(model, case, bars, start: dt.datetime, name: str) -> dict:
             timed += 1
             time_control = rooted(
                 "IfcScheduleTimeControl",
-                ScheduleStart=date_time(start + dt.timedelta(seconds=bar.start_s)),
-                ScheduleFinish=date_time(start + dt.timedelta(seconds=bar.end_s)),
+                ScheduleStart=date_time(at(bar.start_s)),
+                ScheduleFinish=date_time(at(bar.end_s)),
                 ScheduleDuration=(bar.end_s - bar.start_s) / seconds_per_unit)
             ifc_task.Status = "FINISHED" if bar.finished else "NOT FINISHED"
             if bar.crew in crews:

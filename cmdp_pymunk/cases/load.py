@@ -14,14 +14,16 @@ import graphlib
 import math
 import re
 import tomllib
+import types
 from dataclasses import dataclass
 from pathlib import Path
-from typing import get_args, get_origin
+from typing import Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
 from .floorplan import Rect
 from .model import (  # noqa: F401  (re-exported: the models are part of this API)
+    Calendar,
     Case,
     CaseInfo,
     Component,
@@ -136,6 +138,9 @@ def _model_at(loc: tuple) -> type[BaseModel] | None:
         if field is None:
             return None
         model = field.annotation
+        if get_origin(model) in (Union, types.UnionType):  # an optional section: its model
+            model = next((a for a in get_args(model) if isinstance(a, type)
+                          and issubclass(a, BaseModel)), None)
         if get_origin(model) in (dict, tuple):
             model = get_args(model)[1 if get_origin(model) is dict else 0]
             skip = True
@@ -658,6 +663,11 @@ def load_case(path: str | Path | None = None) -> Case:
     TOML, or describes a case that cannot be simulated.
     """
     path = Path(path) if path is not None else BUILTIN_CASE
+    return case_from_dict(_read_toml(path), path.name or str(path))
+
+
+def _read_toml(path: Path) -> dict:
+    """A TOML file's data, or :class:`CaseError` naming the file and the fix."""
     source = path.name or str(path)
     try:
         text = path.read_text(encoding="utf-8")
@@ -669,10 +679,60 @@ def load_case(path: str | Path | None = None) -> Case:
         raise CaseError(source, [f"is not UTF-8 text (byte {err.start}); "
                                  "fix: save the file as UTF-8"]) from None
     try:
-        data = tomllib.loads(text)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise CaseError(source, [_toml_problem(err, text)]) from None
-    return case_from_dict(data, source)
+
+
+# -- the working calendar on its own: a file or command-line options ----------------------
+
+def calendar_with(base: Calendar | None, given: dict[str, object], source: str,
+                  labels: dict[str, str] | None = None) -> Calendar:
+    """``base`` (None: no calendar yet) with the ``given`` entries replaced (a value of None:
+    not given), validated; :class:`CaseError` naming ``source``, each entry by its ``labels``
+    name (default ``calendar: FIELD``) and the fix.
+
+    What ``cmdp-simulate --calendar FILE`` and ``--start``, ``--working-hours``, ... make of a
+    case's ``[calendar]``.
+    """
+    raw = base.model_dump(mode="json") if base is not None else {}
+    raw.update({k: v for k, v in given.items() if v is not None})
+    try:
+        return Calendar.model_validate(raw)
+    except ValidationError as err:
+        labels = labels or {}
+        problems = []
+        for e in err.errors():
+            name = str(e["loc"][0]) if e["loc"] else ""
+            label = labels.get(name, f"calendar: {name}")
+            if e["type"] == "missing":  # only the start is required
+                fix = (f"give {label} 2026-01-05T08:00, or a start in the case's [calendar]"
+                       if name in labels else "add start = 2026-01-05T08:00:00 to [calendar]")
+                problems.append(f"{label}: required field missing (a calendar needs a start); "
+                                f"fix: {fix}")
+            elif e["type"] == "extra_forbidden":
+                close = _closest(name, list(Calendar.model_fields))
+                fix = f'did you mean "{close}"?' if close else \
+                    "the fields here are " + ", ".join(Calendar.model_fields)
+                problems.append(f"{label}: unknown field; fix: {fix}")
+            else:
+                msg = e["msg"].removeprefix("Value error, ")
+                problems.append(f"{label}: {msg}" if "; fix: " in msg
+                                else f"{label}: {msg}; fix: see docs/simulating.md")
+        raise CaseError(source, problems) from None
+
+
+def load_calendar(path: str | Path) -> Calendar:
+    """The ``[calendar]`` table of a TOML file (a case file or one holding only that table);
+    :class:`CaseError` naming the file, the entry and the fix."""
+    path = Path(path)
+    data = _read_toml(path)
+    raw = data.get("calendar")
+    if not isinstance(raw, dict):
+        raise CaseError(path.name, ["no [calendar] table; fix: put the entries under a "
+                                    "[calendar] heading (start, working_hours, working_days, "
+                                    "holidays), as in a case file"])
+    return calendar_with(None, raw, path.name)
 
 
 def as_case(case: Case | str | Path | dict | None) -> Case:
@@ -685,4 +745,4 @@ def as_case(case: Case | str | Path | dict | None) -> Case:
 
 
 __all__ = ["Case", "CaseError", "load_case", "case_from_dict", "as_case", "BUILTIN_CASE",
-           "TINY_CASE", "DISRUPTED_CASE"]
+           "TINY_CASE", "DISRUPTED_CASE", "Calendar", "calendar_with", "load_calendar"]

@@ -13,10 +13,21 @@ quantities are in the unit named by the crew type's ``work_unit`` and the materi
 
 from __future__ import annotations
 
+import datetime as dt
+import difflib
 import math
+import re
 from typing import Annotated
 
-from pydantic import BaseModel, ConfigDict, Field, Strict, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    Strict,
+    field_validator,
+    model_serializer,
+    model_validator,
+)
 
 # Scalars are strict: a quoted "0.4" in a case file is a mistake to report, not to guess at.
 # (Strict floats still accept whole numbers, so ``width_m = 54`` is fine.) TOML has ``nan`` and
@@ -318,6 +329,158 @@ class Disruptions(_Model):
                     or self.weather_stops)
 
 
+WEEKDAYS = ("Mon", "Tue", "Wed", "Thu", "Fri", "Sat", "Sun")  # date.weekday() order
+_FULL_DAYS = ("monday", "tuesday", "wednesday", "thursday", "friday", "saturday", "sunday")
+_HOURS = re.compile(r"^\s*(\d{1,2}):(\d{2})\s*-\s*(\d{1,2}):(\d{2})\s*$")
+
+
+def _weekday(name: object) -> int:
+    """Index (Mon 0) of a weekday written "Mon", "mon" or "Monday"; ValueError naming the fix."""
+    text = str(name).strip().casefold()
+    for i, full in enumerate(_FULL_DAYS):
+        if text in (full, full[:3]):
+            return i
+    close = difflib.get_close_matches(text, [*_FULL_DAYS, *(d[:3] for d in _FULL_DAYS)], 1)
+    hint = f'did you mean "{close[0][:3].title()}"? ' if close else ""
+    raise ValueError(f"{_quoted(name)} is not a weekday; fix: {hint}(weekdays: Mon, Tue, Wed, "
+                     'Thu, Fri, Sat, Sun; a range such as "Mon-Fri"; a list such as '
+                     '["Mon", "Wed"])')
+
+
+def _quoted(value: object) -> str:
+    """A value as a message shows it: text in double quotes, anything else as Python's."""
+    return f'"{value}"' if isinstance(value, str) else repr(value)
+
+
+def parse_working_days(value: object) -> tuple[str, ...]:
+    """``"Mon-Fri"``, ``"Mon-Wed, Fri"``, ``["Mon", "Tue"]`` -> the days in week order, e.g.
+    ``("Mon", "Tue", "Wed", "Thu", "Fri")``. A range runs forward through the week and may
+    wrap (``"Sun-Thu"``: Sun, Mon, Tue, Wed, Thu)."""
+    if isinstance(value, str):
+        items: list[object] = [part for part in value.split(",") if part.strip()]
+    elif isinstance(value, (list, tuple)):
+        items = list(value)
+    else:
+        raise ValueError('working days are text or a list; fix: write e.g. "Mon-Fri" or '
+                         '["Mon", "Tue", "Wed", "Thu", "Fri"]')
+    days: set[int] = set()
+    for item in items:
+        if isinstance(item, str) and "-" in item:
+            first, last = (_weekday(part) for part in item.split("-", 1))
+            days.update((first + k) % 7 for k in range((last - first) % 7 + 1))
+        else:
+            days.add(_weekday(item))
+    if not days:
+        raise ValueError('no working day; fix: give at least one, e.g. "Mon-Fri"')
+    return tuple(WEEKDAYS[i] for i in sorted(days))
+
+
+def parse_working_hours(value: object) -> tuple[int, int]:
+    """``"08:00-16:00"`` -> (28800, 57600): the working day's opening and closing, in seconds
+    after midnight. The close may be ``24:00`` (midnight); it must come after the opening (a
+    shift across midnight is not supported)."""
+    match = _HOURS.match(value) if isinstance(value, str) else None
+    if match is None:
+        raise ValueError(f"{_quoted(value)} is not a time range; fix: write opening and closing as "
+                         'HH:MM-HH:MM, e.g. "08:00-16:00"')
+    h0, m0, h1, m1 = (int(g) for g in match.groups())
+    for h, m in ((h0, m0), (h1, m1)):
+        if m > 59 or h > 24 or (h == 24 and m > 0):
+            raise ValueError(f'"{value}": {h:02d}:{m:02d} is not a time of day; fix: use '
+                             "00:00 to 24:00")
+    opening, closing = (h0 * 60 + m0) * 60, (h1 * 60 + m1) * 60
+    if closing <= opening:
+        raise ValueError(f'"{value}" ends before it starts (or as it starts); fix: give the '
+                         'opening first, e.g. "08:00-16:00" (a shift across midnight is not '
+                         "supported)")
+    return opening, closing
+
+
+def _as_date(value: object) -> dt.date:
+    if isinstance(value, dt.datetime):
+        raise ValueError(f"{value.isoformat()} has a time of day; fix: a holiday is a whole "
+                         "date, write YYYY-MM-DD")
+    if isinstance(value, dt.date):
+        return value
+    if isinstance(value, str):
+        try:
+            return dt.date.fromisoformat(value.strip())
+        except ValueError:
+            pass
+    raise ValueError(f"{_quoted(value)} is not a date; fix: write YYYY-MM-DD, e.g. 2026-12-25")
+
+
+class Calendar(_Model):
+    """A working calendar, so that simulated seconds become dates (beyond the paper).
+
+    Simulated time counts working time only: the crews work from the opening to the closing of
+    ``working_hours`` on the ``working_days`` that are not ``holidays``, and the clock stands
+    still in between. Second 0 is ``start``, or, when ``start`` is not working time, the next
+    working moment (``cmdp_pymunk.workcalendar``, which maps seconds to dates).
+
+    ``start``: a local date and time (TOML ``2026-01-05T08:00:00`` or text; a date alone is
+    its midnight); ``working_hours``: ``"HH:MM-HH:MM"``; ``working_days``: ``"Mon-Fri"`` or a
+    list of weekdays, stored as the days in week order; ``holidays``: dates (``YYYY-MM-DD``).
+    """
+
+    start: dt.datetime
+    working_hours: str = "08:00-16:00"
+    working_days: tuple[str, ...] = WEEKDAYS[:5]
+    holidays: tuple[dt.date, ...] = ()
+
+    @field_validator("start", mode="before")
+    @classmethod
+    def _start(cls, value: object) -> dt.datetime:
+        if isinstance(value, str):
+            try:
+                value = dt.datetime.fromisoformat(value.strip())
+            except ValueError:
+                raise ValueError(f"{_quoted(value)} is not a date and time; fix: write "
+                                 "YYYY-MM-DDTHH:MM, e.g. 2026-01-05T08:00") from None
+        if isinstance(value, dt.date) and not isinstance(value, dt.datetime):
+            value = dt.datetime.combine(value, dt.time())
+        if not isinstance(value, dt.datetime):
+            raise ValueError(f"{_quoted(value)} is not a date and time; fix: write "
+                             "YYYY-MM-DDTHH:MM, "
+                             "e.g. 2026-01-05T08:00")
+        if value.tzinfo is not None:
+            raise ValueError(f"{value.isoformat()} has a UTC offset; fix: give the site's "
+                             "local time without an offset, e.g. 2026-01-05T08:00")
+        return value
+
+    @field_validator("working_hours", mode="before")
+    @classmethod
+    def _hours(cls, value: object) -> str:
+        opening, closing = parse_working_hours(value)
+        return f"{opening // 3600:02d}:{opening % 3600 // 60:02d}-" \
+               f"{closing // 3600:02d}:{closing % 3600 // 60:02d}"
+
+    @field_validator("working_days", mode="before")
+    @classmethod
+    def _days(cls, value: object) -> tuple[str, ...]:
+        return parse_working_days(value)
+
+    @field_validator("holidays", mode="before")
+    @classmethod
+    def _holidays(cls, value: object) -> tuple[dt.date, ...]:
+        if isinstance(value, str):
+            value = [part for part in value.split(",") if part.strip()]
+        if not isinstance(value, (list, tuple)):
+            raise ValueError("holidays are a list of dates; fix: write e.g. "
+                             "[2026-01-12, 2026-12-25]")
+        return tuple(sorted(set(_as_date(v) for v in value)))
+
+    @property
+    def opening_s(self) -> int:
+        """Seconds after midnight at which a working day opens."""
+        return parse_working_hours(self.working_hours)[0]
+
+    @property
+    def closing_s(self) -> int:
+        """Seconds after midnight at which a working day closes."""
+        return parse_working_hours(self.working_hours)[1]
+
+
 class Case(_Model):
     """A whole case, validated. Build one with :func:`load_case` or :func:`case_from_dict`."""
 
@@ -335,3 +498,12 @@ class Case(_Model):
     storages: tuple[Storage, ...] = ()
     tasks: Annotated[tuple[Task, ...], Field(min_length=1)]
     disruptions: Disruptions = Disruptions()
+    calendar: Calendar | None = None
+
+    @model_serializer(mode="wrap")
+    def _without_absent_calendar(self, handler):
+        # A case without a calendar dumps as before it had one (case.json, run records).
+        data = handler(self)
+        if isinstance(data, dict) and data.get("calendar") is None:
+            data.pop("calendar", None)
+        return data
