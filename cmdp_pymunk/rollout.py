@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import disruptions
 from .decide import target_id
 from .engine import Engine
 from .interrupt import sigint_guard
@@ -187,6 +188,37 @@ def crew_summary(engine: Engine) -> dict:
             out[crew.id]["idle_steps"].update(
                 {c.name.lower(): s.idle_steps[c] for c in DISRUPTION_CAUSES})
     return out
+
+
+def disruption_summary(engine: Engine) -> dict | None:
+    """What disruptions struck the engine's episode so far, per kind (``crane_breakdown``,
+    ``late_delivery``, ``absence``, ``weather``): ``count`` and ``downtime_s``
+    (``disruptions.struck``: seconds down, summed over what they struck) and ``idle_crew_s``,
+    the crew-seconds they kept crews from working (the crews' idle steps by cause). None for
+    a case without disruptions."""
+    site = engine.site
+    if not site.case.disruptions:
+        return None
+    out = disruptions.struck(engine.log.events, site.time_s)
+    for cause in DISRUPTION_CAUSES:
+        out[disruptions.KIND_NAMES[cause]]["idle_crew_s"] = sum(
+            c.stats.idle_steps[cause] for c in site.crews)
+    return out
+
+
+def disruption_cost(makespan_s: float | None, undisrupted_makespan_s: float | None,
+                    by_kind: dict | None = None) -> dict:
+    """What the disruptions cost a floor: its makespan against the same seed's on the case
+    without them (``disruptions.undisrupted``; the same paces, so the difference is theirs
+    alone). ``delay_s`` = makespan - undisrupted makespan, ``delay_pct`` = 100 * delay /
+    undisrupted makespan; both None unless both floors finished (a floor that stalled or ran
+    out of time has no makespan). ``by_kind``: what struck (``disruption_summary``)."""
+    delay = makespan_s - undisrupted_makespan_s \
+        if makespan_s is not None and undisrupted_makespan_s is not None else None
+    return {"undisrupted_makespan_s": undisrupted_makespan_s, "delay_s": delay,
+            "delay_pct": 100.0 * delay / undisrupted_makespan_s
+            if delay is not None and undisrupted_makespan_s > 0 else None,
+            "by_kind": by_kind}
 
 
 def reach_rate(reaches: int, timeouts: int) -> float:
