@@ -50,6 +50,8 @@ KINDS = (("crane_breakdowns", IdleCause.CRANE_BREAKDOWN, streams.CRANE_BREAKDOWN
 KIND_NAMES = {cause: cause.name.lower() for _, cause, _ in KINDS}
 # The kinds as the event log names them (``disruption_*`` events' detail), in the case's order.
 KIND_ORDER = tuple(KIND_NAMES[cause] for _, cause, _ in KINDS)
+# their columns in episode rows and comparisons (``struck``): how many struck, and for how long
+STRUCK_FIELDS = tuple(f"{kind}_{what}" for kind in KIND_ORDER for what in ("count", "downtime_s"))
 
 
 def duration_gamma(rng: np.random.Generator, mean_s: float, sd_s: float | None) -> float:

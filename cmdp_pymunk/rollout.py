@@ -52,6 +52,28 @@ def seconds_and_hours(seconds: float) -> str:
     return f"{seconds:,.0f} s ({seconds / 3600:.2f} h)"
 
 
+# How people read each kind of disruption (``disruptions.KIND_ORDER``): one, many.
+KIND_WORDS = {"crane_breakdown": ("crane breakdown", "crane breakdowns"),
+              "late_delivery": ("late delivery", "late deliveries"),
+              "absence": ("absence", "absences"),
+              "weather": ("weather stop", "weather stops")}
+
+
+def struck_text(by_kind: dict) -> str:
+    """What struck, for people: "2 crane breakdowns (3,120 s down), 1 absence (3,600 s
+    down)" from ``disruption_summary``'s counts and downtimes (means over floors give
+    "1.5 crane breakdowns"); "no disruption struck" when none did."""
+    parts = []
+    for kind, (one, many) in KIND_WORDS.items():
+        count = by_kind[kind]["count"]
+        if count:
+            number = f"{count:g}" if isinstance(count, int) or count == int(count) \
+                else f"{count:.1f}"
+            parts.append(f"{number} {one if count == 1 else many} "
+                         f"({by_kind[kind]['downtime_s']:,.0f} s down)")
+    return ", ".join(parts) if parts else "no disruption struck"
+
+
 @dataclass
 class Episode:
     """One finished (or stopped) episode: its seed, makespan (None unless every task ended),

@@ -29,8 +29,7 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
 # disruptions of each kind struck and their downtime (``disruptions.struck``; 0 for a case
 # without), then what they cost against the same seed undisrupted (``cost_fields``; empty
 # when not measured).
-STRUCK_FIELDS = tuple(f"{kind}_{what}" for kind in disruptions.KIND_ORDER
-                      for what in ("count", "downtime_s"))
+STRUCK_FIELDS = disruptions.STRUCK_FIELDS
 COST_FIELDS = ("undisrupted_makespan_s", "disruption_delay_s", "disruption_delay_pct")
 # Beside ROW_FIELDS, in every row (episodes.jsonl) but not in episodes.csv (a list per cell):
 # the simulated second each task ended, in increasing order, for the S-curve of a comparison.
