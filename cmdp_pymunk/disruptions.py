@@ -24,6 +24,11 @@ What a window does, for every second that *starts* inside it (``Now`` is the sta
 A crew that a disruption keeps from working is idle with the disruption as its cause
 (``blocking_cause``; the Gantt activity ``idle_<kind>``, the idle time by cause). A case
 without disruptions never builds a timeline: it runs exactly as before.
+
+What struck an episode is read back from its event log (``struck``: how many of each kind,
+and for how long); what they cost is the makespan against the same seed on the case without
+them (``undisrupted``): every task meets the same pace in both, so the difference is the
+disruptions' alone.
 """
 
 from __future__ import annotations
@@ -33,7 +38,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import construct, events, streams
-from .cases.model import Case, Disruption
+from .cases.model import Case, Disruption, Disruptions
 from .physics import Physics
 from .state import CrewState, CrewStatus, IdleCause, Site
 
@@ -43,6 +48,10 @@ KINDS = (("crane_breakdowns", IdleCause.CRANE_BREAKDOWN, streams.CRANE_BREAKDOWN
          ("absences", IdleCause.ABSENCE, streams.ABSENCE),
          ("weather_stops", IdleCause.WEATHER, streams.WEATHER))
 KIND_NAMES = {cause: cause.name.lower() for _, cause, _ in KINDS}
+# The kinds as the event log names them (``disruption_*`` events' detail), in the case's order.
+KIND_ORDER = tuple(KIND_NAMES[cause] for _, cause, _ in KINDS)
+# their columns in episode rows and comparisons (``struck``): how many struck, and for how long
+STRUCK_FIELDS = tuple(f"{kind}_{what}" for kind in KIND_ORDER for what in ("count", "downtime_s"))
 
 
 def duration_gamma(rng: np.random.Generator, mean_s: float, sd_s: float | None) -> float:
@@ -290,3 +299,33 @@ def refresh_causes(site: Site) -> bool:
             crew.disruption = cause
             changed = True
     return changed
+
+
+def undisrupted(case: Case) -> Case:
+    """The case without its ``[disruptions]``: the same seed meets the same task paces on it
+    (a pace is keyed by seed and task, ``streams``), so its makespan is the floor's without
+    the disruptions, and the difference is what they cost."""
+    return case.model_copy(update={"disruptions": Disruptions()})
+
+
+def struck(log: list[events.Event], end_s: float) -> dict[str, dict]:
+    """What struck an episode, per kind (``KIND_ORDER``), read from its event log: ``count``,
+    the disruptions that started, and ``downtime_s``, the seconds from each start to its end
+    (or to ``end_s``, the episode's end, for one still under way), summed over what they
+    struck: two crews away for an hour each are 2 absences and 7,200 s.
+
+    Windows of one kind and subject that overlap are one disruption (the engine logs one
+    start and one end); a window that would have started after the floor ended, or an
+    absence of a crew that had left, never struck and is not counted.
+    """
+    out = {kind: {"count": 0, "downtime_s": 0.0} for kind in KIND_ORDER}
+    started: dict[tuple[str, str], float] = {}
+    for e in log:
+        if e.kind == "disruption_start":
+            started[(e.detail, e.subject)] = e.time_s
+            out[e.detail]["count"] += 1
+        elif e.kind == "disruption_end":
+            out[e.detail]["downtime_s"] += e.time_s - started.pop((e.detail, e.subject))
+    for (kind, _), start in started.items():
+        out[kind]["downtime_s"] += max(0.0, end_s - start)
+    return out

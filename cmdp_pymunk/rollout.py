@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import disruptions
 from .decide import target_id
 from .engine import Engine
 from .interrupt import sigint_guard
@@ -49,6 +50,28 @@ def percentiles_note(finished: int) -> str:
 def seconds_and_hours(seconds: float) -> str:
     """A duration for people: "33,943 s (9.43 h)"."""
     return f"{seconds:,.0f} s ({seconds / 3600:.2f} h)"
+
+
+# How people read each kind of disruption (``disruptions.KIND_ORDER``): one, many.
+KIND_WORDS = {"crane_breakdown": ("crane breakdown", "crane breakdowns"),
+              "late_delivery": ("late delivery", "late deliveries"),
+              "absence": ("absence", "absences"),
+              "weather": ("weather stop", "weather stops")}
+
+
+def struck_text(by_kind: dict) -> str:
+    """What struck, for people: "2 crane breakdowns (3,120 s down), 1 absence (3,600 s
+    down)" from ``disruption_summary``'s counts and downtimes (means over floors give
+    "1.5 crane breakdowns"); "no disruption struck" when none did."""
+    parts = []
+    for kind, (one, many) in KIND_WORDS.items():
+        count = by_kind[kind]["count"]
+        if count:
+            number = f"{count:g}" if isinstance(count, int) or count == int(count) \
+                else f"{count:.1f}"
+            parts.append(f"{number} {one if count == 1 else many} "
+                         f"({by_kind[kind]['downtime_s']:,.0f} s down)")
+    return ", ".join(parts) if parts else "no disruption struck"
 
 
 @dataclass
@@ -187,6 +210,37 @@ def crew_summary(engine: Engine) -> dict:
             out[crew.id]["idle_steps"].update(
                 {c.name.lower(): s.idle_steps[c] for c in DISRUPTION_CAUSES})
     return out
+
+
+def disruption_summary(engine: Engine) -> dict | None:
+    """What disruptions struck the engine's episode so far, per kind (``crane_breakdown``,
+    ``late_delivery``, ``absence``, ``weather``): ``count`` and ``downtime_s``
+    (``disruptions.struck``: seconds down, summed over what they struck) and ``idle_crew_s``,
+    the crew-seconds they kept crews from working (the crews' idle steps by cause). None for
+    a case without disruptions."""
+    site = engine.site
+    if not site.case.disruptions:
+        return None
+    out = disruptions.struck(engine.log.events, site.time_s)
+    for cause in DISRUPTION_CAUSES:
+        out[disruptions.KIND_NAMES[cause]]["idle_crew_s"] = sum(
+            c.stats.idle_steps[cause] for c in site.crews)
+    return out
+
+
+def disruption_cost(makespan_s: float | None, undisrupted_makespan_s: float | None,
+                    by_kind: dict | None = None) -> dict:
+    """What the disruptions cost a floor: its makespan against the same seed's on the case
+    without them (``disruptions.undisrupted``; the same paces, so the difference is theirs
+    alone). ``delay_s`` = makespan - undisrupted makespan, ``delay_pct`` = 100 * delay /
+    undisrupted makespan; both None unless both floors finished (a floor that stalled or ran
+    out of time has no makespan). ``by_kind``: what struck (``disruption_summary``)."""
+    delay = makespan_s - undisrupted_makespan_s \
+        if makespan_s is not None and undisrupted_makespan_s is not None else None
+    return {"undisrupted_makespan_s": undisrupted_makespan_s, "delay_s": delay,
+            "delay_pct": 100.0 * delay / undisrupted_makespan_s
+            if delay is not None and undisrupted_makespan_s > 0 else None,
+            "by_kind": by_kind}
 
 
 def reach_rate(reaches: int, timeouts: int) -> float:

@@ -33,6 +33,15 @@ the outputs say so. Writes into DIR:
 - ``makespan_histogram.png`` (one panel per strategy, its P50/P80/P90 marked) and
   ``s_curve.png`` (tasks ended over time, one colour per strategy: the median over the seeds
   and the 10-90 % band), ``media/episodes.py``;
+- on a case with disruptions (a ``[disruptions]`` table, e.g. ``--case
+  cmdp_pymunk/cases/precast_floor_disrupted.toml``; docs/disruptions.md): in each episode's
+  row, how many of each kind struck and their downtime (``crane_breakdown_count``,
+  ``crane_breakdown_downtime_s``, ... ``weather_downtime_s``) and what they cost: the makespan
+  of the same seed, strategy and low level on the case without its disruptions
+  (``undisrupted_makespan_s``; every task meets the same pace, so the difference is the
+  disruptions' alone), ``disruption_delay_s`` and ``disruption_delay_pct``; in the summaries,
+  per strategy, the mean delay with its 95 % interval. Each such episode is played twice in
+  its worker; ``--no-disruption-cost`` plays it once (the counts stay);
 - ``settings.json``: the arguments, seeds, bounds, CP-SAT's answer (null when not solved),
   versions and the command; ``resume.json``, what ``--resume`` checks; with the ``cpsat``
   strategy ``cpsat_plan.json``, the plan replayed.
@@ -67,7 +76,14 @@ from training.runs.paired import (
     time_use_summary,
     time_use_table,
 )
-from training.runs.runner import ROW_FIELDS, EpisodeRunner, check_worker
+from training.runs.runner import (
+    COST_FIELDS,
+    ROW_FIELDS,
+    STRUCK_FIELDS,
+    EpisodeRunner,
+    check_worker,
+    cost_fields,
+)
 from training.runs.runner import check_specs as check_episode_specs
 
 DEFAULT_STRATEGIES = ("priority", "nearest")  # CP-SAT (about 20 s on the built-in floor) on request
@@ -115,6 +131,7 @@ class EvaluateArgs:
     resume: bool = False
     cpsat_bound: bool = False  # solve CP-SAT for its bound even without the cpsat strategy
     per_seed: bool = False  # Figs. 12-14 as the paper's lines over the seeds
+    disruption_cost: bool = True  # a disrupted case's episodes also played without (doc)
 
     @property
     def solves_cpsat(self) -> bool:
@@ -128,9 +145,13 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
         "times), episodes.csv, summary.md, summary.csv, summary.json (mean with 95 % "
         "interval, P50/P80/P90, paired difference to priority), fig12_makespan.png, "
         "fig13_reaching_steps.png, fig14_idle_task_area.png, makespan_histogram.png, "
-        "s_curve.png, settings.json, resume.json (cpsat: cpsat_plan.json). Exit status 1 if "
-        "an episode stalled, timed out or was lost, 2 for bad options, 130 on Ctrl-C. "
-        "docs/comparing.md"))
+        "s_curve.png, settings.json, resume.json (cpsat: cpsat_plan.json). Disruptions (crane "
+        "breakdowns, late deliveries, absences, weather stops) strike with a case that has a "
+        "[disruptions] table, e.g. --case cmdp_pymunk/cases/precast_floor_disrupted.toml "
+        "(docs/disruptions.md): each row then counts them, and their cost against the same "
+        "seed undisrupted is in the rows and the summaries (--no-disruption-cost skips it). "
+        "Exit status 1 if an episode stalled, timed out or was lost, 2 for bad options, 130 "
+        "on Ctrl-C. docs/comparing.md"))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),
@@ -168,6 +189,11 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     p.add_argument("--per-seed", action="store_true",
                    help="Figs. 12-14 as the paper's lines over the seeds instead of box and "
                         "strip plots per strategy")
+    p.add_argument("--no-disruption-cost", action="store_true",
+                   help="on a case with disruptions, do not also play each episode without "
+                        "them (what they cost: undisrupted_makespan_s, disruption_delay_s; "
+                        "measuring it doubles the work). A case without disruptions is played "
+                        "once either way")
     p.add_argument("--no-progress", action="store_true", help="show no progress bar")
     a = p.parse_args(argv)
     if not a.strategies or not a.navigators:
@@ -178,11 +204,21 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
                         not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
-                        a.per_seed)
+                        a.per_seed, not a.no_disruption_cost)
 
 
-def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int) -> dict:
-    return runner.run(spec, navigator, seed)
+def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int,
+                 cost: bool = False) -> dict:
+    """One episode's row; ``cost``: the same seed also on the case without its disruptions,
+    in the same worker, for what they cost (``cost_fields``)."""
+    row = runner.run(spec, navigator, seed)
+    undisrupted = runner.run(spec, navigator, seed, undisrupted=True) if cost else None
+    return {**row, **cost_fields(row, undisrupted)}
+
+
+def measures_cost(args: EvaluateArgs, case) -> bool:
+    """Whether each episode is also played without the case's disruptions (module doc)."""
+    return args.disruption_cost and bool(case.disruptions)
 
 
 def check_specs(case, strategies: list[str], navigators: list[str],
@@ -231,8 +267,11 @@ def read_log(path: Path) -> list[dict]:
 
 def resume_settings(case, args: EvaluateArgs) -> dict:
     """What must not change between a run and its ``--resume``."""
-    return {"case": case.model_dump(mode="json"),
-            **{k: getattr(args, k) for k in ("stall_s", "max_time_s", "deterministic")}}
+    out = {"case": case.model_dump(mode="json"),
+           **{k: getattr(args, k) for k in ("stall_s", "max_time_s", "deterministic")}}
+    if measures_cost(args, case):  # only then: runs written before it resume as they were
+        out["disruption_cost"] = True
+    return out
 
 
 def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
@@ -248,7 +287,8 @@ def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
     labels = episode_jobs(args)
     rows = {(r["strategy"], r["navigator"], r["seed"]): r for r in done or []}
     todo = [k for k in labels if k not in rows]
-    jobs = [(run_specs[s], n, seed) for s, n, seed in todo]
+    cost = measures_cost(args, case)
+    jobs = [(run_specs[s], n, seed, cost) for s, n, seed in todo]
     bar = tqdm(total=len(labels), initial=len(labels) - len(todo), unit="episode",
                disable=not args.progress, mininterval=1.0, desc="cmdp-evaluate")
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
@@ -342,6 +382,15 @@ def _main(args: EvaluateArgs) -> int:
         if problems:
             raise _Stop(f"{problems[0]}; fix: put the file at the same path on every node "
                         "(a shared file system), docs/ray.md")
+        if measures_cost(args, case):  # a strategy that cannot play the plain case fails
+            from cmdp_pymunk.disruptions import undisrupted  # now, not in a worker
+
+            try:
+                check_specs(undisrupted(case), list(run_specs.values()), args.navigators,
+                            args.deterministic)
+            except ValueError as err:
+                raise _Stop(f"the case without its disruptions (what they cost): {err}; fix: "
+                            "add --no-disruption-cost") from None
         write_atomic(args.out / "resume.json", json.dumps(resume_settings(case, args)) + "\n")
         n = len(args.seeds) * len(args.strategies) * len(args.navigators)
         wanted = set(episode_jobs(args))
@@ -350,6 +399,9 @@ def _main(args: EvaluateArgs) -> int:
               f"{len(args.navigators)} low level(s) x {len(args.seeds)} seeds"
               + (f", {kept} kept from the earlier run" if kept else "")
               + f"), {pool.label}", flush=True)
+        if measures_cost(args, case):
+            print("cmdp-evaluate: the case has disruptions: each episode is also played "
+                  "without them, for what they cost (--no-disruption-cost to skip)", flush=True)
         start = time.perf_counter()
         try:
             rows = evaluate(case, args, run_specs, pool, done)
@@ -361,7 +413,7 @@ def _main(args: EvaluateArgs) -> int:
     ran = len(rows) - kept
     cpsat_dict = cpsat.as_dict() if cpsat else None
     summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)
-    fields = ["strategy", "navigator", "seed", *ROW_FIELDS]
+    fields = ["strategy", "navigator", "seed", *ROW_FIELDS, *STRUCK_FIELDS, *COST_FIELDS]
     time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
     if time_use:

@@ -41,6 +41,18 @@ the number of workers. The GIF's seed (the first) is played in this process, whi
 With ``--evaluator cpsat`` the plan is solved here and saved as ``DIR/cpsat_plan.json``, which
 the workers replay.
 
+Disruptions (crane breakdowns, late deliveries, absences, weather stops; docs/disruptions.md)
+strike when the case has a ``[disruptions]`` table, e.g. ``--case
+cmdp_pymunk/cases/precast_floor_disrupted.toml`` (the built-in floor with a disruption
+profile). Then ``summary.json`` says what struck (``disruptions``: per kind, how many, their
+downtime and the crew-seconds they kept crews from working) and what it cost
+(``disruption_cost``: the makespan of the same seed on the case without its disruptions,
+played by the same evaluator and low level on the same backend; every task meets the same
+pace in both, so the delay is the disruptions' alone), the console says it per seed, and with
+``--episodes N`` ``makespans.json`` gives the mean delay with its 95 % interval. Measuring the
+cost plays each floor twice, so it is on only for a case with disruptions (a planner's first
+question of one), and ``--no-disruption-cost`` turns it off.
+
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported with the crews and tasks involved; the command then exits with 1.
 A bad case file exits with 2 and a message naming the file, the entry and the fix.
@@ -101,6 +113,7 @@ class SimulateArgs:
     working_hours: str | None = None
     working_days: str | None = None
     holidays: str | None = None
+    disruption_cost: bool = True  # a disrupted case's floors also played without (module doc)
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
@@ -111,8 +124,13 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
         "Writes into --out: summary.json, events.csv, schedule.csv, case.json, "
         "gantt_agents.png, gantt_tasks.png, trajectories.png (--gif: rollout.gif); with "
         "--episodes N each seed in seed-K/, and makespans.csv, makespans.json, "
-        "makespan_histogram.png and s_curve.png in --out. Exit status 1 if an episode "
-        "stalled or timed out, 2 for a bad case or option. docs/simulating.md"))
+        "makespan_histogram.png and s_curve.png in --out. Disruptions (crane breakdowns, "
+        "late deliveries, absences, weather stops) strike with a case that has a "
+        "[disruptions] table, e.g. --case cmdp_pymunk/cases/precast_floor_disrupted.toml "
+        "(docs/disruptions.md); summary.json then reports their count, downtime and cost "
+        "against the same seed undisrupted (--no-disruption-cost skips that second floor). "
+        "Exit status 1 if an episode stalled or timed out, 2 for a bad case or option. "
+        "docs/simulating.md"))
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
     p.add_argument("--evaluator", default="priority",
@@ -164,13 +182,18 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    help="worker processes for the episodes, or Ray actors with --ray (default: "
                         "this process; with --ray, every CPU of the Ray)")
     add_ray_option(p)
+    p.add_argument("--no-disruption-cost", action="store_true",
+                   help="on a case with disruptions, do not also play each seed without them "
+                        "(what they cost: summary.json's disruption_cost; measuring it doubles "
+                        "the work). A case without disruptions is played once either way")
     p.add_argument("--stochastic", action="store_true",
                    help="accepted for old scripts; sampling is the default now")
     a = p.parse_args(argv)
     return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
                         a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray,
-                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays)
+                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays,
+                        not a.no_disruption_cost)
 
 
 def with_calendar(case, args: SimulateArgs):
@@ -220,7 +243,12 @@ def calendar_line(calendar) -> str:
 
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
-    from cmdp_pymunk.rollout import crew_summary, episode_reach_rate, versions
+    from cmdp_pymunk.rollout import (
+        crew_summary,
+        disruption_summary,
+        episode_reach_rate,
+        versions,
+    )
     from cmdp_pymunk.timeuse import time_use
 
     site = engine.site
@@ -238,6 +266,9 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         "crews": crew_summary(engine),
         "time_use_s": time_use(engine.log.events, {c.id: c.type for c in site.crews},
                                len(site.tasks), site.time_s),
+        # what struck, per kind (None for a case without disruptions); what it cost is added
+        # where both floors of the seed are known (``write_outputs``)
+        "disruptions": disruption_summary(engine),
         "stalled": episode.stalled,
         "lookahead": planner_summary(engine.evaluator, "lookahead"),
         "replan": planner_summary(engine.evaluator, "replan"),
@@ -277,11 +308,14 @@ def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb) -> SeedRu
 
 
 def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: str, lb,
-                  seed: int, progress: bool) -> SeedRun:
+                  seed: int, progress: bool, undisrupted: bool = False) -> SeedRun | dict:
     """One seed in a worker (``training.runs.runner.open_backend``): played on the worker's
-    engine."""
+    engine. ``undisrupted``: the seed on the case without its disruptions, for what they cost;
+    returns its episode row (``training.runs.runner.episode_row``)."""
     from agents.models import PolicyStuck
 
+    if undisrupted:
+        return runner.run(evaluator_spec, args.navigator, seed, undisrupted=True)
     try:
         engine, episode = runner.play(evaluator_spec, args.navigator, seed, progress)
     except PolicyStuck as err:
@@ -290,14 +324,17 @@ def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: s
 
 
 def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=None,
-                  gif=None) -> dict:
+                  gif=None, undisrupted: dict | None = None) -> dict:
     """Every file of one seed into ``folder``, each atomically; ``gif``: its ``GifStream``,
-    finished here. Returns ``summary.json``'s data."""
+    finished here; ``undisrupted``: the episode row of the same seed on the case without its
+    disruptions (``disruption_cost``; None: not measured). Returns ``summary.json``'s
+    data."""
     from cmdp_pymunk.events import EventLog, write_atomic
     from cmdp_pymunk.schedule import schedule_csv
 
     folder.mkdir(parents=True, exist_ok=True)
     data = dict(run.summary)
+    data["disruption_cost"] = seed_cost(data, undisrupted)
     if cpsat is not None:
         makespan = data["makespan_s"]
         data["cpsat"] = cpsat.as_dict()
@@ -331,6 +368,18 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     if gif is not None:  # its frames are on disk already: finish it and move it in place
         gif.close()
     return data
+
+
+def seed_cost(data: dict, undisrupted: dict | None) -> dict | None:
+    """``summary.json``'s ``disruption_cost`` of a seed (``rollout.disruption_cost``), from
+    its summary and the row of its undisrupted floor; None when not measured."""
+    if undisrupted is None:
+        return None
+    from cmdp_pymunk.rollout import disruption_cost
+
+    cost = disruption_cost(data["makespan_s"], undisrupted["makespan_s"], data["disruptions"])
+    cost["undisrupted_finished"] = undisrupted["finished"]
+    return cost
 
 
 def planner_summary(evaluator, kind: str) -> dict | None:
@@ -467,6 +516,16 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                 print(f"cmdp-simulate: {problems[0]}; fix: put the file at the same path on "
                       "every node (a shared file system), docs/ray.md", file=sys.stderr)
                 return 2
+            if measures_cost(args, case):  # an evaluator that cannot play the plain case
+                from cmdp_pymunk.disruptions import undisrupted  # fails now, not in a worker
+                from training.runs.runner import check_specs
+
+                try:
+                    check_specs(undisrupted(case), [spec], [args.navigator], args.deterministic)
+                except ValueError as err:
+                    print(f"cmdp-simulate: the case without its disruptions (what they cost): "
+                          f"{err}; fix: add --no-disruption-cost", file=sys.stderr)
+                    return 2
             args.out.mkdir(parents=True, exist_ok=True)
             write_json(args.out / "case.json", case.model_dump(mode="json"))
             progress.out = args.out
@@ -477,6 +536,10 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                   flush=True)
             if case.calendar is not None:
                 print(f"cmdp-simulate: {calendar_line(case.calendar)}", flush=True)
+            if measures_cost(args, case):
+                print("cmdp-simulate: the case has disruptions: each seed is also played "
+                      "without them, for what they cost (--no-disruption-cost to skip)",
+                      flush=True)
             rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, engine,
                                                navigator, pool, progress)
     except BackendError as err:
@@ -500,6 +563,11 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     return 1 if failed else 0
 
 
+def measures_cost(args: SimulateArgs, case) -> bool:
+    """Whether each seed is also played without the case's disruptions (module doc)."""
+    return args.disruption_cost and bool(case.disruptions)
+
+
 def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, engine,
               navigator, pool, progress: Progress) -> tuple[list[dict], list[list[float]], bool]:
     """Every seed, in seed order: the GIF's seed played on ``engine`` here, the others on
@@ -521,8 +589,16 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
     in_process = isinstance(pool, Workers) and pool.workers == 1
     progress.runner = pool.runner if in_process else None
     task_bar = args.progress and args.episodes == 1
-    remote = pool.imap([(spec, args, case_label, lb, seed, task_bar and in_process)
-                        for seed in seeds[len(here):]])
+    # In seed order, each seed's floor (but the GIF's) and then, for what the disruptions
+    # cost, the same seed without them: the backend hands results back in this order.
+    cost = measures_cost(args, case)
+    jobs = []
+    for seed in seeds:
+        if seed not in here:
+            jobs.append((spec, args, case_label, lb, seed, task_bar and in_process))
+        if cost:
+            jobs.append((spec, args, case_label, lb, seed, False, True))
+    remote = pool.imap(jobs)
     bar = tqdm(total=args.episodes, unit="episode", mininterval=1.0, desc="cmdp-simulate",
                disable=not args.progress or args.episodes == 1)
     rows, finishes, failed = [], [], False
@@ -551,15 +627,16 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                     except PolicyStuck as err:
                         run = SeedRun(seed, None, [], str(err))
                     progress.engine = None
-                else:
-                    try:
+                try:
+                    if seed not in here:
                         run = next(remote)
                         if in_process:  # its episode is over: no time under way to report
                             pool.runner.playing = None
-                    except WorkerLost:
-                        raise _Stop(f"seed {seed}: lost with its worker (it died twice); seeds "
-                                    f"before it are kept in {args.out}; to finish, rerun with "
-                                    f"--seed {seed} --episodes {args.episodes - k}") from None
+                    base = next(remote) if cost else None  # the seed without disruptions
+                except WorkerLost:
+                    raise _Stop(f"seed {seed}: lost with its worker (it died twice); seeds "
+                                f"before it are kept in {args.out}; to finish, rerun with "
+                                f"--seed {seed} --episodes {args.episodes - k}") from None
                 if run.stuck:
                     raise _Stop(f"seed {seed}: {run.stuck}")
                 progress.doing = f"while writing seed {seed}'s files"
@@ -567,7 +644,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                 # seed's folder is either complete or not started.
                 interrupt.enter()
                 try:
-                    data = write_outputs(run, folder, args, case, cpsat, gif)
+                    data = write_outputs(run, folder, args, case, cpsat, gif, base)
                 finally:
                     interrupt.leave()
             except BaseException:
@@ -598,18 +675,44 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                           + (f"finish {finish.replace('T', ' ')[:16]}, " if finish else "")
                           + f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
                           file=sys.stdout)
+            if data["disruptions"] is not None:
+                bar.write(f"cmdp-simulate: seed {seed}: {cost_text(data)}", file=sys.stdout)
     return rows, finishes, failed
+
+
+def cost_text(data: dict) -> str:
+    """A seed's disruptions and their cost, for the console."""
+    from cmdp_pymunk.rollout import seconds_and_hours, struck_text
+
+    text = struck_text(data["disruptions"])
+    cost = data["disruption_cost"]
+    if cost is None:
+        return f"{text}; cost not measured (--no-disruption-cost)"
+    if cost["delay_s"] is None:
+        return (f"{text}; cost unknown: the floor "
+                + ("without them" if not cost["undisrupted_finished"] else "with them")
+                + " did not finish")
+    return (f"{text}; they cost {cost['delay_s']:+,.0f} s ({cost['delay_pct']:+.1f} %) against "
+            f"{seconds_and_hours(cost['undisrupted_makespan_s'])} on the same seed without them")
 
 
 def write_makespans(out: Path, rows: list[dict]) -> dict:
     from cmdp_pymunk.events import write_atomic
     from cmdp_pymunk.rollout import makespan_stats, seconds_and_hours
 
-    lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished,reach_rate"]
+    costs = [r.get("disruption_cost") for r in rows]
+    measured = any(c is not None for c in costs)
+    lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished,reach_rate"
+             + (",undisrupted_makespan_s,disruption_delay_s" if measured else "")]
     lines += [f"{r['seed']},{r['makespan_s'] or ''},{r['makespan_over_lower_bound'] or ''},"
-              f"{r['tasks_finished']},{r['all_finished']},{r['reach_rate']:.4f}" for r in rows]
+              f"{r['tasks_finished']},{r['all_finished']},{r['reach_rate']:.4f}"
+              + (f",{_blank(c and c['undisrupted_makespan_s'])},{_blank(c and c['delay_s'])}"
+                 if measured else "")
+              for r, c in zip(rows, costs, strict=True)]
     write_atomic(out / "makespans.csv", "\n".join(lines) + "\n")
     stats = makespan_stats(rows)
+    stats["disruptions"] = mean_struck([r.get("disruptions") for r in rows])
+    stats["disruption_cost"] = mean_cost(rows) if measured else None
     write_json(out / "makespans.json", stats)
     if stats["finished"]:
         print(f"cmdp-simulate: {stats['finished']}/{len(rows)} episodes finished; makespan mean "
@@ -618,9 +721,68 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
               f"({stats['mean_over_lower_bound']:.2f} x lower bound); "
               f"P50 {stats['p50_s']:.0f} s, P80 {stats['p80_s']:.0f} s, "
               f"P90 {stats['p90_s']:.0f} s")
+    if stats["disruptions"] is not None:
+        print(f"cmdp-simulate: {mean_cost_text(stats)}")
     if stats["percentiles_note"]:
         print(f"cmdp-simulate: warning: {stats['percentiles_note']}", file=sys.stderr)
     return stats
+
+
+def _blank(value) -> str:
+    return "" if value is None else str(value)
+
+
+def mean_struck(by_seed: list[dict | None]) -> dict | None:
+    """Per kind, the mean over the floors of ``disruption_summary``'s numbers (count,
+    downtime_s, idle_crew_s); None for a case without disruptions."""
+    import numpy as np
+
+    kept = [d for d in by_seed if d is not None]
+    if not kept:
+        return None
+    return {kind: {what: float(np.mean([d[kind][what] for d in kept])) for what in kept[0][kind]}
+            for kind in kept[0]}
+
+
+def mean_cost(rows: list[dict]) -> dict:
+    """What the disruptions cost over the seeds (``training.runs.paired``): the mean delay
+    against the same seeds undisrupted with its 95 % interval (Student's t) over the seeds
+    where both floors finished, the mean delay in % with its interval, the mean undisrupted
+    makespan and the ratio of the means."""
+    from training.runs.paired import mean_ci, paired
+
+    floors = [{"seed": r["seed"], "makespan_s": r["makespan_s"], "finished": r["all_finished"]}
+              for r in rows if r.get("disruption_cost")]
+    plain = [{"seed": r["seed"], "makespan_s": c["undisrupted_makespan_s"],
+              "finished": c["undisrupted_makespan_s"] is not None}
+             for r in rows if (c := r.get("disruption_cost"))]
+    both = paired(floors, plain)
+    pct, _, pct_ci = mean_ci([r["disruption_cost"]["delay_pct"] for r in rows
+                              if r.get("disruption_cost")])
+    undisrupted, _, _ = mean_ci([c["undisrupted_makespan_s"] for r in rows
+                                 if (c := r.get("disruption_cost")) and c["delay_s"] is not None])
+    return {"paired_seeds": both["paired_seeds"], "delay_mean_s": both["diff_mean_s"],
+            "delay_ci95_s": both["diff_ci95_s"], "delay_pct_mean": pct,
+            "delay_pct_ci95": pct_ci, "undisrupted_mean_s": undisrupted,
+            "ratio": both["ratio"]}
+
+
+def mean_cost_text(stats: dict) -> str:
+    """The disruptions over the seeds and their mean cost, for the console."""
+    from cmdp_pymunk.rollout import struck_text
+
+    text = f"disruptions per floor on average: {struck_text(stats['disruptions'])}"
+    cost = stats["disruption_cost"]
+    if cost is None:
+        return text + "; cost not measured (--no-disruption-cost)"
+    if not cost["paired_seeds"]:
+        return text + "; cost unknown: no seed finished both with and without them"
+    ci = "" if cost["delay_ci95_s"] is None else f" ± {cost['delay_ci95_s']:,.0f}"
+    ci_pct = "" if cost["delay_pct_ci95"] is None else f" ± {cost['delay_pct_ci95']:.1f}"
+    return (f"{text}; they cost {cost['delay_mean_s']:+,.0f}{ci} s a floor "
+            f"({cost['delay_pct_mean']:+.1f}{ci_pct} %; mean, 95 % interval) against "
+            f"{cost['undisrupted_mean_s']:,.0f} s on the same {cost['paired_seeds']} seeds "
+            "without them")
 
 
 def entry_point() -> None:

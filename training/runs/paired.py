@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 
+from cmdp_pymunk.disruptions import STRUCK_FIELDS
 from cmdp_pymunk.rollout import MIN_FLOORS_FOR_PERCENTILES, percentiles_note
 from cmdp_pymunk.state import DISRUPTION_IDLE_FIELDS
 
@@ -101,6 +102,7 @@ def summarize(rows: list[dict], lower_bound_s: float, cpsat_bound_s: float | Non
         reference = groups.get((REFERENCE, navigator))
         entry.update({f"vs_{REFERENCE}_{k}": v for k, v in
                       paired(group, reference or []).items()})
+        entry.update(disruption_means(group))
         out.append(entry)
     return out
 
@@ -155,6 +157,29 @@ def time_use_table(entries: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def disruption_means(group: list[dict]) -> dict:
+    """Appended to a strategy's summary, so older columns keep their places: per kind of
+    disruption the mean count and downtime per episode (``<kind>_count_mean``,
+    ``<kind>_downtime_s_mean``; 0 for a case without), then what they cost
+    (``training.runs.runner.cost_fields``): the mean delay against the same seeds undisrupted
+    with its 95 % interval (``paired``: the seeds where both floors finished), the mean delay
+    in %, the mean undisrupted makespan; None where it was not measured."""
+    out = {f"{k}_mean": mean_ci([r.get(k, 0) for r in group])[0] for k in STRUCK_FIELDS}
+    measured = [r for r in group if r.get("undisrupted_makespan_s") is not None]
+    undisrupted = [{"seed": r["seed"], "makespan_s": r["undisrupted_makespan_s"],
+                    "finished": True} for r in measured]
+    both = paired(group, undisrupted)
+    out.update({"disruption_cost_seeds": both["paired_seeds"],
+                "disruption_delay_mean_s": both["diff_mean_s"],
+                "disruption_delay_ci95_s": both["diff_ci95_s"],
+                "disruption_delay_pct_mean": mean_ci([r.get("disruption_delay_pct")
+                                                      for r in group])[0],
+                "undisrupted_makespan_mean_s": mean_ci([r["undisrupted_makespan_s"]
+                                                        for r in measured
+                                                        if r["finished"]])[0]})
+    return out
+
+
 def _num(value, digits: int = 0, pm: float | None = None) -> str:
     if value is None:
         return "-"
@@ -174,7 +199,11 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
             "| reaching steps | idle: predecessor / task area / no target | crane waits |")
     if disrupted:
         head += " idle: crane breakdown / late delivery / absence / weather |"
-    lines = [head, "|" + "---|" * (13 if disrupted else 12)]
+    # what the disruptions cost against the same seeds undisrupted: where it was measured
+    costed = any(e.get("disruption_cost_seeds") for e in summary)
+    if costed:
+        head += " disruptions' delay (s) ± 95 % CI |"
+    lines = [head, "|" + "---|" * (12 + disrupted + costed)]
     for e in summary:
         ref = e[f"vs_{REFERENCE}_diff_mean_s"]
         vs = "-" if e["strategy"] == REFERENCE or ref is None else \
@@ -191,8 +220,13 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
             f"{ratio} | {_num(e['reaching_steps_mean'])} | {idle} | "
             f"{_num(e['crane_waits_mean'], 1)} |"
             + (" " + " / ".join(_num(e[f"{k}_mean"]) for k in DISRUPTION_IDLE_FIELDS) + " |"
-               if disrupted else ""))
+               if disrupted else "")
+            + (f" {_delay(e)} |" if costed else ""))
     lines.append("")
+    if costed:
+        lines.append("Disruptions' delay: makespan minus the same seed's on the case without "
+                     "its disruptions (the same task paces), over the seeds where both "
+                     "finished; in % of the undisrupted makespan in brackets.")
     lines.append(f"Lower bound (critical path or per-crew-type work): {lower_bound_s:,.0f} s.")
     if cpsat:
         state = "proven optimal" if cpsat["optimal"] else \
@@ -214,6 +248,17 @@ def markdown_table(summary: list[dict], lower_bound_s: float,
                 lines.append(f"{e['strategy']} / {e['navigator']}: {kind.replace('_', ' ')} "
                              f"on seed(s) {', '.join(map(str, e[f'{kind}_seeds']))}.")
     return "\n".join(lines) + "\n"
+
+
+def _delay(entry: dict) -> str:
+    """A strategy's disruption delay for the table: "+2,715 ± 1,020 (8.1 %)"."""
+    mean = entry.get("disruption_delay_mean_s")
+    if mean is None:
+        return "-"
+    ci = entry["disruption_delay_ci95_s"]
+    pct = entry["disruption_delay_pct_mean"]
+    return (f"{mean:+,.0f}" + (f" ± {ci:,.0f}" if ci is not None else "")
+            + (f" ({pct:+.1f} %)" if pct is not None else ""))
 
 
 def csv_text(rows: list[dict], fields: list[str]) -> str:

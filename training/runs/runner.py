@@ -2,17 +2,20 @@
 ``cmdp-evaluate`` share (run machinery, ``training.runs``).
 
 ``episode_row`` sums up one finished (or stopped) episode: makespan, reaching steps, idle
-steps by cause, crane waits, whether it stalled or timed out, and when each task ended.
-``EpisodeRunner`` holds one engine and low level per (evaluator, navigator) pair and runs seeds
-on them. Where they run is ``training.runs.backends``'.
+steps by cause, crane waits, whether it stalled or timed out, the disruptions that struck it,
+and when each task ended. ``EpisodeRunner`` holds one engine and low level per (evaluator,
+navigator) pair and runs seeds on them, on the case or on the case without its disruptions
+(``undisrupted=True``; ``cost_fields`` pairs the two). Where they run is
+``training.runs.backends``'.
 """
 
 from __future__ import annotations
 
 from agents.models import PolicyStuck
 from agents.specs import make_evaluator, make_navigator
+from cmdp_pymunk import disruptions
 from cmdp_pymunk.engine import Engine
-from cmdp_pymunk.rollout import Episode, episode_reach_rate, run_episode
+from cmdp_pymunk.rollout import Episode, disruption_cost, episode_reach_rate, run_episode
 from cmdp_pymunk.schedule import finish_times
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
 from cmdp_pymunk.timeuse import time_use
@@ -23,6 +26,12 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
               "crane_wait_s", "reach_rate", "wall_s", "stall_reason",
               # crew-seconds a disruption kept crews from working (``disruptions``), by kind
               *DISRUPTION_IDLE_FIELDS)
+# Appended after ROW_FIELDS in episodes.csv, so older columns keep their places: how many
+# disruptions of each kind struck and their downtime (``disruptions.struck``; 0 for a case
+# without), then what they cost against the same seed undisrupted (``cost_fields``; empty
+# when not measured).
+STRUCK_FIELDS = disruptions.STRUCK_FIELDS
+COST_FIELDS = ("undisrupted_makespan_s", "disruption_delay_s", "disruption_delay_pct")
 # Beside ROW_FIELDS, in every row (episodes.jsonl) but not in episodes.csv (a list per cell):
 # the simulated second each task ended, in increasing order, for the S-curve of a comparison.
 TASK_END_TIMES = "task_end_times_s"
@@ -66,10 +75,32 @@ def episode_row(engine: Engine, episode: Episode | None, stall_reason: str = "")
         "stall_reason": stall_reason,
         **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)
            for c in DISRUPTION_CAUSES},
+        **struck_fields(engine),
         TASK_END_TIMES: task_end_times(engine),
         TIME_USE: time_use(engine.log.events, {c.id: c.type for c in crews}, len(site.tasks),
                            site.time_s),
     }
+
+
+def struck_fields(engine: Engine) -> dict:
+    """``STRUCK_FIELDS`` of the engine's episode: per kind, the disruptions that struck and
+    their downtime in seconds (``disruptions.struck``; zeros for a case without)."""
+    struck = disruptions.struck(engine.log.events, engine.site.time_s) \
+        if engine.case.disruptions else {}
+    return {f"{kind}_{what}": struck.get(kind, {}).get(what, 0)
+            for kind in disruptions.KIND_ORDER for what in ("count", "downtime_s")}
+
+
+def cost_fields(row: dict, undisrupted_row: dict | None) -> dict:
+    """``COST_FIELDS`` of an episode row against the row of the same seed, evaluator and low
+    level on the case without disruptions (``EpisodeRunner.run(..., undisrupted=True)``;
+    None: not measured): its makespan, the delay (s) and the delay in % of it
+    (``rollout.disruption_cost``)."""
+    if undisrupted_row is None:
+        return dict.fromkeys(COST_FIELDS)
+    cost = disruption_cost(row["makespan_s"], undisrupted_row["makespan_s"])
+    return {"undisrupted_makespan_s": cost["undisrupted_makespan_s"],
+            "disruption_delay_s": cost["delay_s"], "disruption_delay_pct": cost["delay_pct"]}
 
 
 def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None = None,
@@ -87,7 +118,9 @@ class EpisodeRunner:
 
     An evaluator is a spec (``agents.specs.make_evaluator``) or an evaluator object (the GA
     passes its individuals); an object is swapped into a cached engine of the same navigator.
-    ``position_log_every_s``: see ``make_engine``.
+    ``position_log_every_s``: see ``make_engine``. ``undisrupted=True`` in ``run``: the
+    same seed on the case without its disruptions (``disruptions.undisrupted``), on
+    engines of its own.
     """
 
     def __init__(self, case, stall_s: float | None = 3600.0, max_time_s: float | None = None,
@@ -98,13 +131,20 @@ class EpisodeRunner:
         self.deterministic = deterministic
         self.position_log_every_s = position_log_every_s
         self._cache: dict = {}
+        self._undisrupted = None  # the case without its disruptions, made when first asked
         self.playing = None  # the engine of the episode under way in ``play`` (for its time)
 
-    def _engine(self, evaluator, navigator_spec: str):
-        key = (evaluator if isinstance(evaluator, str) else "<object>", navigator_spec)
+    def _engine(self, evaluator, navigator_spec: str, undisrupted: bool = False):
+        key = (evaluator if isinstance(evaluator, str) else "<object>", navigator_spec,
+               undisrupted)
         if key not in self._cache:
+            case = self.case
+            if undisrupted:
+                if self._undisrupted is None:
+                    self._undisrupted = disruptions.undisrupted(self.case)
+                case = self._undisrupted
             ev = make_evaluator(evaluator) if isinstance(evaluator, str) else evaluator
-            engine = make_engine(self.case, ev, navigator_spec, self.max_time_s,
+            engine = make_engine(case, ev, navigator_spec, self.max_time_s,
                                  self.position_log_every_s)
             self._cache[key] = (engine, make_navigator(navigator_spec, engine,
                                                        self.deterministic))
@@ -113,8 +153,9 @@ class EpisodeRunner:
             engine.evaluator = evaluator
         return engine, navigator
 
-    def run(self, evaluator, navigator_spec: str, seed: int) -> dict:
-        engine, navigator = self._engine(evaluator, navigator_spec)
+    def run(self, evaluator, navigator_spec: str, seed: int, undisrupted: bool = False) -> dict:
+        """One seed's ``episode_row``; ``undisrupted``: on the case without disruptions."""
+        engine, navigator = self._engine(evaluator, navigator_spec, undisrupted)
         try:
             episode = run_episode(engine, navigator, seed, self.stall_s, progress=False)
         except PolicyStuck as err:
