@@ -495,16 +495,9 @@ def test_evaluate_reports_p80_paired_differences_and_idle_by_disruption(tmp_path
     from training import compare as evaluate
 
     case = tmp_path / "tiny_disrupted.toml"
-    case.write_text(TINY_CASE.read_text(encoding="utf-8") + """
-[[disruptions.crane_breakdowns]]
-at_s = 100.0
-duration_s = 300.0
+    from test_disruption_cost import DISRUPTED_TOML
 
-[[disruptions.absences]]
-crew = "RC-1"
-at_s = 100.0
-duration_s = 150.0
-""", encoding="utf-8")
+    case.write_text(TINY_CASE.read_text(encoding="utf-8") + DISRUPTED_TOML, encoding="utf-8")
     out = tmp_path / "eval"
     assert evaluate.main(["--case", str(case), "--seeds", "0-2", "--strategies",
                           "priority,nearest", "--workers", "1", "--out", str(out),
