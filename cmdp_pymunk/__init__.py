@@ -1,6 +1,6 @@
 """cmdp-pymunk: the Construction Markov Decision Process on pymunk, as a PettingZoo env.
 
-The simulation core (``engine``, ``case``, ``state``, ``decide``, ...) imports neither
+The simulation core (``engine``, ``cases``, ``state``, ``decide``, ...) imports neither
 PettingZoo nor Gymnasium: ``import cmdp_pymunk.engine`` works without them. Where PettingZoo is
 installed, importing the package registers the env's variants (``pettingzoo.make("parallel",
 "cmdp/PrecastFloor-v1")``); ``CMDPEnv``, ``parallel_env`` and ``env`` load the adapter on use.

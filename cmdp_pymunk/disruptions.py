@@ -1,7 +1,7 @@
 """Disruptions: crane breakdowns, late deliveries, absent crews and weather stops.
 
 Beyond the paper (its limitations name uncertainty beyond task durations). The case's
-``[disruptions]`` (``case_model.Disruptions``, docs/disruptions.md) lists entries of four kinds;
+``[disruptions]`` (``cases.model.Disruptions``, docs/disruptions.md) lists entries of four kinds;
 each entry becomes *windows* ``[start_s, end_s)`` of simulated time, all drawn when the episode
 starts (``Timeline``): a scheduled entry at ``at_s`` (repeated every ``every_s``), a random one
 with exponential gaps of mean ``mean_interval_s`` after the end of the previous occurrence and

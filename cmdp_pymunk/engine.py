@@ -20,7 +20,7 @@ by seed and task); ``step(actions)`` runs one simulated second and returns what 
 ends or it is cut (the idle jump, generalised), and counts them for metrics
 (``metrics.Counters``, beside the dynamics). Observations are the adapters' business
 (``observe``): the PettingZoo env (``env.CMDPEnv``) casts the rays, the stage-2 env
-(``adapters.stage2``) builds O^e.
+(``adapters.decision_loop``) builds O^e.
 
 One second, in the paper's order (section 3.2)
     At second t the crews decided (Pi_cons, Table 1), their scopes were valued (Eq. 4 or

@@ -198,7 +198,7 @@ class NearestFirstEvaluator(Rule):
 def desired_position_values(desired, crew: CrewState, site: Site) -> dict[int, float]:
     """V_Tar for crew's target scope from a desired position (the stage-2 policy's action),
     Eq. 4 through ``as_target_values``: the one valuation of a desired position, in training
-    (``adapters.stage2``) and deployment (``agents.models.ModelEvaluator``).
+    (``adapters.decision_loop``) and deployment (``agents.models.ModelEvaluator``).
 
     Args:
         desired: (a1, a2) over the plane's half extents; clipped into [-1, 1] first (the

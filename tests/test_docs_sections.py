@@ -28,3 +28,15 @@ def test_terms_become_headings_over_their_dedented_text():
 def test_text_without_definitions_is_kept():
     text = "One line.\n\n    an indented block after a blank line stays code"
     assert load().definition_sections(text) == text
+
+
+def test_sphinx_roles_become_code_spans():
+    text = "Raises :class:`CaseError`; see :func:`~cmdp_pymunk.cases.load.load_case` and ``x``."
+    assert load().sphinx_roles(text) == (
+        "Raises `CaseError`; see `cmdp_pymunk.cases.load.load_case` and ``x``.")
+
+
+def test_a_list_after_its_sentence_gets_its_blank_line():
+    text = "Read so:\n- one\n  more of one\n- two\n\n- three\n    - nested stays"
+    assert load().lists_apart(text) == (
+        "Read so:\n\n- one\n  more of one\n- two\n\n- three\n    - nested stays")

@@ -4,7 +4,7 @@ A case is a TOML file a construction engineer can write by hand (see ``docs/case
 the built-in ``cases/precast_floor.toml``). Loading validates it completely before anything is
 simulated: every problem is collected and reported in one :class:`CaseError`, each naming the
 file, the entry and the fix. The models themselves (fields, units, coordinates) are in
-``case_model``, re-exported here.
+``cmdp_pymunk.cases.model``, re-exported here.
 """
 
 from __future__ import annotations

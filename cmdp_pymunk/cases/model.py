@@ -1,7 +1,7 @@
 """The case data model: a floor's work plane, its crews, components, tasks and storages.
 
 Pydantic models, frozen and strict; loading a case file and checking it as a whole (every
-problem reported together, naming the file, the entry and the fix) is ``case``'s job.
+problem reported together, naming the file, the entry and the fix) is ``cases.load``'s job.
 
 Coordinates: the plane's origin is its centre; x runs along ``width_m``, y along ``height_m``.
 So every point of the plane lies in ``[-width/2, width/2] x [-height/2, height/2]`` and Eq. 4's
