@@ -200,7 +200,7 @@ def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path, capsys)
     ifc_models.add_element(f, body, level, "IfcSlab", "S-X", ifc_models.box(101, 61, 2, 2))
     f.write(str(model))
     fails([str(model), "--storey", "Level 1"], 'IfcSlab "S-11"', 'IfcSlab "S-X"',
-          "footprints overlap by 1.00 x 1.00 m")
+          "footprints overlap by 1.000 x 1.000 m")
 
 
 def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
@@ -223,7 +223,7 @@ def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
     with pytest.raises(CaseError) as err:
         import_storey(path, "Level 1", load_overlay(overlay))
     assert 'IfcSlab "S-11"' in str(err.value) and 'IfcSlab "S-X"' in str(err.value)
-    assert "footprints overlap by 1.00 x 1.00 m" in str(err.value)
+    assert "footprints overlap by 1.000 x 1.000 m" in str(err.value)
 
 
 def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path, capsys):
@@ -269,7 +269,7 @@ def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path,
     overlay = tmp_path / "o.toml"
     overlay.write_text("[import]\ncheck_storey = false\n")
     with pytest.raises(CaseError, match='IfcSlab "S-11" .* and IfcSlab "S-UP" .*: footprints '
-                                        "overlap by 2.00 x 2.00 m"):
+                                        "overlap by 2.000 x 2.000 m"):
         import_storey(path, "Level 1", load_overlay(overlay))
     overlay.write_text("[import]\ncheck_storey = 1\n")
     with pytest.raises(CaseError, match="import.check_storey = 1: write true or false"):

@@ -675,15 +675,12 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     if problems:
         raise CaseError(source, problems)
     rects = [e.rect for e in elements]
-    for i, j in overlapping_pairs(rects):
-        a, b = rects[i], rects[j]
-        w = min(a.x1, b.x1) - max(a.x0, b.x0)
-        h = min(a.y1, b.y1) - max(a.y0, b.y0)
-        if w > 1e-3 and h > 1e-3:  # a millimetre of modelling noise is no overlap
-            problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
-                            f"by {w:.2f} x {h:.2f} m (components are obstacles side by side "
-                            "on the floor); fix: correct the model, or leave one of the "
-                            "classes out of the recipe ([recipe.classes] in the overlay)")
+    for i, j in overlapping_pairs(rects):  # beyond GEOMETRY_TOLERANCE_M, as the case check
+        w, h = rects[i].overlap(rects[j])
+        problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
+                        f"by {w:.3f} x {h:.3f} m (components are obstacles side by side "
+                        "on the floor); fix: correct the model, or leave one of the "
+                        "classes out of the recipe ([recipe.classes] in the overlay)")
     box = bounding_rect(rects)
     cx, cy = box.centre
     plane_cfg = overlay.data["plane"]
