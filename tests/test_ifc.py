@@ -620,3 +620,57 @@ def test_simulate_with_a_calendar_exports_the_dates_of_schedule_csv(tmp_path):
     assert {r["task"]: (r["start"], r["end"]) for r in rows} == \
         {k: (t["start"], t["finish"]) for k, t in tasks.items()}
     assert max(r["end"] for r in rows) > "2026-01-13"  # past the weekend and the holiday
+
+
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_slabs_without_a_shape_take_their_footprints_from_aggregated_proxies(tmp_path, schema):
+    """The precast deck (``ifc_models.precast_deck``): 9 IfcSlab with a placement and no shape,
+    each body on an IfcBuildingElementProxy aggregated to it, in a 'Plan' context, in
+    millimetres, bottoms 0.25 m below the level. The model spans x 200..209.16 (three 3 m slabs
+    and two joints of 80 mm in row 3), y 100..111.6 (three 1.2 m rows, 4 m apart): its centre
+    (204.58, 105.8) is the origin. Row 1 (joints 0): x centres 201.5, 204.5, 207.5 -> -3.08,
+    -0.08, 2.92; row 2 (20 mm): 201.5, 204.52, 207.54 -> -3.08, -0.06, 2.96; row 3 (80 mm):
+    201.5, 204.58, 207.66 -> -3.08, 0, 3.08; rows' y centres 100.6, 105.8, 111 -> -5.2, 0,
+    5.2."""
+    import ifcopenshell.util.unit
+
+    f, slabs = ifc_models.precast_deck(schema)
+    path = tmp_path / "deck.ifc"
+    f.write(str(path))
+    model = ifcopenshell.open(str(path))
+    assert ifcopenshell.util.unit.calculate_unit_scale(model) == 0.001  # millimetres
+    assert {s.Depth for s in model.by_type("IfcExtrudedAreaSolid")} == {250.0}
+    assert all(s.Representation is None for s in model.by_type("IfcSlab"))
+    assert {r.ContextOfItems.ContextType for r in model.by_type("IfcShapeRepresentation")} \
+        == {"Plan"}
+    data, report = import_storey(path, "Level 1")
+    comps = {c["id"]: (c["x_m"], c["y_m"], c["width_m"], c["height_m"])
+             for c in data["components"]}
+    assert comps == {
+        "D-11": (-3.08, -5.2, 3.0, 1.2), "D-12": (-0.08, -5.2, 3.0, 1.2),
+        "D-13": (2.92, -5.2, 3.0, 1.2),
+        "D-21": (-3.08, 0.0, 3.0, 1.2), "D-22": (-0.06, 0.0, 3.0, 1.2),
+        "D-23": (2.96, 0.0, 3.0, 1.2),
+        "D-31": (-3.08, 5.2, 3.0, 1.2), "D-32": (0.0, 5.2, 3.0, 1.2),
+        "D-33": (3.08, 5.2, 3.0, 1.2)}
+    assert {c["id"]: c["ifc_guid"] for c in data["components"]} == {
+        n: s.GlobalId for n, s in slabs.items()}
+    # the proxies are parts, neither components nor skipped
+    assert report.components_by_class == {"IfcSlab": 9} and report.skipped_by_class == {}
+    assert ("9 IfcSlab without a body of their own: footprints from the elements aggregated "
+            "to them (IfcBuildingElementProxy), which are not components") in report.notes
+    # the 20 and 80 mm joints are lanes no crew passes (noted), the 0 mm ones are none
+    lanes = [n for n in report.notes if n.startswith("the lane between")]
+    assert len(lanes) == 4 and sum(" 0.02 m wide" in n for n in lanes) == 2
+    # a slab with neither a body nor parts is still refused
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+
+    bare = ifcopenshell.api.root.create_entity(f, ifc_class="IfcSlab", name="D-BARE")
+    ifcopenshell.api.spatial.assign_container(f, products=[bare],
+                                              relating_structure=slabs["D-11"]
+                                              .ContainedInStructure[0].RelatingStructure)
+    f.write(str(path))
+    with pytest.raises(CaseError, match=r'IfcSlab "D-BARE" .*: has no body geometry to take a '
+                                        r"footprint from, neither its own nor its parts'"):
+        import_storey(path, "Level 1")

@@ -1,17 +1,18 @@
 """Floors from BIM, the input side: a storey of an IFC model as a case (the 4D output is
 ``cases.ifc_export``).
 
-**Import** (``cmdp-import-ifc``, :func:`import_storey`). The storey's elements of the
-recipe's IFC classes (by default slabs, columns, walls and members are precast, beams are
-cast in place; ``floorplan.PRECAST_RECIPE``) become components: each element's plan footprint
-(its body geometry projected on the floor, in metres) is boxed in the axis-aligned rectangle
-the simulator needs. An element that its rectangle covers poorly (the footprint fills less
-than ``[import] min_fill`` of it: an L-shape, a beam at 45 degrees) is reported, not silently
-boxed, and so is an element that does not sit on its storey: the bottom of its body lies
-outside the storey's range, from halfway down to the storey below to halfway up to the one
-above (:class:`StoreyRange`). Tasks come from the recipe's chains: JC -> HI -> G on a precast
-component, R -> F on a cast-in-place one, R waiting for HI on the components beside it
-(``neighbour_gap_m``).
+**Import** (``cmdp-import-ifc``, :func:`import_storey`). The storey's elements of the recipe's
+IFC classes (by default slabs, columns, walls and members are precast, beams are cast in place;
+``floorplan.PRECAST_RECIPE``) become components: each element's plan footprint (its body
+geometry projected on the floor, in metres) is boxed in the axis-aligned rectangle the
+simulator needs; an element without a body of its own takes its footprint from its parts (the
+elements aggregated to it, which are then no components). An element that its rectangle covers
+poorly (the footprint fills less than ``[import] min_fill`` of it: an L-shape, a beam at 45
+degrees) is reported, not silently boxed, and so is an element that does not sit on its storey:
+the bottom of its body lies outside the storey's range, from halfway down to the storey below
+to halfway up to the one above (:class:`StoreyRange`). Tasks come from the recipe's chains: JC
+-> HI -> G on a precast component, R -> F on a cast-in-place one, R waiting for HI on the
+components beside it (``neighbour_gap_m``).
 
 Where the model carries a 4D schedule (IfcTask assigned to the storey's elements with
 IfcRelAssignsToProduct, or the elements to the task with IfcRelAssignsToProcess;
@@ -297,6 +298,8 @@ class Element:
     rect: Rect | None  # the footprint's bounding rectangle; None: no body geometry
     fill: float  # footprint area / rectangle area
     z_m: tuple[float, float] | None = None  # the body's bottom and top (world z, metres)
+    classes: tuple[str, ...] = ()  # its class and superclasses, most specific first
+    parts_from: tuple[str, ...] = ()  # the classes of the parts its body came from, if any
 
     @property
     def label(self) -> str:
@@ -415,18 +418,21 @@ def _class_chain(element) -> list[str]:
     return chain
 
 
-def footprint(shape) -> tuple[Rect | None, float]:
-    """The plan footprint of a tessellated shape (world coordinates, metres): its bounding
-    rectangle and the share of that rectangle the footprint fills (the union of the
-    triangles' projections on the floor)."""
+def footprint(shapes) -> tuple[Rect | None, float]:
+    """The plan footprint of tessellated shapes (one, or a sequence: an element's parts;
+    world coordinates, metres): its bounding rectangle and the share of that rectangle the
+    footprint fills (the union of the triangles' projections on the floor)."""
     import numpy as np
     import shapely
 
-    verts = np.asarray(shape.geometry.verts, dtype=float).reshape(-1, 3)
-    faces = np.asarray(shape.geometry.faces, dtype=int).reshape(-1, 3)
+    shapes = shapes if isinstance(shapes, (list, tuple)) else [shapes]
+    verts = [np.asarray(s.geometry.verts, dtype=float).reshape(-1, 3) for s in shapes]
+    faces = [np.asarray(s.geometry.faces, dtype=int).reshape(-1, 3) for s in shapes]
+    tris = [v[f][:, :, :2] for v, f in zip(verts, faces, strict=True) if len(f)]  # (n, 3, 2)
+    verts = np.concatenate(verts) if verts else np.zeros((0, 3))
     if len(verts) == 0:
         return None, 0.0
-    tris = verts[faces][:, :, :2]  # (n, 3, 2) in plan
+    tris = np.concatenate(tris) if tris else np.zeros((0, 3, 2))
     cross = ((tris[:, 1, 0] - tris[:, 0, 0]) * (tris[:, 2, 1] - tris[:, 0, 1])
              - (tris[:, 1, 1] - tris[:, 0, 1]) * (tris[:, 2, 0] - tris[:, 0, 0]))
     tris = tris[np.abs(cross) > 1e-9]  # faces seen edge-on from above add no area
@@ -438,36 +444,73 @@ def footprint(shape) -> tuple[Rect | None, float]:
     return rect, min(1.0, union.area / rect.area)
 
 
+def _body_shapes(element, settings) -> tuple[list, list]:
+    """The tessellated body of an element (world coordinates, metres: IfcOpenShell converts
+    the model's length unit, and takes the body in whatever context it is modelled, 'Body' or
+    'Plan'), and the parts it came from. An element without a body of its own (no
+    representation, or only an axis or a box) takes its parts' bodies: the elements aggregated
+    to it (IfcRelAggregates), as precast detailing tools write a slab whose body sits on a
+    proxy; a part without a body takes its own parts'."""
+    import ifcopenshell.geom
+    import ifcopenshell.util.element
+
+    if element.Representation is not None:
+        try:
+            shape = ifcopenshell.geom.create_shape(settings, element)
+        except RuntimeError:  # no body: an axis, a bounding box, nothing to tessellate
+            shape = None
+        if shape is not None and len(shape.geometry.verts):
+            return [shape], []
+    shapes, parts = [], []
+    for part in ifcopenshell.util.element.get_parts(element) or []:
+        if not part.is_a("IfcElement"):
+            continue
+        got, below = _body_shapes(part, settings)
+        if got:
+            shapes += got
+            parts += [part, *below]
+    return shapes, parts
+
+
 def storey_elements(model, storey, recipe: Recipe) -> tuple[list[Element], dict[str, int]]:
     """The storey's elements that the recipe takes (contained or aggregated, in file order)
-    with their footprints, and a count of the element classes it skipped."""
+    with their footprints, and a count of the element classes it skipped. An element without
+    a body of its own takes its footprint from its parts (:func:`_body_shapes`); those parts
+    are neither components nor skipped."""
     import ifcopenshell.geom
     import ifcopenshell.util.element
 
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", True)
-    elements, skipped = [], {}
+    taken, not_taken = [], []
     decomposed = ifcopenshell.util.element.get_decomposition(storey)
     for element in sorted(decomposed, key=lambda e: e.id()):
         if not element.is_a("IfcElement"):
             continue
-        kind = recipe.kind_of(_class_chain(element),
-                              ifcopenshell.util.element.get_predefined_type(element))
+        chain = _class_chain(element)
+        kind = recipe.kind_of(chain, ifcopenshell.util.element.get_predefined_type(element))
         if kind is None:
-            skipped[element.is_a()] = skipped.get(element.is_a(), 0) + 1
+            not_taken.append(element)
             continue
+        shapes, parts = _body_shapes(element, settings)
+        taken.append((element, chain, kind, shapes, parts))
+    in_others = {part.id(): part for *_, parts in taken for part in parts}
+    elements = []
+    for element, chain, kind, shapes, parts in taken:
+        if element.id() in in_others:
+            continue  # a part of an element taken whole
         rect, fill, z = None, 0.0, None
-        if element.Representation is not None:
-            try:
-                shape = ifcopenshell.geom.create_shape(settings, element)
-            except RuntimeError:
-                shape = None
-            if shape is not None:
-                rect, fill = footprint(shape)
-                heights = shape.geometry.verts[2::3]
-                z = (min(heights), max(heights)) if heights else None
+        if shapes:
+            rect, fill = footprint(shapes)
+            heights = [h for s in shapes for h in s.geometry.verts[2::3]]
+            z = (min(heights), max(heights))
         elements.append(Element(element.GlobalId, element.is_a(), (element.Name or "").strip(),
-                                kind, rect, fill, z))
+                                kind, rect, fill, z, tuple(chain),
+                                tuple(sorted({p.is_a() for p in parts}))))
+    skipped: dict[str, int] = {}
+    for element in not_taken:
+        if element.id() not in in_others:
+            skipped[element.is_a()] = skipped.get(element.is_a(), 0) + 1
     return elements, skipped
 
 
@@ -652,9 +695,11 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     check_storey = storey is not None and overlay.data["import"]["check_storey"]
     for e in elements:
         if e.rect is None:
-            problems.append(f"{e.label}: has no body geometry to take a footprint from; fix: "
-                            "give it a body representation, or leave its class out of the "
-                            "recipe")
+            problems.append(f"{e.label}: has no body geometry to take a footprint from, "
+                            "neither its own nor its parts' (elements aggregated to it, "
+                            "IfcRelAggregates); fix: give it a body representation, or "
+                            "aggregate the elements that carry its body to it, or leave its "
+                            "class out of the recipe")
         elif check_storey and e.z_m is not None and not storey.holds(e.z_m[0]):
             problems.append(_off_storey(e, storey))
         elif min(e.rect.size) <= 1e-6:
@@ -807,6 +852,16 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     if storey_span is None and overlay.data["import"]["check_storey"]:
         notes.insert(0, f'storey "{level.Name or level.GlobalId}" has no level (neither a '
                         "placement nor an Elevation): its elements' heights are not checked")
+    from_parts: dict[str, tuple[int, set[str]]] = {}
+    for e in elements:
+        if e.parts_from:
+            n, classes = from_parts.get(e.ifc_class, (0, set()))
+            from_parts[e.ifc_class] = (n + 1, classes | set(e.parts_from))
+    for cls, (n, classes) in sorted(from_parts.items()):
+        notes.append(f"{n} {cls} without a body of {'its' if n == 1 else 'their'} own: "
+                     f"footprint{'' if n == 1 else 's'} from the elements aggregated to "
+                     f"{'it' if n == 1 else 'them'} ({', '.join(sorted(classes))}), which are "
+                     "not components")
     case_from_dict(data, f"the case made from {source}")
     by_class: dict[str, int] = {}
     for e in elements:
