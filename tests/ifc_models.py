@@ -13,6 +13,13 @@ beside the floor; storey "Level 2" holds nothing.
 context of type 'Plan'; lengths in millimetres; the bodies z -0.25..0 (their bottoms below the
 storey's level 0). Slabs 3 x 1.2 m, three to a row with joints of 0, 20 and 80 mm (rows 1, 2,
 3), the rows 4 m apart; the model at x 200..209.16, y 100..111.6.
+
+``slabs_on_beams(schema)``: storey "Level 1" (level 0) as a structural model: four slabs
+(``BEARING``) 6 x 3 m, z 0..0.3, sharing edges, bearing on beams 0.6 m deep under them
+(z -0.6..0): three along y under the slabs' x edges and one along x under the joint y = 3,
+crossing them; columns 0.4 x 0.4 m at the slabs' corners (z -3.5..0); a wall of the storey
+below under the edge y = 0 (z -3..0), all assigned to Level 1; and a wall standing on the
+floor (z 0..3) 3 m beside the deck.
 """
 
 from __future__ import annotations
@@ -189,3 +196,28 @@ def precast_deck(schema: str = "IFC4"):
         slabs[name], _ = add_assembled(f, plan, storeys["Level 1"], "IfcSlab", name,
                                        box(x0 + w / 2, y0 + h / 2, w, h), z=0.0, depth=0.25)
     return f, slabs
+
+
+# the structural storey: (IFC class, name) -> (x0, y0, x1, y1, z bottom, depth), metres
+BEARING = {
+    **{("IfcSlab", f"S-{k + 1}"): (x0, y0, x0 + 6.0, y0 + 3.0, 0.0, 0.3)
+       for k, (x0, y0) in enumerate(((0.0, 0.0), (6.0, 0.0), (0.0, 3.0), (6.0, 3.0)))},
+    **{("IfcBeam", f"B-{k + 1}"): (x - 0.2, 0.0, x + 0.2, 6.0, -0.6, 0.6)
+       for k, x in enumerate((0.0, 6.0, 12.0))},
+    ("IfcBeam", "B-X"): (0.0, 2.8, 12.0, 3.2, -0.6, 0.6),
+    **{("IfcColumn", f"C-{k + 1}"): (x - 0.2, y - 0.2, x + 0.2, y + 0.2, -3.5, 3.5)
+       for k, (x, y) in enumerate(((0, 0), (6, 0), (12, 0), (0, 6), (6, 6), (12, 6)))},
+    ("IfcWall", "W-BELOW"): (0.0, -0.1, 12.0, 0.1, -3.0, 3.0),
+    ("IfcWall", "W-1"): (15.0, 0.0, 15.3, 6.0, 0.0, 3.0),
+}
+
+
+def slabs_on_beams(schema: str = "IFC4"):
+    """The structural storey (module doc); returns (file, {name: element})."""
+    f, body, storeys = new_model(schema)
+    made = {}
+    for (ifc_class, name), (x0, y0, x1, y1, z, depth) in BEARING.items():
+        made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
+                                 box((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0), z=z,
+                                 depth=depth)
+    return f, made

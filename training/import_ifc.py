@@ -82,6 +82,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{len(data['crews'])} crews; precedences from the "
           f"{'model' + chr(39) + 's 4D schedule' if report.precedences == 'model' else 'recipe'}"
           f" -> {args.out}")
+    if report.supports_by_class:
+        print(f"{PROG}: supports (below the storey's level, carrying it; not obstacles): "
+              + ", ".join(f"{n} {c}" for c, n in report.supports_by_class.items()))
     if report.skipped_by_class:
         print(f"{PROG}: skipped (not in the recipe): "
               + ", ".join(f"{n} {c}" for c, n in sorted(report.skipped_by_class.items())))

@@ -44,6 +44,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .floorplan import (
+    GEOMETRY_TOLERANCE_M,
     PRECAST_RECIPE,
     Recipe,
     Rect,
@@ -64,7 +65,11 @@ INSTALL_HINT = "pip install 'cmdp-pymunk[ifc]'"
 # open floor left and right of the components, 7 m above and below).
 DEFAULT_OVERLAY: dict = {
     "plane": {"margin_x_m": 6.0, "margin_y_m": 7.0},
-    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0, "check_storey": True},
+    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0, "check_storey": True,
+               # elements of these classes whose body lies wholly below the storey's level
+               # carry the floor (beams and columns under the slabs, the walls of the storey
+               # below): supports, not obstacles on the work plane (:func:`split_supports`)
+               "supports": ["IfcBeam", "IfcColumn", "IfcWall", "IfcMember"]},
     "crews": {"JCC": 1, "HIC": 1, "GC": 1, "RC": 2, "FC": 2},
     "crane": {"lift_time_s": 240.0, "assist_time_s": 180.0},
     # x_frac: where along the edge, -1 (left wall) to 1 (right wall)
@@ -80,7 +85,7 @@ DEFAULT_OVERLAY: dict = {
 _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
 _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
-                 "import": ("min_fill", "neighbour_gap_m", "check_storey"),
+                 "import": ("min_fill", "neighbour_gap_m", "check_storey", "supports"),
                  "crane": ("lift_time_s", "assist_time_s")}
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
                  "edge", "x_frac")
@@ -223,6 +228,13 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             elif key == "check_storey":
                 if not isinstance(value[key], bool):
                     problems.append(f"{section}.{key} = {value[key]!r}: write true or false")
+            elif key == "supports":
+                classes = value[key]
+                if not isinstance(classes, list) or not all(
+                        isinstance(c, str) and re.fullmatch(r"Ifc\w+", c) for c in classes):
+                    problems.append(f"{section}.{key} = {classes!r}: write a list of IFC "
+                                    "classes whose elements below the storey's level carry "
+                                    'it, e.g. ["IfcBeam", "IfcColumn"], or [] for none')
             elif not _is_number(value[key]) or value[key] < 0:
                 problems.append(f"{section}.{key} = {value[key]!r}: write a number of 0 or "
                                 "more")
@@ -645,6 +657,8 @@ class ImportReport:
     notes: list[str]
     provenance: dict[str, str] = field(default_factory=dict)  # ``Overlay.provenance``
     crews_left_out: dict[str, int] = field(default_factory=dict)  # crew type -> crews, no work
+    # IFC class -> elements that carry the floor from below its level (not components)
+    supports_by_class: dict[str, int] = field(default_factory=dict)
 
 
 def crew_types_with_work(elements: Sequence[Element], recipe: Recipe,
@@ -682,6 +696,30 @@ def _off_storey(e: Element, storey: StoreyRange) -> str:
             f"{storey.low_m:.2f} m up to {storey.high_m:.2f} m), {where}; fix: {fix}, or take "
             "the storey's elements as assigned with [import] check_storey = false in the "
             "overlay")
+
+
+def is_support(e: Element, storey: StoreyRange | None, classes: Sequence[str]) -> bool:
+    """Whether an element carries the storey's floor rather than stands on it: of one of
+    ``classes`` (or a subclass), its body wholly below the storey's working level, the
+    storey's level (its top at most ``GEOMETRY_TOLERANCE_M`` above), and reaching up into the
+    storey's range (its top above ``storey.low_m``: a beam under the slabs, a column up to a
+    slab's corner, a wall of the storey below; an element wholly in the storey below is
+    misplaced, and reported as such). None: the storey has no level, so nothing is a
+    support."""
+    if storey is None or e.z_m is None or not any(c in classes for c in e.classes):
+        return False
+    top = e.z_m[1]
+    return storey.low_m - GEOMETRY_TOLERANCE_M <= top <= storey.level_m + GEOMETRY_TOLERANCE_M
+
+
+def split_supports(elements: Sequence[Element], storey: StoreyRange | None,
+                   classes: Sequence[str]) -> tuple[list[Element], list[Element]]:
+    """The storey's elements as (obstacles on the work plane, supports under it): what
+    blocks walking is decided by elevation against the storey's level (:func:`is_support`),
+    for the classes the overlay names (``[import] supports``)."""
+    carries = [is_support(e, storey, classes) for e in elements]
+    return ([e for e, c in zip(elements, carries, strict=True) if not c],
+            [e for e, c in zip(elements, carries, strict=True) if c])
 
 
 def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSchedule | None,
@@ -724,8 +762,10 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         w, h = rects[i].overlap(rects[j])
         problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
                         f"by {w:.3f} x {h:.3f} m (components are obstacles side by side "
-                        "on the floor); fix: correct the model, or leave one of the "
-                        "classes out of the recipe ([recipe.classes] in the overlay)")
+                        "on the floor); fix: correct the model so that they only touch; "
+                        "if one carries the other, model it below the storey's level and "
+                        "list its class in [import] supports in the overlay; or leave one of "
+                        "the classes out of the recipe ([recipe.classes] in the overlay)")
     box = bounding_rect(rects)
     cx, cy = box.centre
     plane_cfg = overlay.data["plane"]
@@ -833,14 +873,18 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     source = Path(model_path).name
     level = find_storey(model, storey, source)
     elements, skipped = storey_elements(model, level, overlay.recipe)
+    storey_span = storey_range(model, level)
+    elements, supports = split_supports(elements, storey_span,
+                                        overlay.data["import"]["supports"])
     if not elements:
         found = ", ".join(f"{n} {c}" for c, n in sorted(skipped.items())) or "no elements"
+        held = (f"; {len(supports)} element(s) of it lie below its level and carry it "
+                "([import] supports)" if supports else "")
         raise CaseError(source, [f'storey "{storey}" has no elements of the recipe\'s classes '
-                                 f"({', '.join(overlay.recipe.classes)}); it holds {found}; "
-                                 "fix: pick another storey, or map its classes to kinds in "
-                                 "the overlay's [recipe.classes]"])
+                                 f"({', '.join(overlay.recipe.classes)}) on its floor; it holds "
+                                 f"{found}{held}; fix: pick another storey, or map its classes "
+                                 "to kinds in the overlay's [recipe.classes]"])
     ids = _component_ids(elements)
-    storey_span = storey_range(model, level)
     schedule = model_schedule(model, {e.guid: cid for e, cid in zip(elements, ids,
                                                                     strict=True)},
                               overlay.recipe)
@@ -849,9 +893,13 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
                    "cmdp-import-ifc")
     data, notes, precedences = build_case(elements, overlay, schedule, name, description, ids,
                                           source, storey_span)
-    if storey_span is None and overlay.data["import"]["check_storey"]:
+    unchecked = [what for what, on in (
+        ("its elements' heights are not checked", overlay.data["import"]["check_storey"]),
+        ("none is taken as a support under its floor ([import] supports)",
+         bool(overlay.data["import"]["supports"]))) if on]
+    if storey_span is None and unchecked:
         notes.insert(0, f'storey "{level.Name or level.GlobalId}" has no level (neither a '
-                        "placement nor an Elevation): its elements' heights are not checked")
+                        "placement nor an Elevation): " + ", and ".join(unchecked))
     from_parts: dict[str, tuple[int, set[str]]] = {}
     for e in elements:
         if e.parts_from:
@@ -866,5 +914,9 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     by_class: dict[str, int] = {}
     for e in elements:
         by_class[e.ifc_class] = by_class.get(e.ifc_class, 0) + 1
+    carried: dict[str, int] = {}
+    for e in supports:
+        carried[e.ifc_class] = carried.get(e.ifc_class, 0) + 1
     return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes,
-                              overlay.provenance(), crews_left_out(elements, overlay))
+                              overlay.provenance(), crews_left_out(elements, overlay),
+                              dict(sorted(carried.items())))
