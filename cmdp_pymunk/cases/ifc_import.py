@@ -10,8 +10,12 @@ elements aggregated to it, which are then no components). An element that its re
 poorly (the footprint fills less than ``[import] min_fill`` of it: an L-shape, a beam at 45
 degrees) is reported, not silently boxed, and so is an element that does not sit on its storey:
 the bottom of its body lies outside the storey's range, from halfway down to the storey below
-to halfway up to the one above (:class:`StoreyRange`). Tasks come from the recipe's chains: JC
--> HI -> G on a precast component, R -> F on a cast-in-place one, R waiting for HI on the
+to halfway up to the one above (:class:`StoreyRange`). What blocks walking is decided by
+elevation: elements of the ``[import] supports`` classes whose body lies wholly below the
+storey's level (beams and columns under the slabs, walls of the storey below) carry the floor
+and are no components (:func:`split_supports`). Footprints may touch and cross by
+``GEOMETRY_TOLERANCE_M``, the case check's tolerance too. Tasks come from the recipe's chains:
+JC -> HI -> G on a precast component, R -> F on a cast-in-place one, R waiting for HI on the
 components beside it (``neighbour_gap_m``).
 
 Where the model carries a 4D schedule (IfcTask assigned to the storey's elements with
