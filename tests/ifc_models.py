@@ -6,6 +6,20 @@ S-12), B-H2 (S-21, S-22), both 2 x 1.2 m, B-V1 (S-11, S-21), B-V2 (S-12, S-22), 
 model's origin is far from the floor (x 99..111, y 49..61) so the importer must centre it;
 the floor's centre (105, 55) becomes the case's origin. A window (not in the recipe) stands
 beside the floor; storey "Level 2" holds nothing.
+
+``precast_deck(schema)``: storey "Level 1" as a precast detailing tool writes it: 3 x 3
+``IfcSlab`` (``DECK``) with a placement and no shape of their own, each body on an
+``IfcBuildingElementProxy`` aggregated to its slab (IfcRelAggregates), in a representation
+context of type 'Plan'; lengths in millimetres; the bodies z -0.25..0 (their bottoms below the
+storey's level 0). Slabs 3 x 1.2 m, three to a row with joints of 0, 20 and 80 mm (rows 1, 2,
+3), the rows 4 m apart; the model at x 200..209.16, y 100..111.6.
+
+``slabs_on_beams(schema)``: storey "Level 1" (level 0) as a structural model: four slabs
+(``BEARING``) 6 x 3 m, z 0..0.3, sharing edges, bearing on beams 0.6 m deep under them
+(z -0.6..0): three along y under the slabs' x edges and one along x under the joint y = 3,
+crossing them; columns 0.4 x 0.4 m at the slabs' corners (z -3.5..0); a wall of the storey
+below under the edge y = 0 (z -3..0), all assigned to Level 1; and a wall standing on the
+floor (z 0..3) 3 m beside the deck.
 """
 
 from __future__ import annotations
@@ -14,6 +28,13 @@ import numpy as np
 
 SLABS = {"S-11": (100.0, 60.0), "S-12": (110.0, 60.0), "S-21": (100.0, 50.0),
          "S-22": (110.0, 50.0)}
+# the deck: slab "D-rc" (row r from the bottom, column c from the left) -> its lower left
+# corner (metres); slabs 3 x 1.2 m side by side in a row with joints of 0 (row 1), 20 (row 2)
+# and 80 mm (row 3), the rows 4 m apart (lanes for the crews)
+DECK_SLAB_M = (3.0, 1.2)
+DECK_JOINTS_M = (0.0, 0.02, 0.08)
+DECK = {f"D-{r + 1}{c + 1}": (200.0 + c * (3.0 + joint), 100.0 + r * (1.2 + 4.0))
+        for r, joint in enumerate(DECK_JOINTS_M) for c in range(3)}
 BEAMS = {"B-H1": (105.0, 60.0, 2.0, 1.2), "B-H2": (105.0, 50.0, 2.0, 1.2),
          "B-V1": (100.0, 55.0, 1.2, 2.0), "B-V2": (110.0, 55.0, 1.2, 2.0)}
 
@@ -132,3 +153,71 @@ def add_schedule(f, elements, tasks: dict[str, list[str]], sequences, kind="FINI
             api.sequence.assign_sequence(f, relating_process=made[a], related_process=made[b],
                                          sequence_type=kind)
     return made
+
+
+def add_assembled(f, context, storey, ifc_class: str, name: str, polygon, z: float = 0.0,
+                  depth: float = 0.3, part_class: str = "IfcBuildingElementProxy"):
+    """An element with a placement at ``polygon``'s first corner, height ``z``, and no shape of
+    its own; its body, ``polygon`` (plan, metres, world) extruded ``depth`` *down* from ``z``,
+    on a ``part_class`` element aggregated to it (IfcRelAggregates). Returns (element, part)."""
+    import ifcopenshell.api.aggregate
+    import ifcopenshell.api.geometry
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+
+    api = ifcopenshell.api
+    element = api.root.create_entity(f, ifc_class=ifc_class, name=name)
+    x0, y0 = polygon[0]
+    matrix = np.eye(4)
+    matrix[:3, 3] = (x0, y0, z)
+    api.geometry.edit_object_placement(f, product=element, matrix=matrix)
+    api.spatial.assign_container(f, products=[element], relating_structure=storey)
+    part = api.root.create_entity(f, ifc_class=part_class, name=f"{name} body")
+    local = [(x - x0, y - y0) for x, y in polygon]
+    rep = api.geometry.add_slab_representation(f, context=context, depth=depth, polyline=local)
+    api.geometry.assign_representation(f, product=part, representation=rep)
+    matrix = np.eye(4)
+    matrix[:3, 3] = (x0, y0, z - depth)
+    api.geometry.edit_object_placement(f, product=part, matrix=matrix)
+    api.aggregate.assign_object(f, products=[part], relating_object=element)
+    return element, part
+
+
+def precast_deck(schema: str = "IFC4"):
+    """The 3 x 3 deck of slabs on aggregated proxies (module doc); returns (file, {name:
+    slab})."""
+    import ifcopenshell.api.context
+
+    f, _, storeys = new_model(schema)
+    plan = ifcopenshell.api.context.add_context(f, context_type="Plan")
+    w, h = DECK_SLAB_M
+    slabs = {}
+    for name, (x0, y0) in DECK.items():
+        slabs[name], _ = add_assembled(f, plan, storeys["Level 1"], "IfcSlab", name,
+                                       box(x0 + w / 2, y0 + h / 2, w, h), z=0.0, depth=0.25)
+    return f, slabs
+
+
+# the structural storey: (IFC class, name) -> (x0, y0, x1, y1, z bottom, depth), metres
+BEARING = {
+    **{("IfcSlab", f"S-{k + 1}"): (x0, y0, x0 + 6.0, y0 + 3.0, 0.0, 0.3)
+       for k, (x0, y0) in enumerate(((0.0, 0.0), (6.0, 0.0), (0.0, 3.0), (6.0, 3.0)))},
+    **{("IfcBeam", f"B-{k + 1}"): (x - 0.2, 0.0, x + 0.2, 6.0, -0.6, 0.6)
+       for k, x in enumerate((0.0, 6.0, 12.0))},
+    ("IfcBeam", "B-X"): (0.0, 2.8, 12.0, 3.2, -0.6, 0.6),
+    **{("IfcColumn", f"C-{k + 1}"): (x - 0.2, y - 0.2, x + 0.2, y + 0.2, -3.5, 3.5)
+       for k, (x, y) in enumerate(((0, 0), (6, 0), (12, 0), (0, 6), (6, 6), (12, 6)))},
+    ("IfcWall", "W-BELOW"): (0.0, -0.1, 12.0, 0.1, -3.0, 3.0),
+    ("IfcWall", "W-1"): (15.0, 0.0, 15.3, 6.0, 0.0, 3.0),
+}
+
+
+def slabs_on_beams(schema: str = "IFC4"):
+    """The structural storey (module doc); returns (file, {name: element})."""
+    f, body, storeys = new_model(schema)
+    made = {}
+    for (ifc_class, name), (x0, y0, x1, y1, z, depth) in BEARING.items():
+        made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
+                                 box((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0), z=z,
+                                 depth=depth)
+    return f, made

@@ -273,7 +273,44 @@ def test_overlapping_components(floor):
     comp["x_m"] = -19.0  # the joint now covers x -20..-18, over P-11 (x -21..-19)
     found = problems(floor)
     assert len(found) == 1, found
-    assert found[0].startswith(f"{label}: overlaps components[0] \"P-11\"; fix: move one")
+    # x -20..-19 of P-11's -21..-19, y 9.4..10.6 (the joint's 1.2 m) of its 9..11
+    assert found[0] == (f'{label}: overlaps components[0] "P-11" by 1.000 x 1.200 m (more '
+                        "than the 0.001 m tolerance); fix: move or shrink one of them")
+
+
+def test_components_that_share_an_edge_within_the_tolerance_load(floor):
+    """P-12 moved beside P-11 (x -21..-19), its left edge at -19 less 4e-15 m: the float
+    noise that centring a floor adds. Within GEOMETRY_TOLERANCE_M (1 mm), as the importer."""
+    from cmdp_pymunk.cases.floorplan import GEOMETRY_TOLERANCE_M, Rect
+
+    assert GEOMETRY_TOLERANCE_M == 0.001
+    _, comp = entry(floor, "components", "P-12")
+    comp["x_m"] = -18.0 - 4e-15  # the nearest float: -18.000000000000004
+    p11, p12 = Rect.centred(-20.0, 10.0, 2.0, 2.0), Rect.centred(comp["x_m"], 10.0, 2.0, 2.0)
+    assert 0 < p11.overlap(p12)[0] < 1e-14 and p11.overlap(p12)[1] == 2.0  # strictly, overlap
+    case = case_from_dict(floor, FILE)
+    assert [c.id for c in case.components][:2] == ["P-11", "P-12"]
+
+
+def test_an_overlap_of_5_mm_is_refused_with_its_size(floor):
+    label, comp = entry(floor, "components", "P-12")
+    comp["x_m"] = -18.005  # x -19.005..-17.005: 5 mm into P-11 (x -21..-19), along all 2 m of y
+    the_problem(floor, label, 'overlaps components[0] "P-11" by 0.005 x 2.000 m')
+
+
+def test_an_imported_components_overlap_names_the_globalids_and_the_models_fix(floor):
+    """A case from cmdp-import-ifc: the components are named by id and GlobalId (the index of
+    a case file nobody wrote helps no one), and the fix is in the BIM model."""
+    _, p11 = entry(floor, "components", "P-11")
+    _, p12 = entry(floor, "components", "P-12")
+    p11["ifc_guid"], p12["ifc_guid"] = "1aaaaaaaaaaaaaaaaaaaaa", "2bbbbbbbbbbbbbbbbbbbbb"
+    p12["x_m"] = -18.005
+    (message,) = problems(floor)
+    assert message.startswith('component "P-12" (IFC GlobalId 2bbbbbbbbbbbbbbbbbbbbb) overlaps '
+                              'component "P-11" (IFC GlobalId 1aaaaaaaaaaaaaaaaaaaaa) in plan by '
+                              "0.005 x 2.000 m (more than the 0.001 m tolerance); fix: find the "
+                              "two elements in the BIM model by GlobalId")
+    assert "components[" not in message and "cmdp-import-ifc" in message
 
 
 def test_outlet_storage_and_crew_outside_the_plane(floor):

@@ -18,6 +18,22 @@ def test_side_gap_and_neighbours_by_hand():
     assert floorplan.neighbours(rects, 4, [0, 1, 2, 3], 2.5) == []  # 3 m apart
 
 
+def test_overlaps_and_side_gaps_within_the_tolerance_by_hand():
+    """(0, 0, 2, 2) and (1.995, 1, 4, 3) meet on x 1.995..2, y 1..2: 0.005 x 1 m, more than
+    the 1 mm tolerance; 0.5 mm in is a touch (no overlap; beside it, a gap of 0), and so is
+    the 1e-15 m of float noise; a slab 3 m off whose y projection meets a's by 0.5 mm only
+    is diagonal to it (None), not beside it."""
+    a = floorplan.Rect(0, 0, 2, 2)
+    w, h = a.overlap(floorplan.Rect(1.995, 1, 4, 3))
+    assert round(w, 9) == 0.005 and h == 1.0
+    assert a.overlaps(floorplan.Rect(1.995, 1, 4, 3))
+    assert not a.overlaps(floorplan.Rect(1.9995, 1, 4, 3))
+    assert a.side_gap(floorplan.Rect(1.9995, 1, 4, 3)) == 0.0
+    assert a.side_gap(floorplan.Rect(2 - 1e-15, 0, 4, 2)) == 0.0
+    assert floorplan.overlapping_pairs([a, floorplan.Rect(2 - 1e-15, 0, 4, 2)]) == []
+    assert a.side_gap(floorplan.Rect(5, 1.9995, 6, 4)) is None
+
+
 def test_build_tasks_chains_and_joint_ends():
     """A precast P with JC -> HI -> G and a joint J (R -> F) whose R waits for HI on P and on
     Q; Q has no chain (an obstacle), so only HI-P is waited for."""

@@ -200,7 +200,7 @@ def test_bad_input_exits_2_with_one_message_and_writes_nothing(tmp_path, capsys)
     ifc_models.add_element(f, body, level, "IfcSlab", "S-X", ifc_models.box(101, 61, 2, 2))
     f.write(str(model))
     fails([str(model), "--storey", "Level 1"], 'IfcSlab "S-11"', 'IfcSlab "S-X"',
-          "footprints overlap by 1.00 x 1.00 m")
+          "footprints overlap by 1.000 x 1.000 m")
 
 
 def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
@@ -223,14 +223,16 @@ def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
     with pytest.raises(CaseError) as err:
         import_storey(path, "Level 1", load_overlay(overlay))
     assert 'IfcSlab "S-11"' in str(err.value) and 'IfcSlab "S-X"' in str(err.value)
-    assert "footprints overlap by 1.00 x 1.00 m" in str(err.value)
+    assert "footprints overlap by 1.000 x 1.000 m" in str(err.value)
 
 
 def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path, capsys):
     """Level 1 at z 0, Level 2 at 3.5 m (the model in millimetres): Level 1's elements start
     from -1.75 m (as far down as up: no storey below) up to 1.75 m (halfway to Level 2). A
     slab whose top is at the level (z -0.3..0) and a beam hanging 1.2 m under the floor sit on
-    it; a slab of Level 2 (z 3.5..3.8) and a beam 20 m up, both assigned to Level 1, do not."""
+    it (the beam, wholly below the level, carries the floor: a support, unless [import]
+    supports leaves beams out); a slab of Level 2 (z 3.5..3.8) and a beam 20 m up, both
+    assigned to Level 1, do not."""
     f, elements = ifc_models.two_by_two("IFC4")
     level = f.by_type("IfcBuildingStorey")[0]
     body = f.by_type("IfcGeometricRepresentationSubContext")[0]
@@ -241,8 +243,15 @@ def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path,
     path = tmp_path / "storey.ifc"
     f.write(str(path))
     data, report = import_storey(path, "Level 1")
-    assert {"S-TOP", "B-DEEP"} <= {c["id"] for c in data["components"]}
+    assert "S-TOP" in {c["id"] for c in data["components"]}
+    assert "B-DEEP" not in {c["id"] for c in data["components"]}
+    assert report.supports_by_class == {"IfcBeam": 1}
     assert report.notes == []
+    overlay = tmp_path / "o.toml"
+    overlay.write_text('[import]\nsupports = ["IfcColumn"]\n')
+    data, report = import_storey(path, "Level 1", load_overlay(overlay))
+    assert {"S-TOP", "B-DEEP"} <= {c["id"] for c in data["components"]}
+    assert report.supports_by_class == {}
     up = ifc_models.add_element(f, body, level, "IfcSlab", "S-UP", ifc_models.box(100, 60, 2, 2),
                                 z=3.5)
     high = ifc_models.add_element(f, body, level, "IfcBeam", "B-HIGH",
@@ -266,10 +275,9 @@ def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path,
     assert "overlap" not in err  # S-UP lies over S-11 in plan: its storey is the cause
     assert not out.exists()
     # taken as assigned, S-UP is a footprint over S-11's
-    overlay = tmp_path / "o.toml"
     overlay.write_text("[import]\ncheck_storey = false\n")
     with pytest.raises(CaseError, match='IfcSlab "S-11" .* and IfcSlab "S-UP" .*: footprints '
-                                        "overlap by 2.00 x 2.00 m"):
+                                        "overlap by 2.000 x 2.000 m"):
         import_storey(path, "Level 1", load_overlay(overlay))
     overlay.write_text("[import]\ncheck_storey = 1\n")
     with pytest.raises(CaseError, match="import.check_storey = 1: write true or false"):
@@ -316,7 +324,8 @@ def test_a_storey_without_a_level_is_noted(tmp_path):
     f.write(str(path))
     _, report = import_storey(path, "Level 1")
     assert report.notes == ['storey "Level 1" has no level (neither a placement nor an '
-                            "Elevation): its elements' heights are not checked"]
+                            "Elevation): its elements' heights are not checked, and none is "
+                            "taken as a support under its floor ([import] supports)"]
 
 
 def test_a_fixed_plane_too_small_is_reported(two_by_two, tmp_path):
@@ -620,3 +629,102 @@ def test_simulate_with_a_calendar_exports_the_dates_of_schedule_csv(tmp_path):
     assert {r["task"]: (r["start"], r["end"]) for r in rows} == \
         {k: (t["start"], t["finish"]) for k, t in tasks.items()}
     assert max(r["end"] for r in rows) > "2026-01-13"  # past the weekend and the holiday
+
+
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_slabs_without_a_shape_take_their_footprints_from_aggregated_proxies(tmp_path, schema):
+    """The precast deck (``ifc_models.precast_deck``): 9 IfcSlab with a placement and no shape,
+    each body on an IfcBuildingElementProxy aggregated to it, in a 'Plan' context, in
+    millimetres, bottoms 0.25 m below the level. The model spans x 200..209.16 (three 3 m slabs
+    and two joints of 80 mm in row 3), y 100..111.6 (three 1.2 m rows, 4 m apart): its centre
+    (204.58, 105.8) is the origin. Row 1 (joints 0): x centres 201.5, 204.5, 207.5 -> -3.08,
+    -0.08, 2.92; row 2 (20 mm): 201.5, 204.52, 207.54 -> -3.08, -0.06, 2.96; row 3 (80 mm):
+    201.5, 204.58, 207.66 -> -3.08, 0, 3.08; rows' y centres 100.6, 105.8, 111 -> -5.2, 0,
+    5.2."""
+    import ifcopenshell.util.unit
+
+    f, slabs = ifc_models.precast_deck(schema)
+    path = tmp_path / "deck.ifc"
+    f.write(str(path))
+    model = ifcopenshell.open(str(path))
+    assert ifcopenshell.util.unit.calculate_unit_scale(model) == 0.001  # millimetres
+    assert {s.Depth for s in model.by_type("IfcExtrudedAreaSolid")} == {250.0}
+    assert all(s.Representation is None for s in model.by_type("IfcSlab"))
+    assert {r.ContextOfItems.ContextType for r in model.by_type("IfcShapeRepresentation")} \
+        == {"Plan"}
+    data, report = import_storey(path, "Level 1")
+    comps = {c["id"]: (c["x_m"], c["y_m"], c["width_m"], c["height_m"])
+             for c in data["components"]}
+    assert comps == {
+        "D-11": (-3.08, -5.2, 3.0, 1.2), "D-12": (-0.08, -5.2, 3.0, 1.2),
+        "D-13": (2.92, -5.2, 3.0, 1.2),
+        "D-21": (-3.08, 0.0, 3.0, 1.2), "D-22": (-0.06, 0.0, 3.0, 1.2),
+        "D-23": (2.96, 0.0, 3.0, 1.2),
+        "D-31": (-3.08, 5.2, 3.0, 1.2), "D-32": (0.0, 5.2, 3.0, 1.2),
+        "D-33": (3.08, 5.2, 3.0, 1.2)}
+    assert {c["id"]: c["ifc_guid"] for c in data["components"]} == {
+        n: s.GlobalId for n, s in slabs.items()}
+    # the proxies are parts, neither components nor skipped
+    assert report.components_by_class == {"IfcSlab": 9} and report.skipped_by_class == {}
+    assert ("9 IfcSlab without a body of their own: footprints from the elements aggregated "
+            "to them (IfcBuildingElementProxy), which are not components") in report.notes
+    # the 20 and 80 mm joints are lanes no crew passes (noted), the 0 mm ones are none
+    lanes = [n for n in report.notes if n.startswith("the lane between")]
+    assert len(lanes) == 4 and sum(" 0.02 m wide" in n for n in lanes) == 2
+    # a slab with neither a body nor parts is still refused
+    import ifcopenshell.api.root
+    import ifcopenshell.api.spatial
+
+    bare = ifcopenshell.api.root.create_entity(f, ifc_class="IfcSlab", name="D-BARE")
+    ifcopenshell.api.spatial.assign_container(f, products=[bare],
+                                              relating_structure=slabs["D-11"]
+                                              .ContainedInStructure[0].RelatingStructure)
+    f.write(str(path))
+    with pytest.raises(CaseError, match=r'IfcSlab "D-BARE" .*: has no body geometry to take a '
+                                        r"footprint from, neither its own nor its parts'"):
+        import_storey(path, "Level 1")
+
+
+@pytest.mark.parametrize("schema", ["IFC4", "IFC2X3"])
+def test_beams_columns_and_walls_under_the_slabs_are_supports(tmp_path, capsys, schema):
+    """``ifc_models.slabs_on_beams``: four 6 x 3 m slabs on the level (z 0..0.3) bear on four
+    crossing beams (z -0.6..0), six columns at their corners (z -3.5..0) and a wall of the
+    storey below (z -3..0); a wall stands on the floor (z 0..3) at x 15..15.3. Below the level
+    (tops at 0): 4 IfcBeam, 6 IfcColumn, 1 IfcWall are supports; the slabs and the standing
+    wall are the components. Their box x 0..15.3, y 0..6 centres on (7.65, 3): S-1 (3, 1.5)
+    -> (-4.65, -1.5), S-4 (9, 4.5) -> (1.35, 1.5), W-1 (15.15, 3) -> (7.5, 0)."""
+    f, made = ifc_models.slabs_on_beams(schema)
+    path = tmp_path / "structure.ifc"
+    f.write(str(path))
+    data, report = import_storey(path, "Level 1")
+    comps = {c["id"]: (c["x_m"], c["y_m"], c["width_m"], c["height_m"])
+             for c in data["components"]}
+    assert comps == {"S-1": (-4.65, -1.5, 6.0, 3.0), "S-2": (1.35, -1.5, 6.0, 3.0),
+                     "S-3": (-4.65, 1.5, 6.0, 3.0), "S-4": (1.35, 1.5, 6.0, 3.0),
+                     "W-1": (7.5, 0.0, 0.3, 6.0)}
+    assert report.components_by_class == {"IfcSlab": 4, "IfcWall": 1}
+    assert report.supports_by_class == {"IfcBeam": 4, "IfcColumn": 6, "IfcWall": 1}
+    assert report.tasks == 15  # 5 precast components x (JC, HI, G)
+    out = tmp_path / "case.toml"
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert ("5 components (4 IfcSlab, 1 IfcWall)" in printed
+            and "supports (below the storey's level, carrying it; not obstacles): 4 IfcBeam, "
+            "6 IfcColumn, 1 IfcWall" in printed)
+    # every element an obstacle (and the columns' bottoms, 3.5 m down, not checked): 37
+    # overlaps by hand. Each slab meets the 3 beams under its edges (2 along y, B-X) and its
+    # 2 columns, S-1 and S-2 the wall below too: 6 + 6 + 5 + 5 = 22; B-X crosses B-1, B-2,
+    # B-3: 3; each of B-1..B-3 meets its 2 columns and the wall: 9; C-1..C-3 the wall: 3
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[import]\nsupports = []\ncheck_storey = false\n")
+    with pytest.raises(CaseError) as err:
+        import_storey(path, "Level 1", load_overlay(overlay))
+    assert len(err.value.problems) == 37
+    assert (f'IfcBeam "B-2" ({made["B-2"].GlobalId}) and IfcBeam "B-X" ({made["B-X"].GlobalId})'
+            ": footprints overlap by 0.400 x 0.400 m") in str(err.value)
+    assert "list its class in [import] supports" in str(err.value)
+    for bad in ('"IfcBeam"', '["Beam"]'):
+        overlay.write_text(f"[import]\nsupports = {bad}\n")
+        with pytest.raises(CaseError, match=r"import.supports = .*: write a list of IFC "
+                                            r"classes whose elements below the storey's level"):
+            load_overlay(overlay)

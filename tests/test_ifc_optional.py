@@ -19,7 +19,7 @@ def test_import_says_how_to_install_the_extra(no_ifcopenshell, tmp_path, capsys)
     out = tmp_path / "c.toml"
     assert import_ifc.main([str(tmp_path / "m.ifc"), "--storey", "L1", "--out", str(out)]) == 2
     err = capsys.readouterr().err
-    assert "needs IfcOpenShell" in err and "pip install 'cmdp-pymunk[ifc]'" in err
+    assert "needs IfcOpenShell" in err and "pip install -e '.[ifc]'" in err
     assert not out.exists()
 
 
@@ -28,7 +28,7 @@ def test_simulate_with_ifc_says_how_to_install_the_extra(no_ifcopenshell, tmp_pa
 
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--ifc", str(tmp_path / "m.ifc"),
                           "--out", str(tmp_path / "o"), "--no-progress"]) == 2
-    assert "pip install 'cmdp-pymunk[ifc]'" in capsys.readouterr().err
+    assert "pip install -e '.[ifc]'" in capsys.readouterr().err
 
 
 def test_the_core_does_not_import_ifcopenshell_at_module_level():

@@ -10,7 +10,7 @@ docs/ifc.md. The case passes the case check before it is written. Bad input (not
 file, an unknown storey, no elements of the recipe's classes, an element that does not sit
 on its storey, overlapping footprints, a cycle in the model's sequences, an overlay naming an
 unknown crew or task type) exits with 2 and one message; nothing is written.
-Needs the ``[ifc]`` extra: ``pip install 'cmdp-pymunk[ifc]'``.
+Needs the ``[ifc]`` extra: ``pip install -e '.[ifc]'`` in the checkout (``make test`` installs it).
 """
 
 from __future__ import annotations
@@ -82,6 +82,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{len(data['crews'])} crews; precedences from the "
           f"{'model' + chr(39) + 's 4D schedule' if report.precedences == 'model' else 'recipe'}"
           f" -> {args.out}")
+    if report.supports_by_class:
+        print(f"{PROG}: supports (below the storey's level, carrying it; not obstacles): "
+              + ", ".join(f"{n} {c}" for c, n in report.supports_by_class.items()))
     if report.skipped_by_class:
         print(f"{PROG}: skipped (not in the recipe): "
               + ", ".join(f"{n} {c}" for c, n in sorted(report.skipped_by_class.items())))

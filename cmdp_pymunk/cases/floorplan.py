@@ -11,7 +11,8 @@ a step on the neighbours (the components a joint connects). The case check (``ca
 :class:`Rect` for its overlaps.
 
 Geometry: a :class:`Rect` is an axis-aligned rectangle in metres, ``x0 < x1`` and ``y0 < y1``;
-two rectangles overlap when their interiors meet (touching edges do not overlap).
+two rectangles overlap when their interiors meet by more than :data:`GEOMETRY_TOLERANCE_M`
+along both axes (touching edges, within the tolerance, do not overlap).
 """
 
 from __future__ import annotations
@@ -19,6 +20,11 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
+
+# One geometric tolerance for the IFC importer and the case check: rectangles that meet by no
+# more than this only touch (a millimetre of modelling noise in a BIM model, or the 1e-15 m
+# that centring a floor on the origin adds to a shared edge).
+GEOMETRY_TOLERANCE_M = 0.001
 
 
 class Rect(NamedTuple):
@@ -46,26 +52,37 @@ class Rect(NamedTuple):
     def area(self) -> float:
         return (self.x1 - self.x0) * (self.y1 - self.y0)
 
-    def overlaps(self, other: Rect) -> bool:
-        """Whether the interiors meet (shared edges and corners are not an overlap)."""
-        return (self.x0 < other.x1 and other.x0 < self.x1
-                and self.y0 < other.y1 and other.y0 < self.y1)
+    def overlap(self, other: Rect) -> tuple[float, float]:
+        """The size (along x, along y) of the two rectangles' intersection, in metres; a
+        side of 0 or less: they touch, or lie that far apart, along that axis.
+
+        E.g. (0, 0, 2, 2) and (1.995, 1, 4, 3): 0.005 x 1 m.
+        """
+        return (min(self.x1, other.x1) - max(self.x0, other.x0),
+                min(self.y1, other.y1) - max(self.y0, other.y0))
+
+    def overlaps(self, other: Rect, tolerance_m: float = GEOMETRY_TOLERANCE_M) -> bool:
+        """Whether the interiors meet by more than ``tolerance_m`` along both axes (shared
+        edges and corners, within the tolerance, are not an overlap)."""
+        w, h = self.overlap(other)
+        return w > tolerance_m and h > tolerance_m
 
     def side_gap(self, other: Rect) -> float | None:
         """The gap to ``other`` when the two lie side by side: their projections on one axis
-        overlap (by more than a touch) and they are apart, or touching, along the other axis.
-        None when they are diagonal to each other or overlap.
+        overlap (by more than a touch, :data:`GEOMETRY_TOLERANCE_M`) and they are apart, or
+        touching (within the tolerance: a gap of 0), along the other axis. None when they are
+        diagonal to each other or overlap.
 
         E.g. (0, 0, 2, 2) and (5, 1, 6, 3): y projections overlap on (1, 2), gap along x 3.
         """
-        share_y = min(self.y1, other.y1) - max(self.y0, other.y0) > 0
-        share_x = min(self.x1, other.x1) - max(self.x0, other.x0) > 0
+        tol = GEOMETRY_TOLERANCE_M
+        share_x, share_y = self.overlap(other)
         gap_x = max(other.x0 - self.x1, self.x0 - other.x1)
         gap_y = max(other.y0 - self.y1, self.y0 - other.y1)
-        if share_y and gap_x >= 0:
-            return gap_x
-        if share_x and gap_y >= 0:
-            return gap_y
+        if share_y > tol and gap_x >= -tol:
+            return max(gap_x, 0.0)
+        if share_x > tol and gap_y >= -tol:
+            return max(gap_y, 0.0)
         return None
 
 
@@ -76,7 +93,8 @@ def bounding_rect(rects: Sequence[Rect]) -> Rect:
 
 
 def overlapping_pairs(rects: Sequence[Rect]) -> list[tuple[int, int]]:
-    """Index pairs ``(i, j)``, ``i < j``, of rectangles whose interiors meet."""
+    """Index pairs ``(i, j)``, ``i < j``, of rectangles that overlap (:meth:`Rect.overlaps`,
+    beyond :data:`GEOMETRY_TOLERANCE_M`)."""
     return [(i, j) for i in range(len(rects)) for j in range(i + 1, len(rects))
             if rects[i].overlaps(rects[j])]
 

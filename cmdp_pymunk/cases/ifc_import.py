@@ -1,17 +1,22 @@
 """Floors from BIM, the input side: a storey of an IFC model as a case (the 4D output is
 ``cases.ifc_export``).
 
-**Import** (``cmdp-import-ifc``, :func:`import_storey`). The storey's elements of the
-recipe's IFC classes (by default slabs, columns, walls and members are precast, beams are
-cast in place; ``floorplan.PRECAST_RECIPE``) become components: each element's plan footprint
-(its body geometry projected on the floor, in metres) is boxed in the axis-aligned rectangle
-the simulator needs. An element that its rectangle covers poorly (the footprint fills less
-than ``[import] min_fill`` of it: an L-shape, a beam at 45 degrees) is reported, not silently
-boxed, and so is an element that does not sit on its storey: the bottom of its body lies
-outside the storey's range, from halfway down to the storey below to halfway up to the one
-above (:class:`StoreyRange`). Tasks come from the recipe's chains: JC -> HI -> G on a precast
-component, R -> F on a cast-in-place one, R waiting for HI on the components beside it
-(``neighbour_gap_m``).
+**Import** (``cmdp-import-ifc``, :func:`import_storey`). The storey's elements of the recipe's
+IFC classes (by default slabs, columns, walls and members are precast, beams are cast in place;
+``floorplan.PRECAST_RECIPE``) become components: each element's plan footprint (its body
+geometry projected on the floor, in metres) is boxed in the axis-aligned rectangle the
+simulator needs; an element without a body of its own takes its footprint from its parts (the
+elements aggregated to it, which are then no components). An element that its rectangle covers
+poorly (the footprint fills less than ``[import] min_fill`` of it: an L-shape, a beam at 45
+degrees) is reported, not silently boxed, and so is an element that does not sit on its storey:
+the bottom of its body lies outside the storey's range, from halfway down to the storey below
+to halfway up to the one above (:class:`StoreyRange`). What blocks walking is decided by
+elevation: elements of the ``[import] supports`` classes whose body lies wholly below the
+storey's level (beams and columns under the slabs, walls of the storey below) carry the floor
+and are no components (:func:`split_supports`). Footprints may touch and cross by
+``GEOMETRY_TOLERANCE_M``, the case check's tolerance too. Tasks come from the recipe's chains:
+JC -> HI -> G on a precast component, R -> F on a cast-in-place one, R waiting for HI on the
+components beside it (``neighbour_gap_m``).
 
 Where the model carries a 4D schedule (IfcTask assigned to the storey's elements with
 IfcRelAssignsToProduct, or the elements to the task with IfcRelAssignsToProcess;
@@ -28,7 +33,7 @@ case unless the overlay gives its own. The plane is the components' bounding box
 margins, centred on the origin; storages and the crane stand in the margins above and below,
 crews start in the left margin.
 
-IfcOpenShell is an optional dependency (``pip install 'cmdp-pymunk[ifc]'``), imported only
+IfcOpenShell is an optional dependency (``pip install -e '.[ifc]'`` in a checkout), imported only
 when a function here is called.
 """
 
@@ -43,6 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .floorplan import (
+    GEOMETRY_TOLERANCE_M,
     PRECAST_RECIPE,
     Recipe,
     Rect,
@@ -56,14 +62,19 @@ from .floorplan import (
 )
 from .load import BUILTIN_CASE, CaseError, _did_you_mean, case_from_dict
 
-INSTALL_HINT = "pip install 'cmdp-pymunk[ifc]'"
+# the package is installed from a checkout (it is not on a package index): the extra from there
+INSTALL_HINT = "pip install -e '.[ifc]' in the checkout (make test installs it)"
 
 # The overlay's defaults fit the built-in case: its crews (Table 3's seven), its storages
 # (rebars and templates on the top edge, struts on the bottom edge) and its margins (6 m of
 # open floor left and right of the components, 7 m above and below).
 DEFAULT_OVERLAY: dict = {
     "plane": {"margin_x_m": 6.0, "margin_y_m": 7.0},
-    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0, "check_storey": True},
+    "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0, "check_storey": True,
+               # elements of these classes whose body lies wholly below the storey's level
+               # carry the floor (beams and columns under the slabs, the walls of the storey
+               # below): supports, not obstacles on the work plane (:func:`split_supports`)
+               "supports": ["IfcBeam", "IfcColumn", "IfcWall", "IfcMember"]},
     "crews": {"JCC": 1, "HIC": 1, "GC": 1, "RC": 2, "FC": 2},
     "crane": {"lift_time_s": 240.0, "assist_time_s": 180.0},
     # x_frac: where along the edge, -1 (left wall) to 1 (right wall)
@@ -79,7 +90,7 @@ DEFAULT_OVERLAY: dict = {
 _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
 _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
-                 "import": ("min_fill", "neighbour_gap_m", "check_storey"),
+                 "import": ("min_fill", "neighbour_gap_m", "check_storey", "supports"),
                  "crane": ("lift_time_s", "assist_time_s")}
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
                  "edge", "x_frac")
@@ -222,6 +233,13 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             elif key == "check_storey":
                 if not isinstance(value[key], bool):
                     problems.append(f"{section}.{key} = {value[key]!r}: write true or false")
+            elif key == "supports":
+                classes = value[key]
+                if not isinstance(classes, list) or not all(
+                        isinstance(c, str) and re.fullmatch(r"Ifc\w+", c) for c in classes):
+                    problems.append(f"{section}.{key} = {classes!r}: write a list of IFC "
+                                    "classes whose elements below the storey's level carry "
+                                    'it, e.g. ["IfcBeam", "IfcColumn"], or [] for none')
             elif not _is_number(value[key]) or value[key] < 0:
                 problems.append(f"{section}.{key} = {value[key]!r}: write a number of 0 or "
                                 "more")
@@ -297,6 +315,8 @@ class Element:
     rect: Rect | None  # the footprint's bounding rectangle; None: no body geometry
     fill: float  # footprint area / rectangle area
     z_m: tuple[float, float] | None = None  # the body's bottom and top (world z, metres)
+    classes: tuple[str, ...] = ()  # its class and superclasses, most specific first
+    parts_from: tuple[str, ...] = ()  # the classes of the parts its body came from, if any
 
     @property
     def label(self) -> str:
@@ -415,18 +435,21 @@ def _class_chain(element) -> list[str]:
     return chain
 
 
-def footprint(shape) -> tuple[Rect | None, float]:
-    """The plan footprint of a tessellated shape (world coordinates, metres): its bounding
-    rectangle and the share of that rectangle the footprint fills (the union of the
-    triangles' projections on the floor)."""
+def footprint(shapes) -> tuple[Rect | None, float]:
+    """The plan footprint of tessellated shapes (one, or a sequence: an element's parts;
+    world coordinates, metres): its bounding rectangle and the share of that rectangle the
+    footprint fills (the union of the triangles' projections on the floor)."""
     import numpy as np
     import shapely
 
-    verts = np.asarray(shape.geometry.verts, dtype=float).reshape(-1, 3)
-    faces = np.asarray(shape.geometry.faces, dtype=int).reshape(-1, 3)
+    shapes = shapes if isinstance(shapes, (list, tuple)) else [shapes]
+    verts = [np.asarray(s.geometry.verts, dtype=float).reshape(-1, 3) for s in shapes]
+    faces = [np.asarray(s.geometry.faces, dtype=int).reshape(-1, 3) for s in shapes]
+    tris = [v[f][:, :, :2] for v, f in zip(verts, faces, strict=True) if len(f)]  # (n, 3, 2)
+    verts = np.concatenate(verts) if verts else np.zeros((0, 3))
     if len(verts) == 0:
         return None, 0.0
-    tris = verts[faces][:, :, :2]  # (n, 3, 2) in plan
+    tris = np.concatenate(tris) if tris else np.zeros((0, 3, 2))
     cross = ((tris[:, 1, 0] - tris[:, 0, 0]) * (tris[:, 2, 1] - tris[:, 0, 1])
              - (tris[:, 1, 1] - tris[:, 0, 1]) * (tris[:, 2, 0] - tris[:, 0, 0]))
     tris = tris[np.abs(cross) > 1e-9]  # faces seen edge-on from above add no area
@@ -438,36 +461,73 @@ def footprint(shape) -> tuple[Rect | None, float]:
     return rect, min(1.0, union.area / rect.area)
 
 
+def _body_shapes(element, settings) -> tuple[list, list]:
+    """The tessellated body of an element (world coordinates, metres: IfcOpenShell converts
+    the model's length unit, and takes the body in whatever context it is modelled, 'Body' or
+    'Plan'), and the parts it came from. An element without a body of its own (no
+    representation, or only an axis or a box) takes its parts' bodies: the elements aggregated
+    to it (IfcRelAggregates), as precast detailing tools write a slab whose body sits on a
+    proxy; a part without a body takes its own parts'."""
+    import ifcopenshell.geom
+    import ifcopenshell.util.element
+
+    if element.Representation is not None:
+        try:
+            shape = ifcopenshell.geom.create_shape(settings, element)
+        except RuntimeError:  # no body: an axis, a bounding box, nothing to tessellate
+            shape = None
+        if shape is not None and len(shape.geometry.verts):
+            return [shape], []
+    shapes, parts = [], []
+    for part in ifcopenshell.util.element.get_parts(element) or []:
+        if not part.is_a("IfcElement"):
+            continue
+        got, below = _body_shapes(part, settings)
+        if got:
+            shapes += got
+            parts += [part, *below]
+    return shapes, parts
+
+
 def storey_elements(model, storey, recipe: Recipe) -> tuple[list[Element], dict[str, int]]:
     """The storey's elements that the recipe takes (contained or aggregated, in file order)
-    with their footprints, and a count of the element classes it skipped."""
+    with their footprints, and a count of the element classes it skipped. An element without
+    a body of its own takes its footprint from its parts (:func:`_body_shapes`); those parts
+    are neither components nor skipped."""
     import ifcopenshell.geom
     import ifcopenshell.util.element
 
     settings = ifcopenshell.geom.settings()
     settings.set("use-world-coords", True)
-    elements, skipped = [], {}
+    taken, not_taken = [], []
     decomposed = ifcopenshell.util.element.get_decomposition(storey)
     for element in sorted(decomposed, key=lambda e: e.id()):
         if not element.is_a("IfcElement"):
             continue
-        kind = recipe.kind_of(_class_chain(element),
-                              ifcopenshell.util.element.get_predefined_type(element))
+        chain = _class_chain(element)
+        kind = recipe.kind_of(chain, ifcopenshell.util.element.get_predefined_type(element))
         if kind is None:
-            skipped[element.is_a()] = skipped.get(element.is_a(), 0) + 1
+            not_taken.append(element)
             continue
+        shapes, parts = _body_shapes(element, settings)
+        taken.append((element, chain, kind, shapes, parts))
+    in_others = {part.id(): part for *_, parts in taken for part in parts}
+    elements = []
+    for element, chain, kind, shapes, parts in taken:
+        if element.id() in in_others:
+            continue  # a part of an element taken whole
         rect, fill, z = None, 0.0, None
-        if element.Representation is not None:
-            try:
-                shape = ifcopenshell.geom.create_shape(settings, element)
-            except RuntimeError:
-                shape = None
-            if shape is not None:
-                rect, fill = footprint(shape)
-                heights = shape.geometry.verts[2::3]
-                z = (min(heights), max(heights)) if heights else None
+        if shapes:
+            rect, fill = footprint(shapes)
+            heights = [h for s in shapes for h in s.geometry.verts[2::3]]
+            z = (min(heights), max(heights))
         elements.append(Element(element.GlobalId, element.is_a(), (element.Name or "").strip(),
-                                kind, rect, fill, z))
+                                kind, rect, fill, z, tuple(chain),
+                                tuple(sorted({p.is_a() for p in parts}))))
+    skipped: dict[str, int] = {}
+    for element in not_taken:
+        if element.id() not in in_others:
+            skipped[element.is_a()] = skipped.get(element.is_a(), 0) + 1
     return elements, skipped
 
 
@@ -602,6 +662,8 @@ class ImportReport:
     notes: list[str]
     provenance: dict[str, str] = field(default_factory=dict)  # ``Overlay.provenance``
     crews_left_out: dict[str, int] = field(default_factory=dict)  # crew type -> crews, no work
+    # IFC class -> elements that carry the floor from below its level (not components)
+    supports_by_class: dict[str, int] = field(default_factory=dict)
 
 
 def crew_types_with_work(elements: Sequence[Element], recipe: Recipe,
@@ -641,6 +703,30 @@ def _off_storey(e: Element, storey: StoreyRange) -> str:
             "overlay")
 
 
+def is_support(e: Element, storey: StoreyRange | None, classes: Sequence[str]) -> bool:
+    """Whether an element carries the storey's floor rather than stands on it: of one of
+    ``classes`` (or a subclass), its body wholly below the storey's working level, the
+    storey's level (its top at most ``GEOMETRY_TOLERANCE_M`` above), and reaching up into the
+    storey's range (its top above ``storey.low_m``: a beam under the slabs, a column up to a
+    slab's corner, a wall of the storey below; an element wholly in the storey below is
+    misplaced, and reported as such). None: the storey has no level, so nothing is a
+    support."""
+    if storey is None or e.z_m is None or not any(c in classes for c in e.classes):
+        return False
+    top = e.z_m[1]
+    return storey.low_m - GEOMETRY_TOLERANCE_M <= top <= storey.level_m + GEOMETRY_TOLERANCE_M
+
+
+def split_supports(elements: Sequence[Element], storey: StoreyRange | None,
+                   classes: Sequence[str]) -> tuple[list[Element], list[Element]]:
+    """The storey's elements as (obstacles on the work plane, supports under it): what
+    blocks walking is decided by elevation against the storey's level (:func:`is_support`),
+    for the classes the overlay names (``[import] supports``)."""
+    carries = [is_support(e, storey, classes) for e in elements]
+    return ([e for e, c in zip(elements, carries, strict=True) if not c],
+            [e for e, c in zip(elements, carries, strict=True) if c])
+
+
 def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSchedule | None,
                name: str, description: str, ids: Sequence[str], source: str,
                storey: StoreyRange | None = None) -> tuple[dict, list[str], str]:
@@ -652,9 +738,11 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     check_storey = storey is not None and overlay.data["import"]["check_storey"]
     for e in elements:
         if e.rect is None:
-            problems.append(f"{e.label}: has no body geometry to take a footprint from; fix: "
-                            "give it a body representation, or leave its class out of the "
-                            "recipe")
+            problems.append(f"{e.label}: has no body geometry to take a footprint from, "
+                            "neither its own nor its parts' (elements aggregated to it, "
+                            "IfcRelAggregates); fix: give it a body representation, or "
+                            "aggregate the elements that carry its body to it, or leave its "
+                            "class out of the recipe")
         elif check_storey and e.z_m is not None and not storey.holds(e.z_m[0]):
             problems.append(_off_storey(e, storey))
         elif min(e.rect.size) <= 1e-6:
@@ -675,15 +763,14 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     if problems:
         raise CaseError(source, problems)
     rects = [e.rect for e in elements]
-    for i, j in overlapping_pairs(rects):
-        a, b = rects[i], rects[j]
-        w = min(a.x1, b.x1) - max(a.x0, b.x0)
-        h = min(a.y1, b.y1) - max(a.y0, b.y0)
-        if w > 1e-3 and h > 1e-3:  # a millimetre of modelling noise is no overlap
-            problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
-                            f"by {w:.2f} x {h:.2f} m (components are obstacles side by side "
-                            "on the floor); fix: correct the model, or leave one of the "
-                            "classes out of the recipe ([recipe.classes] in the overlay)")
+    for i, j in overlapping_pairs(rects):  # beyond GEOMETRY_TOLERANCE_M, as the case check
+        w, h = rects[i].overlap(rects[j])
+        problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
+                        f"by {w:.3f} x {h:.3f} m (components are obstacles side by side "
+                        "on the floor); fix: correct the model so that they only touch; "
+                        "if one carries the other, model it below the storey's level and "
+                        "list its class in [import] supports in the overlay; or leave one of "
+                        "the classes out of the recipe ([recipe.classes] in the overlay)")
     box = bounding_rect(rects)
     cx, cy = box.centre
     plane_cfg = overlay.data["plane"]
@@ -791,14 +878,18 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     source = Path(model_path).name
     level = find_storey(model, storey, source)
     elements, skipped = storey_elements(model, level, overlay.recipe)
+    storey_span = storey_range(model, level)
+    elements, supports = split_supports(elements, storey_span,
+                                        overlay.data["import"]["supports"])
     if not elements:
         found = ", ".join(f"{n} {c}" for c, n in sorted(skipped.items())) or "no elements"
+        held = (f"; {len(supports)} element(s) of it lie below its level and carry it "
+                "([import] supports)" if supports else "")
         raise CaseError(source, [f'storey "{storey}" has no elements of the recipe\'s classes '
-                                 f"({', '.join(overlay.recipe.classes)}); it holds {found}; "
-                                 "fix: pick another storey, or map its classes to kinds in "
-                                 "the overlay's [recipe.classes]"])
+                                 f"({', '.join(overlay.recipe.classes)}) on its floor; it holds "
+                                 f"{found}{held}; fix: pick another storey, or map its classes "
+                                 "to kinds in the overlay's [recipe.classes]"])
     ids = _component_ids(elements)
-    storey_span = storey_range(model, level)
     schedule = model_schedule(model, {e.guid: cid for e, cid in zip(elements, ids,
                                                                     strict=True)},
                               overlay.recipe)
@@ -807,12 +898,30 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
                    "cmdp-import-ifc")
     data, notes, precedences = build_case(elements, overlay, schedule, name, description, ids,
                                           source, storey_span)
-    if storey_span is None and overlay.data["import"]["check_storey"]:
+    unchecked = [what for what, on in (
+        ("its elements' heights are not checked", overlay.data["import"]["check_storey"]),
+        ("none is taken as a support under its floor ([import] supports)",
+         bool(overlay.data["import"]["supports"]))) if on]
+    if storey_span is None and unchecked:
         notes.insert(0, f'storey "{level.Name or level.GlobalId}" has no level (neither a '
-                        "placement nor an Elevation): its elements' heights are not checked")
+                        "placement nor an Elevation): " + ", and ".join(unchecked))
+    from_parts: dict[str, tuple[int, set[str]]] = {}
+    for e in elements:
+        if e.parts_from:
+            n, classes = from_parts.get(e.ifc_class, (0, set()))
+            from_parts[e.ifc_class] = (n + 1, classes | set(e.parts_from))
+    for cls, (n, classes) in sorted(from_parts.items()):
+        notes.append(f"{n} {cls} without a body of {'its' if n == 1 else 'their'} own: "
+                     f"footprint{'' if n == 1 else 's'} from the elements aggregated to "
+                     f"{'it' if n == 1 else 'them'} ({', '.join(sorted(classes))}), which are "
+                     "not components")
     case_from_dict(data, f"the case made from {source}")
     by_class: dict[str, int] = {}
     for e in elements:
         by_class[e.ifc_class] = by_class.get(e.ifc_class, 0) + 1
+    carried: dict[str, int] = {}
+    for e in supports:
+        carried[e.ifc_class] = carried.get(e.ifc_class, 0) + 1
     return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes,
-                              overlay.provenance(), crews_left_out(elements, overlay))
+                              overlay.provenance(), crews_left_out(elements, overlay),
+                              dict(sorted(carried.items())))

@@ -21,7 +21,7 @@ from typing import Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
-from .floorplan import Rect
+from .floorplan import GEOMETRY_TOLERANCE_M, Rect
 from .model import (  # noqa: F401  (re-exported: the models are part of this API)
     Calendar,
     Case,
@@ -305,7 +305,29 @@ def _rect(item) -> Rect:
 
 
 def _overlap(a: Rect, b: Rect) -> bool:
-    return a.overlaps(b)
+    """Whether the interiors meet by more than :data:`GEOMETRY_TOLERANCE_M` (the importer's
+    tolerance too): touching edges, and the float noise of centring, are no overlap."""
+    return a.overlaps(b, GEOMETRY_TOLERANCE_M)
+
+
+def _components_overlap(i: int, comp: Component, j: int, other: Component,
+                        size: tuple[float, float]) -> str:
+    """The message for two components whose rectangles overlap by ``size`` (x, y, metres).
+    A component imported from IFC (it has ``ifc_guid``) is named by id and GlobalId, and the
+    fix is the BIM user's: its case entry is written by the importer, the model is what to
+    correct."""
+    by = f"by {size[0]:.3f} x {size[1]:.3f} m (more than the {GEOMETRY_TOLERANCE_M:g} m tolerance)"
+    if comp.ifc_guid is None and other.ifc_guid is None:
+        return (f'components[{i}] "{comp.id}": overlaps components[{j}] "{other.id}" {by}; '
+                "fix: move or shrink one of them")
+
+    def name(c: Component) -> str:
+        return f'"{c.id}"' + (f" (IFC GlobalId {c.ifc_guid})" if c.ifc_guid else "")
+
+    return (f"component {name(comp)} overlaps component {name(other)} in plan {by}; fix: "
+            "find the two elements in the BIM model by GlobalId and correct their geometry "
+            "so that they only touch (or leave one's class out of the import recipe), then "
+            "import the storey again with cmdp-import-ifc")
 
 
 def _semantic_problems(parts: _Parts) -> list[str]:
@@ -382,8 +404,7 @@ def _semantic_problems(parts: _Parts) -> list[str]:
                             f"lies outside the plane {bounds}; fix: move or shrink it")
         for j, other, ro in placed:
             if _overlap(r, ro):
-                problems.append(f'{where}: overlaps components[{j}] "{other.id}"; '
-                                "fix: move one of them")
+                problems.append(_components_overlap(i, comp, j, other, r.overlap(ro)))
         placed.append((i, comp, r))
     for i, st in parts.storages:
         where = f'storages[{i}] "{st.id}"'
