@@ -84,3 +84,14 @@ def test_narrow_lanes_by_hand():
     a, b = floorplan.Rect(0, 0, 2, 2), floorplan.Rect(3, 0, 5, 2)
     c, d = floorplan.Rect(-5, 0, -3, 2), floorplan.Rect(5, 0, 6, 2)
     assert floorplan.narrow_lanes([a, b, c, d], 2.52) == [(0, 1, 1.0)]
+
+
+def test_a_lane_with_a_third_rectangle_in_it_is_no_lane():
+    from cmdp_pymunk.cases.floorplan import Rect, lane_between, narrow_lanes
+
+    # three 2 m slabs in a row, 0.5 m apart: x 0..2, 2.5..4.5, 5..7; the outer two are 3 m
+    # apart, but the middle one stands in that strip: only the two 0.5 m joints are lanes
+    row = [Rect(0, 0, 2, 2), Rect(2.5, 0, 4.5, 2), Rect(5, 0, 7, 2)]
+    assert narrow_lanes(row, 5.0) == [(0, 1, 0.5), (1, 2, 0.5)]
+    assert lane_between(Rect(0, 0, 2, 2), Rect(5, 1, 6, 3)) == Rect(2, 1, 5, 2)
+    assert lane_between(Rect(0, 0, 2, 2), Rect(1, 5, 3, 6)) == Rect(1, 2, 2, 5)  # along y

@@ -117,9 +117,23 @@ def narrow_lanes(rects: Sequence[Rect], min_width_m: float) -> list[tuple[int, i
     for i in range(len(rects)):
         for j in range(i + 1, len(rects)):
             gap = rects[i].side_gap(rects[j])
-            if gap is not None and 0 < gap < min_width_m:
-                out.append((i, j, gap))
+            if gap is None or not 0 < gap < min_width_m:
+                continue
+            lane = lane_between(rects[i], rects[j])
+            if any(k not in (i, j) and lane.overlaps(r) for k, r in enumerate(rects)):
+                continue  # a third rectangle stands between them: no lane there
+            out.append((i, j, gap))
     return out
+
+
+def lane_between(a: Rect, b: Rect) -> Rect:
+    """The open strip between two rectangles side by side (``side_gap`` not None): across the
+    gap, along the span their projections share. E.g. (0, 0, 2, 2) and (5, 1, 6, 3):
+    (2, 1, 5, 2)."""
+    share_x, share_y = a.overlap(b)
+    if share_y >= share_x:  # side by side along x
+        return Rect(min(a.x1, b.x1), max(a.y0, b.y0), max(a.x0, b.x0), min(a.y1, b.y1))
+    return Rect(max(a.x0, b.x0), min(a.y1, b.y1), min(a.x1, b.x1), max(a.y0, b.y0))
 
 
 # -- recipes ----------------------------------------------------------------------------------
