@@ -17,11 +17,14 @@ That bound reasons at the mean pace. Two facts of the floor make it loose (issue
 - **Loading.** A crew that uses material acquires it at its storage at the material's rate,
   and it cannot task meanwhile (``loading_s``).
 ``expected_work_by_crew_type`` adds both; ``seed_lower_bound`` bounds the floor of one seed from
-the paces it will draw (the same streams and the same draw), its loading and its critical path.
+the paces it will draw (the same streams and the same draw), its loading and its precedence: the
+critical path, and per crew type the time before any of its tasks can start (head), its work
+over its crews, and the time the floor runs on after its last task (tail).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass
 
 from scipy import integrate, stats
@@ -177,7 +180,9 @@ def critical_path(case: Case, duration: dict[str, float]) -> tuple[float, tuple[
 
 @dataclass(frozen=True)
 class SeedBound:
-    """A bound on the makespan of the floor drawn with one seed (``seed_lower_bound``)."""
+    """A bound on the makespan of the floor drawn with one seed (``seed_lower_bound``):
+    ``per_crew_type_s`` is head + work over crews + tail per crew type (``crew_type_bound_s``),
+    ``binding`` the term that gives ``seed_bound_s``."""
 
     seed: int
     critical_path_s: float
@@ -206,15 +211,73 @@ def drawn_durations_s(case: Case, seed: int) -> dict[str, float]:
     return out
 
 
+def heads_and_tails(case: Case, duration: dict[str, float]) -> tuple[dict, dict]:
+    """Per task at the given durations (task id -> s): its head, the earliest it can start (the
+    longest chain of predecessors), and its tail, the least time the floor runs on after it
+    ends (the longest chain of successors)."""
+    succs: dict[str, list[str]] = {t.id: [] for t in case.tasks}
+    indegree = {t.id: len(t.predecessors) for t in case.tasks}
+    for t in case.tasks:
+        for p in t.predecessors:
+            succs[p].append(t.id)
+    order = [t.id for t in case.tasks if not t.predecessors]
+    for tid in order:  # grows while it is read: a topological order
+        for s in succs[tid]:
+            indegree[s] -= 1
+            if indegree[s] == 0:
+                order.append(s)
+    preds = {t.id: t.predecessors for t in case.tasks}
+    head: dict[str, float] = {}
+    for tid in order:
+        head[tid] = max((head[p] + duration[p] for p in preds[tid]), default=0.0)
+    tail: dict[str, float] = {}
+    for tid in reversed(order):
+        tail[tid] = max((duration[s] + tail[s] for s in succs[tid]), default=0.0)
+    return head, tail
+
+
+def preload_s(case: Case, crew_type: str) -> float:
+    """Loading a crew of this type can do before its first task: one full carry (its capacity
+    over its material's rate; the slowest material's if it has several). A crew carries no more,
+    so the rest of its loading falls after its first task can start."""
+    rates = [case.materials[tt.material].acquire_per_min for tt in case.task_types.values()
+             if tt.crew_type == crew_type and tt.material]
+    if not rates:
+        return 0.0
+    return case.crew_types[crew_type].carry_capacity / min(rates) * 60.0
+
+
+def crew_type_bound_s(head_s: float, work_s: float, crews: int, preload: float,
+                      tail_s: float) -> float:
+    """Head + body + tail for one crew type: none of its tasks starts before ``head_s`` (the
+    least head of its tasks); its ``work_s`` (task time and loading) less what its ``crews`` can
+    preload is shared at best evenly; the floor runs at least ``tail_s`` (the least tail of its
+    tasks) after its last task ends."""
+    return head_s + max(0.0, work_s - crews * preload) / crews + tail_s
+
+
 def seed_lower_bound(case: Case, seed: int) -> SeedBound:
     """A lower bound on the makespan of the floor of ``seed`` (no disruptions), without running
-    it: the longer of the critical path at the drawn durations (plus the loading a task's crew
-    must do while it is on) and, per crew type, its drawn task time plus loading over its
-    crews. Unlike ``lower_bound`` (at the mean pace), no run of this seed can beat it."""
+    it, from the durations its tasks will draw (the loading a task's crew must do while it is on
+    counts in its duration): the longer of the critical path and, per crew type, head + its task
+    time and loading over its crews + tail (``crew_type_bound_s``). Unlike ``lower_bound`` (at
+    the mean pace), no run of this seed can beat it."""
     drawn = drawn_durations_s(case, seed)
-    cp, path = critical_path(case, {t.id: drawn[t.id] + in_task_loading_s(case, t)
-                                    for t in case.tasks})
-    per_type = work_per_crew(case, {t.id: drawn[t.id] + loading_s(case, t) for t in case.tasks})
+    duration = {t.id: drawn[t.id] + in_task_loading_s(case, t) for t in case.tasks}
+    cp, path = critical_path(case, duration)
+    head, tail = heads_and_tails(case, duration)
+    crews = crews_by_type(case)
+    work: dict[str, float] = {}
+    first: dict[str, float] = {}
+    last: dict[str, float] = {}
+    for t in case.tasks:
+        ct = case.task_types[t.type].crew_type
+        work[ct] = work.get(ct, 0.0) + drawn[t.id] + loading_s(case, t)
+        first[ct] = min(first.get(ct, math.inf), head[t.id])
+        last[ct] = min(last.get(ct, math.inf), tail[t.id])
+    per_type = {ct: crew_type_bound_s(first[ct], w, max(1, crews.get(ct, 0)),
+                                      preload_s(case, ct), last[ct])
+                for ct, w in work.items()}
     worst = max(per_type, key=lambda ct: (per_type[ct], ct))
     binding = worst if per_type[worst] > cp else "critical_path"
     return SeedBound(seed, cp, path, per_type, binding, max(cp, per_type[worst]))

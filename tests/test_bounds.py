@@ -127,8 +127,29 @@ def test_seed_bound_on_the_tiny_case_by_hand(tiny_case):
     # critical path X-A -> K-A -> M-C with M-C's 10 s of in-task loading
     assert bound.critical_path == ("X-A", "K-A", "M-C")
     assert bound.critical_path_s == pytest.approx(x_a + 90.0 + 190.0)
-    assert bound.per_crew_type_s == pytest.approx({"XC": x_a + x_b, "KC": 90.0, "MC": 105.0})
+    # per crew type, head + (work - crews x preload) / crews + tail:
+    # XC: 0 + (x_a + x_b) / 1 + 0 (X-B has no successor);
+    # KC: x_a + 90 / 1 + 190 (M-C after it) = x_a + 280;
+    # MC: head x_a + 90; work 180 + 30 loading, less 2 crews x a carry of 0.2 m3 / 0.6 m3/min
+    # = 20 s each: (210 - 40) / 2 = 85; tail 0: x_a + 175
+    assert bound.per_crew_type_s == pytest.approx(
+        {"XC": x_a + x_b, "KC": x_a + 280.0, "MC": x_a + 175.0})
     assert bound.seed_bound_s == pytest.approx(max(x_a + 280.0, x_a + x_b))
+
+
+def test_heads_tails_and_the_crew_type_bound_by_hand(tiny_case):
+    from cmdp_pymunk.bounds import crew_type_bound_s, heads_and_tails, preload_s
+
+    # durations X-A 100, K-A 90, X-B 130, M-C 190: heads 0, 100, 0, 190; tails 280, 190, 0, 0
+    head, tail = heads_and_tails(tiny_case, {"X-A": 100.0, "K-A": 90.0, "X-B": 130.0,
+                                             "M-C": 190.0})
+    assert head == {"X-A": 0.0, "K-A": 100.0, "X-B": 0.0, "M-C": 190.0}
+    assert tail == {"X-A": 280.0, "K-A": 190.0, "X-B": 0.0, "M-C": 0.0}
+    assert preload_s(tiny_case, "MC") == pytest.approx(20.0)  # 0.2 m3 at 0.6 m3/min
+    assert preload_s(tiny_case, "XC") == 0.0
+    # 100 + (500 - 2 x 20) / 2 + 50 = 380; preloading more than the work leaves head + tail
+    assert crew_type_bound_s(100.0, 500.0, 2, 20.0, 50.0) == pytest.approx(380.0)
+    assert crew_type_bound_s(100.0, 30.0, 2, 20.0, 50.0) == pytest.approx(150.0)
 
 
 def test_no_recorded_makespan_beats_its_seed_bound():
