@@ -41,7 +41,14 @@ def invasion(site: Site, positions, crew: CrewState, area: Rect) -> float:
 
 def draw_pace(rng: np.random.Generator, crew: CrewState, task: TaskState) -> float:
     """Work per second on this task, drawn from Table 3 (normal, clipped at 10 % of the mean)."""
-    spec = crew.spec
+    return pace_of(rng, crew.spec)
+
+
+def pace_of(rng: np.random.Generator, spec) -> float:
+    """Work per second drawn for a crew type ``spec`` (``CrewType``) from Table 3: a duration
+    crew draws minutes per unit of work, an efficiency crew work per minute, each a normal
+    clipped below at 10 % of its mean. One function, so ``bounds.seed_lower_bound`` reads the
+    paces a floor will draw without running it."""
     if spec.by_duration:
         mean, sd = spec.duration_mean_min, spec.duration_sd_min or 0.0
         minutes = max(rng.normal(mean, sd), MIN_PACE_SHARE * mean)

@@ -257,10 +257,28 @@ def episode_reach_rate(engine: Engine) -> float:
                       sum(c.stats.reach_timeouts for c in crews))
 
 
+def episode_seed_bound(engine: Engine):
+    """``bounds.seed_lower_bound`` of the floor the engine plays (its streams' seed: the paces
+    its tasks draw), or None in stage 1, whose tasks take no time (section 4.2)."""
+    from .bounds import seed_lower_bound
+
+    if engine.stage != 2:
+        return None
+    return seed_lower_bound(engine.case, engine.streams.entropy)
+
+
+def over_seed_bound(rows: list[dict]) -> float | None:
+    """The mean over finished episodes of makespan / that seed's bound (``seed_bound_s``):
+    each floor against what its own drawn paces allow, averaged (None where no row has both)."""
+    ratios = [r["makespan_s"] / r["seed_bound_s"] for r in rows
+              if r.get("makespan_s") and r.get("seed_bound_s")]
+    return float(np.mean(ratios)) if ratios else None
+
+
 def makespan_stats(rows: list[dict]) -> dict:
     """Mean, spread and percentiles over episodes, from their summaries (``cmdp-simulate``'s
     ``summary.json``: ``makespan_s`` None for an unfinished episode, ``reach_rate``,
-    ``lower_bound`` if known).
+    ``lower_bound`` if known, ``seed_bound_s`` if known).
 
     Means and percentiles are over the finished episodes; ``finished`` says how many.
     ``p50_s``, ``p80_s`` and ``p90_s`` are the makespans that 50, 80 and 90 % of them stay
@@ -276,9 +294,16 @@ def makespan_stats(rows: list[dict]) -> dict:
             **{f"p{q}_s": v for q, v in zip(PERCENTILES, quantiles, strict=True)},
             "lower_bound_s": lower,
             "mean_over_lower_bound": float(np.mean(done)) / lower if done and lower else None,
+            "seed_bound_mean_s": _mean_of([r.get("seed_bound_s") for r in rows]),
+            "mean_over_seed_bound": over_seed_bound(rows),
             "mean_reach_rate": float(np.mean([r["reach_rate"] for r in rows])),
             "percentiles_note": percentiles_note(len(done)),
             "makespans_s": [r["makespan_s"] for r in rows]}
+
+
+def _mean_of(values: list) -> float | None:
+    known = [v for v in values if v is not None]
+    return float(np.mean(known)) if known else None
 
 
 def versions() -> dict:

@@ -62,6 +62,22 @@ def test_summary_has_the_planners_percentiles():
     assert "| 300 / 420 / 460 |" in markdown_table([e], 50.0, None)
 
 
+def test_summary_over_the_seed_bound_is_the_mean_of_per_seed_ratios():
+    from training.runs.paired import markdown_table, summarize
+
+    rows = [{"strategy": "priority", "navigator": "scripted", "seed": s, "finished": f,
+             "makespan_s": m, "stalled": False, "timed_out": not f, "seed_bound_s": b}
+            for s, m, b, f in ((0, 150.0, 100.0, True), (1, 300.0, 150.0, True),
+                               (2, None, 120.0, False))]
+    e = summarize(rows, 50.0, None)[0]
+    # bounds 100, 150, 120: mean 123.33; finished ratios 1.5 and 2.0: mean 1.75 (the unfinished
+    # seed has no ratio); the ratio of means would be 225 / 125 = 1.8
+    assert e["seed_bound_mean_s"] == pytest.approx(370.0 / 3)
+    assert e["over_seed_bound"] == pytest.approx(1.75)
+    table = markdown_table([e], 50.0, None)
+    assert "| 4.50 | 1.75 | - |" in table and "Seed bound" in table
+
+
 def test_paired_difference_over_common_finished_seeds():
     ref = [{"seed": s, "finished": True, "makespan_s": m} for s, m in ((0, 100), (1, 200),
                                                                        (2, 300))]
@@ -96,6 +112,19 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
     settings = json.loads((out / "settings.json").read_text())
     assert settings["cpsat"]["optimal"] and settings["seeds"] == [0, 1]
     assert "| priority | scripted | 2/2 |" in (out / "summary.md").read_text()
+    # the seed bound (issue 32): per episode in episodes.jsonl and the CSV's last column, its
+    # mean and the mean of makespan / it per strategy in the summary
+    from cmdp_pymunk.bounds import seed_lower_bound
+
+    bounds = {s: seed_lower_bound(case, s).seed_bound_s for s in (0, 1)}
+    jsonl = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
+    assert all(r["seed_bound_s"] == pytest.approx(bounds[r["seed"]], abs=1e-3) for r in jsonl)
+    assert list(rows[0])[-1] == "seed_bound_s"
+    assert prio["seed_bound_mean_s"] == pytest.approx((bounds[0] + bounds[1]) / 2, abs=1e-3)
+    mine = [r for r in jsonl if r["strategy"] == "priority"]
+    assert prio["over_seed_bound"] == pytest.approx(
+        sum(r["makespan_s"] / r["seed_bound_s"] for r in mine) / 2)
+    assert "x seed bound" in (out / "summary.md").read_text()
     printed = capsys.readouterr().out
     assert "CP-SAT schedule bound" in printed
     # announced with its time limit before it runs, and before its answer

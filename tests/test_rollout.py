@@ -49,3 +49,16 @@ def test_run_episode_finishes_the_tiny_case(tiny_case):
 def test_a_missing_model_file_is_named(tmp_path):
     with pytest.raises(ValueError, match="--navigator .*nope.zip.*no such model file"):
         model_path(str(tmp_path / "nope.zip"), "--navigator")
+
+
+def test_makespan_stats_over_the_seed_bound():
+    from cmdp_pymunk.rollout import makespan_stats
+
+    rows = [{"makespan_s": m, "reach_rate": 1.0, "seed_bound_s": b}
+            for m, b in ((150.0, 100.0), (300.0, 150.0), (None, 120.0))]
+    stats = makespan_stats(rows)
+    # bounds 100, 150, 120: mean 123.33; ratios of the finished 1.5 and 2.0: mean 1.75
+    assert stats["seed_bound_mean_s"] == pytest.approx(370.0 / 3)
+    assert stats["mean_over_seed_bound"] == pytest.approx(1.75)
+    assert makespan_stats([{"makespan_s": 1.0, "reach_rate": 1.0}])["mean_over_seed_bound"] \
+        is None

@@ -18,6 +18,14 @@ def test_simulate_writes_summary_events_and_charts(tmp_path, capsys):
     assert data["makespan_s"] > data["lower_bound"]["lower_bound_s"] > 0
     assert data["makespan_over_lower_bound"] == pytest.approx(
         data["makespan_s"] / data["lower_bound"]["lower_bound_s"])
+    # the bound on seed 3's own floor (issue 32): what bounds.seed_lower_bound says, never beaten
+    from cmdp_pymunk.bounds import seed_lower_bound
+
+    bound = seed_lower_bound(cmdp_pymunk.load_case(TINY), 3)
+    assert data["seed_bound_s"] == pytest.approx(bound.seed_bound_s)
+    assert data["seed_bound_binding"] == bound.binding
+    assert data["makespan_over_seed_bound"] == pytest.approx(
+        data["makespan_s"] / bound.seed_bound_s) and data["makespan_over_seed_bound"] >= 1.0
     crew = data["crews"]["RC-1"]
     assert set(crew["idle_steps"]) == {"waiting_for_predecessor", "blocked_by_task_area",
                                        "no_target"}

@@ -79,6 +79,7 @@ from training.runs.paired import (
 from training.runs.runner import (
     COST_FIELDS,
     ROW_FIELDS,
+    SEED_BOUND_FIELDS,
     STRUCK_FIELDS,
     EpisodeRunner,
     check_worker,
@@ -413,7 +414,8 @@ def _main(args: EvaluateArgs) -> int:
     ran = len(rows) - kept
     cpsat_dict = cpsat.as_dict() if cpsat else None
     summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)
-    fields = ["strategy", "navigator", "seed", *ROW_FIELDS, *STRUCK_FIELDS, *COST_FIELDS]
+    fields = ["strategy", "navigator", "seed", *ROW_FIELDS, *STRUCK_FIELDS, *COST_FIELDS,
+              *SEED_BOUND_FIELDS]
     time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
     if time_use:

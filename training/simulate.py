@@ -247,12 +247,14 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         crew_summary,
         disruption_summary,
         episode_reach_rate,
+        episode_seed_bound,
         versions,
     )
     from cmdp_pymunk.timeuse import time_use
 
     site = engine.site
     makespan = episode.makespan_s
+    seed_bound = episode_seed_bound(engine)
     data = {
         "case": site.case.case.name, "case_file": case_label, "seed": episode.seed,
         "stage": engine.stage, "evaluator": args.evaluator, "navigator": args.navigator,
@@ -262,6 +264,11 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         "all_finished": site.done, "simulated_s": site.time_s,
         "lower_bound": lb.as_dict(),
         "makespan_over_lower_bound": makespan / lb.lower_bound_s if makespan else None,
+        # the bound on this seed's floor: its drawn paces, loading, critical path (issue 32)
+        "seed_bound_s": seed_bound.seed_bound_s if seed_bound else None,
+        "seed_bound_binding": seed_bound.binding if seed_bound else None,
+        "makespan_over_seed_bound": makespan / seed_bound.seed_bound_s
+        if makespan and seed_bound else None,
         "reach_rate": episode_reach_rate(engine),
         "crews": crew_summary(engine),
         "time_use_s": time_use(engine.log.events, {c.id: c.type for c in site.crews},
@@ -671,7 +678,10 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                 finish = (data.get("calendar") or {}).get("finish")
                 bar.write(f"cmdp-simulate: seed {seed}: makespan "
                           f"{seconds_and_hours(data['makespan_s'])} "
-                          f"({data['makespan_over_lower_bound']:.2f} x lower bound), "
+                          f"({data['makespan_over_lower_bound']:.2f} x lower bound"
+                          + (f", {data['makespan_over_seed_bound']:.2f} x seed bound "
+                             f"{data['seed_bound_s']:,.0f} s"
+                             if data.get("makespan_over_seed_bound") else "") + "), "
                           + (f"finish {finish.replace('T', ' ')[:16]}, " if finish else "")
                           + f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
                           file=sys.stdout)
@@ -718,7 +728,10 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
         print(f"cmdp-simulate: {stats['finished']}/{len(rows)} episodes finished; makespan mean "
               f"{seconds_and_hours(stats['mean_s'])}, std {stats['std_s']:.0f} s, min "
               f"{stats['min_s']:.0f}, max {stats['max_s']:.0f} "
-              f"({stats['mean_over_lower_bound']:.2f} x lower bound); "
+              f"({stats['mean_over_lower_bound']:.2f} x lower bound"
+              + (f", {stats['mean_over_seed_bound']:.2f} x seed bound, mean "
+                 f"{stats['seed_bound_mean_s']:,.0f} s" if stats["mean_over_seed_bound"] else "")
+              + "); "
               f"P50 {stats['p50_s']:.0f} s, P80 {stats['p80_s']:.0f} s, "
               f"P90 {stats['p90_s']:.0f} s")
     if stats["disruptions"] is not None:

@@ -15,7 +15,13 @@ from agents.models import PolicyStuck
 from agents.specs import make_evaluator, make_navigator
 from cmdp_pymunk import disruptions
 from cmdp_pymunk.engine import Engine
-from cmdp_pymunk.rollout import Episode, disruption_cost, episode_reach_rate, run_episode
+from cmdp_pymunk.rollout import (
+    Episode,
+    disruption_cost,
+    episode_reach_rate,
+    episode_seed_bound,
+    run_episode,
+)
 from cmdp_pymunk.schedule import finish_times
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
 from cmdp_pymunk.timeuse import time_use
@@ -32,6 +38,9 @@ ROW_FIELDS = ("makespan_s", "finished", "stalled", "timed_out", "tasks_finished"
 # when not measured).
 STRUCK_FIELDS = disruptions.STRUCK_FIELDS
 COST_FIELDS = ("undisrupted_makespan_s", "disruption_delay_s", "disruption_delay_pct")
+# Appended after them: the bound on the seed's own floor (``bounds.seed_lower_bound``: its drawn
+# paces, loading, critical path; empty in stage 1).
+SEED_BOUND_FIELDS = ("seed_bound_s",)
 # Beside ROW_FIELDS, in every row (episodes.jsonl) but not in episodes.csv (a list per cell):
 # the simulated second each task ended, in increasing order, for the S-curve of a comparison.
 TASK_END_TIMES = "task_end_times_s"
@@ -73,6 +82,7 @@ def episode_row(engine: Engine, episode: Episode | None, stall_reason: str = "")
         "reach_rate": round(episode_reach_rate(engine), 4),
         "wall_s": round(episode.wall_s, 3) if episode is not None else None,
         "stall_reason": stall_reason,
+        "seed_bound_s": seed_bound_s(engine),
         **{f"idle_{c.name.lower()}": sum(crew.stats.idle_steps[c] for crew in crews)
            for c in DISRUPTION_CAUSES},
         **struck_fields(engine),
@@ -80,6 +90,12 @@ def episode_row(engine: Engine, episode: Episode | None, stall_reason: str = "")
         TIME_USE: time_use(engine.log.events, {c.id: c.type for c in crews}, len(site.tasks),
                            site.time_s),
     }
+
+
+def seed_bound_s(engine: Engine) -> float | None:
+    """The bound on the engine's seed's floor in seconds (``rollout.episode_seed_bound``)."""
+    bound = episode_seed_bound(engine)
+    return round(bound.seed_bound_s, 3) if bound else None
 
 
 def struck_fields(engine: Engine) -> dict:
