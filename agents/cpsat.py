@@ -33,7 +33,7 @@ import math
 import time
 from dataclasses import asdict, dataclass, field
 
-from cmdp_pymunk.bounds import expected_duration_s, lower_bound
+from cmdp_pymunk.bounds import expected_duration_s, heads_and_tails, lower_bound
 
 from .task_priority import TaskPriorityEvaluator
 
@@ -87,32 +87,8 @@ def conflict_cliques(case) -> list[list[int]]:
 
 def heads_tails(case) -> tuple[dict[str, float], dict[str, float]]:
     """Per task: the longest chain of expected durations before its start (head) and after its
-    end (tail) in the precedence network."""
-    duration = {t.id: expected_duration_s(case, t) for t in case.tasks}
-    successors: dict[str, list[str]] = {t.id: [] for t in case.tasks}
-    for t in case.tasks:
-        for p in t.predecessors:
-            successors[p].append(t.id)
-    order = []  # topological: predecessors first (the case is checked for cycles)
-    seen: set[str] = set()
-    preds = {t.id: t.predecessors for t in case.tasks}
-    for t in case.tasks:
-        stack = [(t.id, False)]
-        while stack:
-            node, done = stack.pop()
-            if done:
-                order.append(node)
-            elif node not in seen:
-                seen.add(node)
-                stack.append((node, True))
-                stack.extend((p, False) for p in preds[node] if p not in seen)
-    head: dict[str, float] = {}
-    for node in order:
-        head[node] = max((head[p] + duration[p] for p in preds[node]), default=0.0)
-    tail: dict[str, float] = {}
-    for node in reversed(order):
-        tail[node] = max((tail[s] + duration[s] for s in successors[node]), default=0.0)
-    return head, tail
+    end (tail) in the precedence network (``bounds.heads_and_tails`` at mean-pace durations)."""
+    return heads_and_tails(case, {t.id: expected_duration_s(case, t) for t in case.tasks})
 
 
 def resource_cut_s(case) -> tuple[float, str]:

@@ -28,13 +28,8 @@ from training.runs.runner import EpisodeRunner, cost_fields
 # every seed.
 HAND = {"absences": [{"crew": "X-1", "at_s": 50.0, "duration_s": 60.0}],
         "crane_breakdowns": [{"at_s": 140.0, "duration_s": 100.0}]}
-# Random ones of every kind (``tests/test_disruptions.py``'s profile): they differ per seed.
-RANDOM = {"crane_breakdowns": [{"mean_interval_s": 150.0, "duration_mean_s": 40.0,
-                                "duration_sd_s": 20.0}],
-          "weather_stops": [{"mean_interval_s": 200.0, "duration_s": 30.0}],
-          "absences": [{"crew": "M-1", "mean_interval_s": 120.0, "duration_s": 25.0}],
-          "late_deliveries": [{"storage": "S", "mean_interval_s": 100.0,
-                               "duration_mean_s": 50.0, "duration_sd_s": 10.0}]}
+# Random ones of every kind: tests/test_disruptions.py's profile; they differ per seed.
+from test_disruptions import RANDOM  # noqa: E402
 
 
 def tiny(extra: dict | None):
