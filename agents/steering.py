@@ -11,13 +11,7 @@ from __future__ import annotations
 import math
 
 from cmdp_pymunk.move import STAND_STILL
-
-
-def best_target(crew) -> int:
-    """The target of highest V_Tar in the crew's scope (lowest index on ties), or -1."""
-    if not crew.values:
-        return -1
-    return max(crew.values, key=lambda t: (crew.values[t], -t))
+from cmdp_pymunk.policy import best_target
 
 
 def steer(engine, i: int):

@@ -8,6 +8,8 @@ average Table 3's spread away.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from . import events
@@ -65,22 +67,30 @@ def crane_ready(task: TaskState) -> bool:
     return not task.needs_crane or task.crane_assisted
 
 
-def advance(site: Site, positions, log: events.EventLog, dt: float) -> None:
+def advance(site: Site, positions, log: events.EventLog, dt: float,
+            invasion_of: Callable[[Site, list, CrewState, Rect], float] | None = None) -> None:
     """One step of P_cons for every crew that tasks or fetches, then the crane. A weather
-    stop halts all of it; an absent crew does nothing (``site.disrupted``, ``disruptions``)."""
+    stop halts all of it; an absent crew does nothing (``site.disrupted``, ``disruptions``).
+
+    ``invasion_of(site, positions, crew, area)``: Eq. 2's n * I_agent for a crew working or
+    fetching in ``area``; default ``invasion``, the crews standing in it now. The event floor
+    (``cmdp_pymunk.eventfloor``), whose crews are not on the plane between events, passes its
+    calibrated expectation and steps ``dt`` of many seconds between events: every rate is
+    constant within such a step, so one step of ``dt`` is ``dt`` steps of one second."""
     now = site.disrupted
+    invaded = invasion if invasion_of is None else invasion_of
     for crew in site.crews:
         if now and (now.weather or crew.absent):
             continue
         if crew.status == CrewStatus.TASKING:
-            _work(site, positions, crew, dt)
+            _work(site, positions, crew, dt, invaded)
         elif crew.status == CrewStatus.FETCHING:
-            _fetch(site, positions, crew, dt)
+            _fetch(site, positions, crew, dt, invaded)
     if not (now and now.crane_stopped()):  # broken down or weather: its queue waits
         _serve_crane(site, log, dt)
 
 
-def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
+def _work(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) -> None:
     task = site.tasks[crew.task]
     if not crane_ready(task) or not material_sufficient(crew, task):
         return
@@ -88,7 +98,7 @@ def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
     if site.stage == 1:  # section 4.2: no task durations (the crew's load is still used up)
         amount = remaining
     else:
-        amount = min(remaining, invaded_efficiency(task.pace, invasion(
+        amount = min(remaining, invaded_efficiency(task.pace, invaded(
             site, positions, crew, task.area)) * dt)
     if task.material_per_work > 0.0:
         amount = min(amount, crew.load / task.material_per_work)
@@ -96,13 +106,13 @@ def _work(site: Site, positions, crew: CrewState, dt: float) -> None:
     task.progress += amount
 
 
-def _fetch(site: Site, positions, crew: CrewState, dt: float) -> None:
+def _fetch(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) -> None:
     storage = site.storages[crew.storage]
     if site.stage == 1:  # section 5.2: unrestricted stockpiles, no durations: load up at once
         crew.load = crew.capacity
         return
     rate = site.case.materials[storage.material].acquire_per_min / 60.0
-    amount = min(invaded_efficiency(rate, invasion(site, positions, crew, storage.rect)) * dt,
+    amount = min(invaded_efficiency(rate, invaded(site, positions, crew, storage.rect)) * dt,
                  storage.stock, crew.capacity - crew.load)
     crew.load += amount
     storage.stock -= amount

@@ -96,6 +96,9 @@ class Advance:
 class Engine:
     """One episode of the CMDP (see the module doc)."""
 
+    fidelity = "pymunk"  # the paper's floor; ``eventfloor.EventFloor`` is "event"
+    needs_low_level = True  # reaching actions move its crews (the event floor's walk alone)
+
     def __init__(self, case: Case, stage: int = 2,
                  evaluator: TargetEvaluator | str | None = None,
                  seed: int | None = None, max_time_s: float | None = None,

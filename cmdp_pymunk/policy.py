@@ -40,4 +40,12 @@ class LowLevel(Protocol):
         decision may get anything (``move.STAND_STILL`` is customary)."""
 
 
-__all__ = ["LowLevel", "TargetEvaluator"]
+def best_target(crew) -> int:
+    """The target of highest V_Tar in the crew's scope (lowest index on ties), or -1: the one
+    every low level heads for, and where a crew walks on the event floor."""
+    if not crew.values:
+        return -1
+    return max(crew.values, key=lambda t: (crew.values[t], -t))
+
+
+__all__ = ["LowLevel", "TargetEvaluator", "best_target"]

@@ -93,6 +93,13 @@ def play(engine: Engine, low_level: LowLevel, reaching: ReachingObservations | N
     (cast by ``reaching`` if it ``reads_rays``), then on to the next second at which a crew
     needs a decision (the idle jump). ``before_step`` is called before each step (frames)."""
     n = len(engine.site.crews)
+    if not engine.needs_low_level:  # the event floor: crews walk, no low level acts
+        while True:
+            if before_step is not None:
+                before_step()
+            run = engine.advance(None, until=_never)
+            if run.terminated or run.truncated:
+                return
     while True:
         if before_step is not None:
             before_step()
@@ -100,6 +107,10 @@ def play(engine: Engine, low_level: LowLevel, reaching: ReachingObservations | N
         run = engine.advance(low_level.actions(engine, obs), until=engine.decision_due)
         if run.terminated or run.truncated:
             return
+
+
+def _never() -> bool:
+    return False
 
 
 def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float | None,
@@ -132,10 +143,13 @@ def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float |
     if frame_every_s is not None and render is None:
         raise ValueError("run_episode: frame_every_s needs render(engine), e.g. "
                          "media.render.draw_frame")
-    low_level.bind(engine)
+    if engine.needs_low_level:
+        low_level.bind(engine)
     engine.reset(seed)
-    low_level.reset(seed)
-    reaching = ReachingObservations(engine.case) if low_level.reads_rays else None
+    if engine.needs_low_level:
+        low_level.reset(seed)
+    reaching = ReachingObservations(engine.case) \
+        if engine.needs_low_level and low_level.reads_rays else None
     site = engine.site
     frames: list = []
     keep = frames.append if on_frame is None else on_frame

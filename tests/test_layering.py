@@ -125,13 +125,16 @@ fine = (engine.site, engine.positions, self.site, env.engine.site, cmdp_pymunk.w
 def test_the_core_reaches_the_plane_only_through_the_physics_protocol():
     """Every member of a world read in the core (``world.X``, ``self.world.X``,
     ``ctx.world.X``) outside world.py is one of ``physics.Physics``'s, and only world.py (and
-    ``rollout.versions``, for pymunk's version) imports pymunk."""
+    ``rollout.versions``, for pymunk's version) imports pymunk. The event floor's own plane
+    (``eventfloor.floor.EventPlane``) is driven by its floor alone: it is a Physics too."""
+    from cmdp_pymunk.eventfloor.floor import EventPlane
     from cmdp_pymunk.physics import Physics
 
     members = {n for n in dir(Physics) if not n.startswith("_")} | set(Physics.__annotations__)
+    assert members <= {n for n in dir(EventPlane)} | {"motion_version", "storage_rects"}
     used = {}
     for path in sorted((ROOT / "cmdp_pymunk").rglob("*.py")):
-        if path.name in ("world.py", "physics.py"):
+        if path.name in ("world.py", "physics.py") or path.parent.name == "eventfloor":
             continue
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Attribute) and _dotted(node.value).split(".")[-1] == "world":
@@ -167,6 +170,9 @@ ROOM_RULES = {
                       "training.research.label_noise"},  # machinery, no commands
     "training/search": {"training.simulate", "training.compare", "training.train",
                         "training.ga", "training.search_rule"},  # searches, not commands
+    # the event floor: the same stages without pymunk, rays or the adapters
+    "cmdp_pymunk/eventfloor": {"cmdp_pymunk.world", "cmdp_pymunk.observe", "cmdp_pymunk.adapters",
+                               "pymunk", "pettingzoo", "gymnasium"},
     # case input and output: the case as data, files, generators, IFC; no simulation stage
     "cmdp_pymunk/cases": {"cmdp_pymunk.engine", "cmdp_pymunk.world", "cmdp_pymunk.state",
                           "cmdp_pymunk.decide", "cmdp_pymunk.construct", "cmdp_pymunk.move",

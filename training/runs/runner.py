@@ -15,6 +15,7 @@ from agents.models import PolicyStuck
 from agents.specs import make_evaluator, make_navigator
 from cmdp_pymunk import disruptions
 from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.eventfloor import Calibration, make_floor
 from cmdp_pymunk.rollout import (
     Episode,
     disruption_cost,
@@ -120,13 +121,16 @@ def cost_fields(row: dict, undisrupted_row: dict | None) -> dict:
 
 
 def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None = None,
-                position_log_every_s: float | None = None) -> Engine:
+                position_log_every_s: float | None = None, fidelity: str = "pymunk",
+                calibration: Calibration | None = None) -> Engine:
     """The stage-2 floor as ``cmdp-simulate`` builds it: the scripted navigator lets the engine
     skip parked crews' seconds (``park_idle``); a trained navigator decides for every crew.
-    ``position_log_every_s``: moving crews' positions in the event log (trajectories)."""
-    return Engine(case, stage=2, evaluator=evaluator, max_time_s=max_time_s,
-                  park_idle=navigator_spec == "scripted",
-                  position_log_every_s=position_log_every_s)
+    ``position_log_every_s``: moving crews' positions in the event log (trajectories).
+    ``fidelity``: "pymunk" (the paper's floor) or "event" (``cmdp_pymunk.eventfloor``, whose
+    crews walk without a low level; ``calibration`` its fitted numbers)."""
+    return make_floor(case, fidelity, calibration, stage=2, evaluator=evaluator,
+                      max_time_s=max_time_s, park_idle=navigator_spec == "scripted",
+                      position_log_every_s=position_log_every_s)
 
 
 class EpisodeRunner:
@@ -134,14 +138,20 @@ class EpisodeRunner:
 
     An evaluator is a spec (``agents.specs.make_evaluator``) or an evaluator object (the GA
     passes its individuals); an object is swapped into a cached engine of the same navigator.
-    ``position_log_every_s``: see ``make_engine``. ``undisrupted=True`` in ``run``: the
+    ``position_log_every_s``, ``fidelity``, ``calibration``: see ``make_engine`` (the floor
+    the seeds run on; its calibration serves the case without disruptions too: the same
+    floor). ``undisrupted=True`` in ``run``: the
     same seed on the case without its disruptions (``disruptions.undisrupted``), on
     engines of its own.
     """
 
     def __init__(self, case, stall_s: float | None = 3600.0, max_time_s: float | None = None,
-                 deterministic: bool = False, position_log_every_s: float | None = None):
+                 deterministic: bool = False, position_log_every_s: float | None = None,
+                 fidelity: str = "pymunk", calibration: Calibration | None = None):
+        make_floor(case, fidelity, calibration)  # a bad fidelity name fails here, at once
         self.case = case
+        self.fidelity = fidelity
+        self.calibration = calibration
         self.stall_s = stall_s
         self.max_time_s = max_time_s
         self.deterministic = deterministic
@@ -161,7 +171,7 @@ class EpisodeRunner:
                 case = self._undisrupted
             ev = make_evaluator(evaluator) if isinstance(evaluator, str) else evaluator
             engine = make_engine(case, ev, navigator_spec, self.max_time_s,
-                                 self.position_log_every_s)
+                                 self.position_log_every_s, self.fidelity, self.calibration)
             self._cache[key] = (engine, make_navigator(navigator_spec, engine,
                                                        self.deterministic))
         engine, navigator = self._cache[key]

@@ -1,0 +1,207 @@
+"""Walks on the event floor: the navigator's shortest path and its time under Eq. 1.
+
+A crew walks from where it stands to its target's reach region (the task area, the storage,
+the outlet) along the shortest path on the plane's grid (``cases.reach.PlaneGrid``, the one
+the scripted navigator plans on and the case check proves reachable; cells a crew of its
+radius cannot stand on are blocked). The walk's time is the sum over the path's steps of
+length / velocity, each step at the crew's Eq. 1 maximum in that cell
+(``move.congested_velocity``: slowed by the carried load's deceleration and by the most
+congested task or storage area holding the cell, never below v_min), times the crew type's
+calibrated ``walk_factor`` (turning, docking, swerving around crews: ``calibration``).
+
+Paths to one goal from every cell are one multi-source Dijkstra (``scipy``), kept per crew
+radius and goal for the life of the planner: a floor and its clones and later episodes of the
+same case share them (``WalkPlanner.__deepcopy__``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import distance_transform_edt
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from ..cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, PlaneGrid
+from ..state import CrewState, Rect, Site
+
+
+def congestion_along(site: Site, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
+    """I_area (Eq. 1) at many points at once: the most congested (lowest) index of the active
+    task areas and stocked storages holding each point, 1 outside them
+    (``move.congestion_index`` for one point; a test holds the two equal)."""
+    index = np.ones(len(xs))
+    for t in site.active_areas:
+        task = site.tasks[t]
+        x0, y0, x1, y1 = task.area
+        inside = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
+        np.minimum(index, np.where(inside, task.congestion_index, 1.0), out=index)
+    for st in site.storages:
+        if st.stock > 0.0:
+            x0, y0, x1, y1 = st.rect
+            inside = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
+            np.minimum(index, np.where(inside, site.storage_congestion(st), 1.0), out=index)
+    return index
+
+
+def walking_velocities(crew: CrewState, congestion: np.ndarray,
+                       lateral_m_s: float) -> np.ndarray:
+    """The crew's forward maximum (m/s) under Eq. 1 at each congestion index:
+    max(c * I_area * v_f, v_min), v_min the lower of v_f and the lateral velocity
+    (``move.velocity_limits``)."""
+    v_f = crew.spec.velocity_m_s
+    c = crew.spec.carry_deceleration if crew.load > 0.0 else 1.0
+    return np.maximum(c * congestion * v_f, min(v_f, lateral_m_s))
+
+
+@dataclass
+class Walk:
+    """One walk: where it goes, the points it passes and when (seconds from its start,
+    before the calibrated factor is applied to them), and when it arrives (a simulated
+    second)."""
+
+    target: int
+    task: int  # the task index behind a component target, or -1
+    start_s: float
+    xs: np.ndarray
+    ys: np.ndarray
+    times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
+    arrival_s: float
+
+    def at(self, time_s: float) -> tuple[float, float]:
+        """Where the crew is at ``time_s`` (on the path's points; at the start before it,
+        at the end after it)."""
+        if time_s >= self.arrival_s:
+            return float(self.xs[-1]), float(self.ys[-1])
+        k = int(np.searchsorted(self.times, time_s - self.start_s, side="right")) - 1
+        k = min(max(k, 0), len(self.xs) - 1)
+        return float(self.xs[k]), float(self.ys[k])
+
+    def heading(self) -> float:
+        """The heading of the walk's last step (rad)."""
+        if len(self.xs) < 2:
+            return 0.0
+        return math.atan2(self.ys[-1] - self.ys[-2], self.xs[-1] - self.xs[-2])
+
+
+class _Radius:
+    """The free cells, their graph and each cell's nearest free cell, for one crew radius."""
+
+    def __init__(self, plane: PlaneGrid, components: list[Rect], radius: float):
+        self.blocked = plane.blocked(components, radius + CLEARANCE_M)
+        src, dst, length = plane.edges(~self.blocked)
+        n = plane.nx * plane.ny
+        self.graph = csr_matrix((length, (src, dst)), shape=(n, n))
+        # every cell's nearest free cell: where a crew pushed against a component steps to
+        _, (jj, ii) = distance_transform_edt(self.blocked, return_indices=True)
+        self.nearest_free = (jj * plane.nx + ii).ravel()
+
+
+class WalkPlanner:
+    """Shortest walks on one case's plane (see the module doc)."""
+
+    def __init__(self, site: Site):
+        case = site.case
+        self.plane = PlaneGrid.of(case.plane.half_extents, CELL_M)
+        self.xs = self.plane.cx.ravel()
+        self.ys = self.plane.cy.ravel()
+        self._components = [c.rect for c in site.components]
+        self._radii: dict[float, _Radius] = {}
+        self._fields: dict = {}  # (radius, goal) -> predecessor list toward the goal
+        self.lateral_m_s = case.simulation.lateral_velocity_m_s
+        self.outlet = (case.plane.outlet_x_m, case.plane.outlet_y_m,
+                       case.plane.outlet_radius_m)
+
+    def __deepcopy__(self, memo):
+        return self  # shared: paths depend on the case alone
+
+    def _radius(self, radius: float) -> _Radius:
+        key = round(radius, 3)
+        if key not in self._radii:
+            self._radii[key] = _Radius(self.plane, self._components, radius)
+        return self._radii[key]
+
+    def _goal_mask(self, goal: tuple) -> np.ndarray:
+        kind = goal[0]
+        if kind == "outlet":
+            x, y, r = self.outlet
+            return np.hypot(self.plane.cx - x, self.plane.cy - y) <= r - 0.1
+        if kind == "storage":
+            return self.plane.rect_mask(goal[1], 0.1)
+        # a task area can be thinner than a crew is wide: its band, as the navigator plans
+        return self.plane.rect_mask(goal[1], -APPROACH_BAND_M)
+
+    def _predecessors(self, radius: float, goal: tuple) -> list | None:
+        key = (round(radius, 3), goal)
+        if key not in self._fields:
+            grid = self._radius(radius)
+            goals = np.flatnonzero((self._goal_mask(goal) & ~grid.blocked).ravel())
+            if goals.size == 0:
+                self._fields[key] = None
+            else:
+                _, pred, _ = dijkstra(grid.graph, directed=False, indices=goals,
+                                   min_only=True, return_predecessors=True)
+                self._fields[key] = pred.tolist()
+        return self._fields[key]
+
+    def walk(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
+             now_s: float, walk_factor: float) -> Walk:
+        """The crew's walk from ``start`` to ``target`` of its scope, leaving at ``now_s``
+        (see the module doc); it arrives at a whole second, one at the earliest (the engine
+        sees a reach at the end of a second)."""
+        task = crew.scope.get(target, -1)
+        goal, region = self._goal_of(site, target, task)
+        radius = crew.spec.radius_m
+        pred = self._predecessors(radius, goal)
+        plane = self.plane
+        i, j = plane.cell(*start)
+        cell = self._radius(radius).nearest_free[j * plane.nx + i]
+        cells = [cell]
+        if pred is not None:
+            while True:
+                nxt = pred[cell]
+                if nxt < 0:
+                    break
+                cells.append(nxt)
+                cell = nxt
+        cells = np.asarray(cells)
+        end = _into(region, float(self.xs[cells[-1]]), float(self.ys[cells[-1]]))
+        xs = np.concatenate(([start[0]], self.xs[cells], [end[0]]))
+        ys = np.concatenate(([start[1]], self.ys[cells], [end[1]]))
+        steps = np.hypot(np.diff(xs), np.diff(ys))
+        speed = walking_velocities(crew, congestion_along(site, xs[:-1], ys[:-1]),
+                                   self.lateral_m_s)
+        times = np.concatenate(([0.0], np.cumsum(steps / speed))) * walk_factor
+        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
+        return Walk(target, task, now_s, xs, ys, times, arrival)
+
+    def _goal_of(self, site: Site, target: int, task: int) -> tuple[tuple, tuple]:
+        """(the goal's key, the reach region: ("rect", rect) or ("disc", x, y, r))."""
+        n_comp = len(site.components)
+        if target == site.outlet_target:
+            x, y, r = self.outlet
+            return ("outlet",), ("disc", x, y, r)
+        if target >= n_comp:
+            rect = site.storages[target - n_comp].rect
+            return ("storage", rect), ("rect", rect)
+        area = site.tasks[task].area if task >= 0 else site.components[target].rect
+        return ("area", area), ("rect", area)
+
+
+def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
+    """The point of the reach region nearest (x, y), a hair inside it (the engine's reach
+    test is inclusive, so a point on the edge would do; the margin keeps rounding out)."""
+    if region[0] == "disc":
+        _, cx, cy, r = region
+        d = math.hypot(x - cx, y - cy)
+        if d <= r * 0.95:
+            return x, y
+        return cx + (x - cx) * 0.95 * r / d, cy + (y - cy) * 0.95 * r / d
+    x0, y0, x1, y1 = region[1]
+    m = min(0.01, (x1 - x0) / 4, (y1 - y0) / 4)
+    return min(max(x, x0 + m), x1 - m), min(max(y, y0 + m), y1 - m)
+
+
+__all__ = ["WalkPlanner", "Walk", "congestion_along", "walking_velocities"]
