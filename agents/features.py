@@ -83,7 +83,7 @@ def candidate_features(facts: FloorFacts, crew, site, position, targets: list[in
 
     rows = []
     tasks = [site.tasks[crew.scope[t]] for t in targets]
-    dist = [math.dist(position, site.target_xy[t]) for t in targets]
+    dist = [math.dist(position, site.target_points[t]) for t in targets]
     suc = [task.all_successors for task in tasks]
     spa = [sum(site.tasks[o].pool == Pool.QUEUE for o in task.conflicts) for task in tasks]
     other = [sum(site.tasks[o].pool == Pool.QUEUE and site.tasks[o].crew_type != crew.type

@@ -95,7 +95,7 @@ class TaskPriorityEvaluator(Rule):
         self.check_case(case)
 
     def target_values(self, crew, site, position):
-        dist = {t: math.dist(position, site.target_xy[t]) for t in crew.scope}
+        dist = {t: math.dist(position, site.target_points[t]) for t in crew.scope}
         d_max = max(dist.values(), default=0.0)
         if self._heuristic is not None and any(task >= 0 for task in crew.scope.values()):
             base = self._heuristic.priorities(crew, site, position)

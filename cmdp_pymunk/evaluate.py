@@ -131,7 +131,7 @@ def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[
     it."""
     out = {}
     for target, task_index in crew.scope.items():
-        dist = math.dist(position, site.target_xy[target])
+        dist = math.dist(position, site.target_points[target])
         if task_index >= 0:
             task = site.tasks[task_index]
             spa = sum(site.tasks[o].pool == Pool.QUEUE for o in task.conflicts)
@@ -190,7 +190,7 @@ class NearestFirstEvaluator(Rule):
     """
 
     def target_values(self, crew, site, position):
-        dist = {t: math.dist(position, site.target_xy[t]) for t in crew.scope}
+        dist = {t: math.dist(position, site.target_points[t]) for t in crew.scope}
         d_max = max(dist.values(), default=0.0) or 1.0
         return {t: 1.0 - 0.5 * d / d_max for t, d in dist.items()}
 

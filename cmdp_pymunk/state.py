@@ -248,6 +248,8 @@ class Site:
         pos += [(s.x_m, s.y_m) for s in case.storages]
         pos.append((case.plane.outlet_x_m, case.plane.outlet_y_m))
         self.target_xy = np.array(pos, dtype=np.float64)
+        # the same points as plain floats: a distance to a numpy row costs ten times more
+        self.target_points: list[tuple[float, float]] = [(float(x), float(y)) for x, y in pos]
         self.crane = CraneState()
         self.crews: list[CrewState] = []
         for i, c in enumerate(case.crews):

@@ -108,18 +108,22 @@ class EventPlane:
         """Nothing to rebuild: the plane is plain data."""
 
 
-class _Planes:
-    """Builds an episode's ``EventPlane``; one walk planner per case, shared by the floor,
-    its clones and its later episodes."""
+# one walk planner per case (by identity; the case is kept so that its id stays its own),
+# shared by every event floor of it, their clones and later episodes: paths depend on the
+# case alone, and planning them is most of a first floor's time
+_PLANNERS: dict[int, tuple[Case, WalkPlanner]] = {}
 
-    def __init__(self):
-        self.planner: WalkPlanner | None = None
-        self.case: Case | None = None
+
+class _Planes:
+    """Builds an episode's ``EventPlane`` on the case's shared walk planner."""
 
     def __call__(self, case: Case, site: Site) -> EventPlane:
-        if self.planner is None or self.case is not case:
-            self.planner, self.case = WalkPlanner(site), case
-        return EventPlane(case, site, self.planner)
+        held = _PLANNERS.get(id(case))
+        if held is None or held[0] is not case:
+            if len(_PLANNERS) >= 16:  # many cases in one process (a sweep of layouts)
+                _PLANNERS.clear()
+            held = _PLANNERS[id(case)] = (case, WalkPlanner(site))
+        return EventPlane(case, site, held[1])
 
     def __deepcopy__(self, memo):
         return self

@@ -32,18 +32,21 @@ def congestion_along(site: Site, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """I_area (Eq. 1) at many points at once: the most congested (lowest) index of the active
     task areas and stocked storages holding each point, 1 outside them
     (``move.congestion_index`` for one point; a test holds the two equal)."""
-    index = np.ones(len(xs))
+    rects, indices = [], []
     for t in site.active_areas:
         task = site.tasks[t]
-        x0, y0, x1, y1 = task.area
-        inside = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
-        np.minimum(index, np.where(inside, task.congestion_index, 1.0), out=index)
+        rects.append(task.area)
+        indices.append(task.congestion_index)
     for st in site.storages:
         if st.stock > 0.0:
-            x0, y0, x1, y1 = st.rect
-            inside = (xs >= x0) & (xs <= x1) & (ys >= y0) & (ys <= y1)
-            np.minimum(index, np.where(inside, site.storage_congestion(st), 1.0), out=index)
-    return index
+            rects.append(st.rect)
+            indices.append(site.storage_congestion(st))
+    if not rects:
+        return np.ones(len(xs))
+    r = np.asarray(rects)
+    x, y = xs[:, None], ys[:, None]
+    inside = (x >= r[:, 0]) & (x <= r[:, 2]) & (y >= r[:, 1]) & (y <= r[:, 3])
+    return np.where(inside, np.asarray(indices), 1.0).min(axis=1, initial=1.0)
 
 
 def walking_velocities(crew: CrewState, congestion: np.ndarray,

@@ -1,0 +1,256 @@
+"""``cmdp-validate-event-floor``: the event floor against the pymunk floor, seed by seed.
+
+    cmdp-validate-event-floor [--case FILE] [--seeds 100-139] [--strategies priority,nearest,...]
+                              [--calibration FILE] [--workers N] [--out DIR]
+
+Runs every strategy on every seed on both floors (the same seeds, so the same drawn paces and
+disruptions: common random numbers) and prints, per strategy: each floor's mean and P80
+makespan and their gap, the per-seed correlation of the two floors' makespans, and the paired
+difference to Eq. 9 on each floor (mean and 95 % interval); then whether the strategies rank
+the same, Eq. 9's crew-seconds per crew type and category (time use) on both, and the
+seconds of CPU a floor costs on each. Issue 30's criteria are checked and printed: correlation
+>= 0.9 for Eq. 9, mean and P80 within 3 %, time use within 15 %, the same ranking, paired
+differences within +-50 % of the pymunk floor's.
+
+Writes ``validation.json`` (every number, per-seed makespans, the settings and versions) and
+``validation.md`` (the tables, as docs/event-floor.md shows them) into ``--out``. Validate on
+seeds the calibration was not fitted on (it was fitted on 0-19; the default here is 100-139).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from cmdp_pymunk.cases.load import BUILTIN_CASE, CaseError, load_case
+from cmdp_pymunk.eventfloor.calibration import calibration_for
+from cmdp_pymunk.rollout import versions
+from cmdp_pymunk.timeuse import CATEGORIES, totals
+from training.cli import OneLineParser, plain, positive_int
+from training.compare import seed_list
+from training.runs.backends import open_backend
+from training.runs.paired import mean_ci, p80
+from training.runs.runner import TIME_USE, EpisodeRunner, check_specs
+
+DEFAULT_STRATEGIES = ("priority", "nearest", "ga:models/ga_priorities.json",
+                      "student:models/searched_rule.json", "models/stage2_evaluator.zip")
+REFERENCE = "priority"
+# issue 30's criteria
+MIN_CORRELATION, MAX_GAP, MAX_TIME_USE_GAP, MAX_PAIRED_GAP = 0.9, 0.03, 0.15, 0.5
+TIME_USE_SHOWN = ("walking", "working", "loading", "idle_predecessor", "idle_area",
+                  "waiting_crane", "no_target", "disrupted")
+
+
+def _job(runner: EpisodeRunner, strategy: str, seed: int) -> dict:
+    start = time.process_time()
+    row = runner.run(strategy, "scripted", seed)
+    row["cpu_s"] = time.process_time() - start
+    return row
+
+
+def floor_rows(runner_args: tuple, strategies: list[str], seeds: list[int],
+               workers: int | None) -> dict[str, list[dict]]:
+    """Every strategy's rows over the seeds on the floor ``runner_args`` builds."""
+    jobs = [(s, seed) for s in strategies for seed in seeds]
+    with open_backend(_job, runner_args, workers) as backend:
+        rows = backend.map(jobs)
+    out: dict[str, list[dict]] = {s: [] for s in strategies}
+    for (strategy, _), row in zip(jobs, rows, strict=True):
+        out[strategy].append(row)
+    return out
+
+
+def _makespans(rows: list[dict]) -> list[float | None]:
+    return [r["makespan_s"] for r in rows]
+
+
+def _gap(a: float | None, b: float | None) -> float | None:
+    return None if a is None or b is None or b == 0 else a / b - 1.0
+
+
+def compare(pymunk: dict[str, list[dict]], event: dict[str, list[dict]]) -> dict:
+    """The validation numbers (see the module doc) from the two floors' rows."""
+    out: dict = {"strategies": {}, "criteria": {}}
+    ref_p, ref_e = _makespans(pymunk[REFERENCE]), _makespans(event[REFERENCE])
+    for strategy in pymunk:
+        mp, me = _makespans(pymunk[strategy]), _makespans(event[strategy])
+        both = [(a, b) for a, b in zip(mp, me, strict=True) if a and b]
+        corr = float(np.corrcoef(*zip(*both))[0, 1]) if len(both) > 2 else None
+        entry = {
+            "pymunk_mean_s": mean_ci(mp)[0], "event_mean_s": mean_ci(me)[0],
+            "pymunk_p80_s": p80(mp), "event_p80_s": p80(me),
+            "correlation": corr,
+            "pymunk_unfinished": sum(not v for v in mp), "event_unfinished": sum(not v for v in me),
+            "pymunk_cpu_s": float(np.mean([r["cpu_s"] for r in pymunk[strategy]])),
+            "event_cpu_s": float(np.mean([r["cpu_s"] for r in event[strategy]])),
+            "pymunk_makespans_s": mp, "event_makespans_s": me,
+        }
+        entry["mean_gap"] = _gap(entry["event_mean_s"], entry["pymunk_mean_s"])
+        entry["p80_gap"] = _gap(entry["event_p80_s"], entry["pymunk_p80_s"])
+        if strategy != REFERENCE:
+            for name, own, ref in (("pymunk", mp, ref_p), ("event", me, ref_e)):
+                diffs = [a - b for a, b in zip(own, ref, strict=True) if a and b]
+                mean, _, half = mean_ci(diffs)
+                entry[f"{name}_paired_s"], entry[f"{name}_paired_half_s"] = mean, half
+            p, e = entry["pymunk_paired_s"], entry["event_paired_s"]
+            entry["paired_ratio"] = e / p if p else None
+        out["strategies"][strategy] = entry
+    order_p = sorted(pymunk, key=lambda s: out["strategies"][s]["pymunk_mean_s"] or np.inf)
+    order_e = sorted(pymunk, key=lambda s: out["strategies"][s]["event_mean_s"] or np.inf)
+    out["ranking"] = {"pymunk": order_p, "event": order_e}
+    out["time_use"] = {floor: _time_use(rows[REFERENCE])
+                       for floor, rows in (("pymunk", pymunk), ("event", event))}
+    ref = out["strategies"][REFERENCE]
+    gaps = [abs(_gap(out["time_use"]["event"][ct][c], v))
+            for ct, use in out["time_use"]["pymunk"].items() for c, v in use.items()
+            if v >= 0.02 * sum(use.values()) and ct in out["time_use"]["event"]]
+    ratios = [e["paired_ratio"] for s, e in out["strategies"].items() if s != REFERENCE]
+    out["criteria"] = {
+        "correlation_eq9": (ref["correlation"], (ref["correlation"] or 0) >= MIN_CORRELATION),
+        "mean_within_3pct": (ref["mean_gap"], abs(ref["mean_gap"] or 1) <= MAX_GAP),
+        "p80_within_3pct": (ref["p80_gap"], abs(ref["p80_gap"] or 1) <= MAX_GAP),
+        "time_use_within_15pct": (max(gaps, default=None),
+                                  bool(gaps) and max(gaps) <= MAX_TIME_USE_GAP),
+        "same_ranking": (None, order_p == order_e),
+        "paired_within_50pct": (ratios, all(r is not None and abs(r - 1) <= MAX_PAIRED_GAP
+                                            for r in ratios)),
+        "unfinished": (sum(e["event_unfinished"] for e in out["strategies"].values()),
+                       all(e["event_unfinished"] <= e["pymunk_unfinished"]
+                           for e in out["strategies"].values())),
+    }
+    return out
+
+
+def _time_use(rows: list[dict]) -> dict[str, dict[str, float]]:
+    """Mean crew-seconds per floor by crew type and category (finished floors)."""
+    done = [r for r in rows if r["finished"]]
+    out: dict[str, dict[str, float]] = {}
+    for row in done:
+        for ct, use in totals(row[TIME_USE]).items():
+            acc = out.setdefault(ct, dict.fromkeys(CATEGORIES, 0.0))
+            for c, v in use.items():
+                acc[c] += v / len(done)
+    return out
+
+
+def _s(v, digits=0) -> str:
+    return "—" if v is None else f"{v:,.{digits}f}"
+
+
+def _pct(v) -> str:
+    return "—" if v is None else f"{100 * v:+.1f} %"
+
+
+def markdown(result: dict, seeds_text: str) -> str:
+    """The validation's tables (see the module doc)."""
+    lines = [f"Seeds {seeds_text}; mean and P80 makespans in seconds; paired difference to "
+             "Eq. 9 on the same seeds, mean ± 95 % interval.", "",
+             "| strategy | pymunk mean | event mean | gap | pymunk P80 | event P80 | gap | "
+             "per-seed r | pymunk vs Eq. 9 | event vs Eq. 9 | CPU s/floor pymunk / event |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for strategy, e in result["strategies"].items():
+        paired = ("—", "—") if strategy == REFERENCE else tuple(
+            f"{e[f'{f}_paired_s']:+,.0f} ± {_s(e[f'{f}_paired_half_s'])}"
+            for f in ("pymunk", "event"))
+        lines.append(
+            f"| {strategy} | {_s(e['pymunk_mean_s'])} | {_s(e['event_mean_s'])} | "
+            f"{_pct(e['mean_gap'])} | {_s(e['pymunk_p80_s'])} | {_s(e['event_p80_s'])} | "
+            f"{_pct(e['p80_gap'])} | {_s(e['correlation'], 3)} | {paired[0]} | {paired[1]} | "
+            f"{e['pymunk_cpu_s']:.2f} / {e['event_cpu_s']:.3f} |")
+    lines += ["", "Eq. 9's crew-hours per floor by crew type (pymunk / event):", "",
+              "| crew type | " + " | ".join(TIME_USE_SHOWN) + " |",
+              "|---|" + "---|" * len(TIME_USE_SHOWN)]
+    tu = result["time_use"]
+    for ct in sorted(tu["pymunk"]):
+        cells = [f"{tu['pymunk'][ct][c] / 3600:.1f} / {tu['event'].get(ct, {}).get(c, 0) / 3600:.1f}"
+                 for c in TIME_USE_SHOWN]
+        lines.append(f"| {ct} | " + " | ".join(cells) + " |")
+    lines += ["", "Issue 30's criteria:", ""]
+    for name, (value, ok) in result["criteria"].items():
+        shown = (", ".join(_s(v, 2) for v in value) if isinstance(value, list)
+                 else _s(value, 3) if isinstance(value, float) else _s(value))
+        lines.append(f"- {name}: {shown} — {'met' if ok else 'NOT met'}")
+    r = result["ranking"]
+    lines.append(f"- ranking, best first: pymunk {', '.join(r['pymunk'])}; event "
+                 f"{', '.join(r['event'])}")
+    return "\n".join(lines) + "\n"
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = OneLineParser(prog="cmdp-validate-event-floor", description=plain(__doc__),
+                      formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--case", type=Path, default=None,
+                   help="case file (TOML); default: the built-in case")
+    p.add_argument("--seeds", type=seed_list, default=list(range(100, 140)),
+                   help="held-out seeds (default 100-139)")
+    p.add_argument("--strategies", default=",".join(DEFAULT_STRATEGIES),
+                   help="comma-separated strategies as cmdp-evaluate takes them; the first "
+                        "must be priority (Eq. 9, the reference)")
+    p.add_argument("--calibration", type=Path, default=None,
+                   help="the event floor's calibration (default: beside the case, or built in)")
+    p.add_argument("--workers", type=positive_int, default=None,
+                   help="processes for the floors (default: every core)")
+    p.add_argument("--out", type=Path, default=Path("runs/validate_event_floor"),
+                   help="folder for validation.json and validation.md")
+    return p.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    case_path = args.case if args.case is not None else BUILTIN_CASE
+    strategies = [s.strip() for s in args.strategies.split(",") if s.strip()]
+    if not strategies or strategies[0] != REFERENCE:
+        print(f"cmdp-validate-event-floor: --strategies {args.strategies!r}: the first must "
+              f"be {REFERENCE} (Eq. 9, the reference of the paired differences); fix: put it "
+              "first", file=sys.stderr)
+        return 2
+    try:
+        case = load_case(case_path)
+        calibration = calibration_for(case, case_path, args.calibration)
+        check_specs(case, strategies, ["scripted"], False)
+    except (CaseError, ValueError) as err:
+        print(f"cmdp-validate-event-floor: {err}", file=sys.stderr)
+        return 2
+    if not calibration.calibrated:
+        print("cmdp-validate-event-floor: the event floor runs uncalibrated (no calibration "
+              "beside the case); fit one with cmdp-calibrate first for a fair comparison")
+    seeds = args.seeds
+    print(f"cmdp-validate-event-floor: {case.case.name}, {len(strategies)} strategies x "
+          f"{len(seeds)} seeds on both floors")
+    start = time.perf_counter()
+    event = floor_rows((case, 3600.0, None, False, None, "event", calibration), strategies,
+                       seeds, 1)
+    print(f"  event floors: {time.perf_counter() - start:.1f} s")
+    start = time.perf_counter()
+    pymunk = floor_rows((case, 3600.0), strategies, seeds, args.workers)
+    print(f"  pymunk floors: {time.perf_counter() - start:.0f} s")
+    result = compare(pymunk, event)
+    seeds_text = f"{seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) \
+        else ",".join(map(str, seeds))
+    table = markdown(result, seeds_text)
+    print("\n" + table)
+    args.out.mkdir(parents=True, exist_ok=True)
+    record = {"case": case.case.name, "seeds": seeds, "strategies": strategies,
+              "calibration": calibration.model_dump(), "versions": versions(),
+              "command": "cmdp-validate-event-floor " + " ".join(
+                  argv if argv is not None else sys.argv[1:]), **result}
+    for name, text in (("validation.json", json.dumps(record, indent=1, default=str)),
+                       ("validation.md", table)):
+        tmp = args.out / (name + ".tmp")
+        tmp.write_text(text, encoding="utf-8")
+        tmp.replace(args.out / name)
+    print(f"wrote {args.out / 'validation.json'} and validation.md")
+    return 0
+
+
+def entry_point() -> None:
+    sys.exit(main())
+
+
+if __name__ == "__main__":
+    entry_point()
