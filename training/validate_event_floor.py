@@ -80,7 +80,7 @@ def compare(pymunk: dict[str, list[dict]], event: dict[str, list[dict]]) -> dict
     for strategy in pymunk:
         mp, me = _makespans(pymunk[strategy]), _makespans(event[strategy])
         both = [(a, b) for a, b in zip(mp, me, strict=True) if a and b]
-        corr = float(np.corrcoef(*zip(*both))[0, 1]) if len(both) > 2 else None
+        corr = float(np.corrcoef(np.array(both).T)[0, 1]) if len(both) > 2 else None
         entry = {
             "pymunk_mean_s": mean_ci(mp)[0], "event_mean_s": mean_ci(me)[0],
             "pymunk_p80_s": p80(mp), "event_p80_s": p80(me),
@@ -167,7 +167,8 @@ def markdown(result: dict, seeds_text: str) -> str:
               "|---|" + "---|" * len(TIME_USE_SHOWN)]
     tu = result["time_use"]
     for ct in sorted(tu["pymunk"]):
-        cells = [f"{tu['pymunk'][ct][c] / 3600:.1f} / {tu['event'].get(ct, {}).get(c, 0) / 3600:.1f}"
+        event_use = tu["event"].get(ct, {})
+        cells = [f"{tu['pymunk'][ct][c] / 3600:.1f} / {event_use.get(c, 0) / 3600:.1f}"
                  for c in TIME_USE_SHOWN]
         lines.append(f"| {ct} | " + " | ".join(cells) + " |")
     lines += ["", "Issue 30's criteria:", ""]
