@@ -3,7 +3,9 @@
 The simulation core (``engine``, ``cases``, ``state``, ``decide``, ...) imports neither
 PettingZoo nor Gymnasium: ``import cmdp_pymunk.engine`` works without them. Where PettingZoo is
 installed, importing the package registers the env's variants (``pettingzoo.make("parallel",
-"cmdp/PrecastFloor-v1")``); ``CMDPEnv``, ``parallel_env`` and ``env`` load the adapter on use.
+"cmdp/PrecastFloor-v1")``) and the stage-2 decision envs in Gymnasium's registry
+(``gymnasium.make("cmdp/TargetEvaluationEvent-v1")``); ``CMDPEnv``, ``parallel_env`` and
+``env`` load the adapter on use.
 """
 
 from .cases.load import BUILTIN_CASE, DISRUPTED_CASE, TINY_CASE, Case, CaseError, load_case
@@ -48,6 +50,7 @@ else:
     from .adapters import registry as _registry
 
     _registry.register_variants()
+    _registry.register_decision_variants()
 
 
 

@@ -7,6 +7,31 @@ valued; the policy's action values that crew's scope by Eq. 4. ``TargetEvaluatio
 Gymnasium adapter over one floor (spaces, arrays). Training steps several floors per process
 behind one SB3 vector env (``training.vec_env.FloorsVecEnv``), with the same floors.
 
+Two floors (``fidelity``)
+    ``"pymunk"`` (the default): the paper's floor, ``engine.Engine``, with a low level driving
+    the crews every second between decisions. ``"event"``: the event floor
+    (``eventfloor.EventFloor``), which jumps from event to event with no physics and no low
+    level (crews walk the shortest path to their best target in the time Eq. 1 gives, times a
+    walk factor), with the numbers ``calibration`` gives (a ``Calibration`` or its file; None:
+    ``eventfloor.calibration_for`` the case, the built-in calibration where one was fitted on
+    the same floor, else uncalibrated). It is a fast high-level benchmark and training floor:
+    the same site, Table 1, paces, disruptions, R_e, observation and action spaces as the
+    pymunk floor of the same case, so a model trained on one runs on the other. Its
+    calibration is fitted on the pymunk floor; how closely it follows the pymunk floor
+    (makespans, idle time per cause) is measured in docs/event-floor.md. Stage 1 (the low
+    level's reaching policy: rays, contacts, R_r) needs the pymunk floor: the event floor has
+    no low level, so ``make_low_level`` is not called there.
+
+The registered Gymnasium ids (``registry.DECISION_VARIANTS``)
+    ``gymnasium.make("cmdp/TargetEvaluation-v1")``: this env on the built-in case's pymunk
+    floor, the scripted navigator as the low level (idle crews parked, as in training);
+    ``gymnasium.make("cmdp/TargetEvaluationEvent-v1")``: the same env on the event floor with
+    the case's calibration (``eventfloor.calibration_for``), about 40 times as many decisions
+    a second (some 700 on one core here under random actions, against 16;
+    ``benchmarks/bench_decision_env.py``). Both take
+    ``make_decision_env``'s arguments as keyword overrides (``case=cmdp_pymunk.TINY_CASE``,
+    ``max_time_s``, ``with_state``, ...).
+
 Observation
     O^e of section 3.6.1 from the deciding crew's view (``observe.evaluation_observation``,
     the function deployment reads too): the crew's own 5 floats, then 12 floats for every
@@ -46,15 +71,19 @@ Info
 
 Arguments (``DecisionLoop``)
     ``case``, ``make_low_level()`` (makes the ``policy.LowLevel``, which is then bound to the
-    floor's engine; e.g. the class ``agents.navigator.Navigator``), ``max_time_s`` (None: the
-    case's), ``park_idle`` (see ``env``; for the scripted navigator), ``stall_s``,
-    ``with_state``.
+    floor's engine; e.g. the class ``agents.navigator.Navigator``; None: the scripted
+    navigator, ``DEFAULT_LOW_LEVEL``; not called on the event floor), ``fidelity``
+    (``"pymunk"`` or ``"event"``; another name: a ValueError naming both), ``calibration``
+    (the event floor's; see above), ``max_time_s`` (None: the case's), ``park_idle`` (see
+    ``env``; for the scripted navigator), ``stall_s``, ``with_state``.
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -62,13 +91,22 @@ from gymnasium import spaces
 
 from .. import observe
 from ..cases.load import Case, as_case
-from ..engine import Engine
 from ..evaluate import desired_position_of_first_choice, desired_position_values
+from ..eventfloor import Calibration, calibration_for, make_floor
 from ..policy import LowLevel
 from ..reward import EVALUATION_TERMS
 from .global_state import global_state, state_bounds
 
 IDLE_CAUSES = ("predecessor", "area", "no_target")  # state.IdleCause's names
+# the pymunk floor's low level when none is given, loaded on use (the core imports no agents)
+DEFAULT_LOW_LEVEL = "agents.navigator:Navigator"
+
+
+def default_low_level() -> Callable[[], LowLevel]:
+    """``make_low_level`` for the pymunk floor when none is given: the scripted navigator
+    (``DEFAULT_LOW_LEVEL``)."""
+    module, name = DEFAULT_LOW_LEVEL.split(":")
+    return getattr(importlib.import_module(module), name)
 
 
 @dataclass
@@ -84,16 +122,25 @@ class Outcome:
 class DecisionLoop:
     """One stage-2 floor: decisions in, R_e out (see the module doc)."""
 
-    def __init__(self, case: Case | None, make_low_level: Callable[[], LowLevel], *,
+    def __init__(self, case: Case | str | Path | None,
+                 make_low_level: Callable[[], LowLevel] | None = None, *,
+                 fidelity: str = "pymunk", calibration: Calibration | str | Path | None = None,
                  max_time_s: float | None = None, park_idle: bool = False,
                  stall_s: float | None = 3600.0, with_state: bool = False):
+        case_path = case if isinstance(case, (str, Path)) else None
         case = as_case(case)
         self.case = case
-        self.engine = Engine(case, stage=2, evaluator=None, max_time_s=max_time_s,
-                             park_idle=park_idle, stall_s=stall_s)
-        self.low_level = make_low_level()
-        self.low_level.bind(self.engine)
-        self.rays = observe.ReachingObservations(case) if self.low_level.reads_rays else None
+        if fidelity == "event" and not isinstance(calibration, Calibration):
+            calibration = calibration_for(case, case_path, calibration)
+        self.engine = make_floor(case, fidelity, calibration, stage=2, evaluator=None,
+                                 max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s)
+        self.fidelity = fidelity
+        self.low_level: LowLevel | None = None  # the event floor has none: crews walk
+        if self.engine.needs_low_level:
+            self.low_level = (make_low_level or default_low_level())()
+            self.low_level.bind(self.engine)
+        self.rays = observe.ReachingObservations(case) \
+            if self.low_level is not None and self.low_level.reads_rays else None
         self.evaluation_bounds = observe.evaluation_bounds(case)
         self.actor_size = len(self.evaluation_bounds[0])
         self.with_state = with_state
@@ -112,7 +159,8 @@ class DecisionLoop:
         """A new episode on ``seed``, run to the first decision; returns R_e until then
         (credited to no decision)."""
         self.engine.reset(seed)
-        self.low_level.reset(seed)
+        if self.low_level is not None:
+            self.low_level.reset(seed)
         if self.rays is not None:
             self.rays.reset()
         self.deciding = None
@@ -149,15 +197,21 @@ class DecisionLoop:
         episode ends; R_e (Eq. 5, the team's) summed over the seconds run."""
         engine, reward = self.engine, 0.0
         while not self._next_decision():
-            observations = self.rays.all(engine) if self.rays is not None else None
-            run = engine.advance(self.low_level.actions(engine, observations),
-                                 until=engine.decision_due)
+            run = engine.advance(self._actions(), until=engine.decision_due)
             reward += sum(run.terms.values())
             for k, v in run.terms.items():
                 self.terms[k] += v
             if run.terminated or run.truncated:
                 return Outcome(reward, run.terminated, not run.terminated)
         return Outcome(reward, False, False)
+
+    def _actions(self) -> list | None:
+        """The low level's reaching actions for the coming second (on this second's rays if
+        it reads them); None on the event floor, which has no low level."""
+        if self.low_level is None:
+            return None
+        observations = self.rays.all(self.engine) if self.rays is not None else None
+        return self.low_level.actions(self.engine, observations)
 
     def _next_decision(self) -> bool:
         """Take the next crew asked that must choose among several targets; value lone
@@ -237,3 +291,17 @@ class TargetEvaluationEnv(gym.Env):
             return np.zeros(self.observation_space.shape, np.float32), out.reward, \
                 out.terminated, out.truncated, self.floor.end_info()
         return self.floor.observe(), out.reward, False, False, {}
+
+
+def make_decision_env(case: Case | str | Path | None = None, fidelity: str = "pymunk",
+                      calibration: Calibration | str | Path | None = None,
+                      make_low_level: Callable[[], LowLevel] | None = None,
+                      max_time_s: float | None = None, park_idle: bool = True,
+                      stall_s: float | None = 3600.0,
+                      with_state: bool = False) -> TargetEvaluationEnv:
+    """The stage-2 Gymnasium env on one floor (the registered ids' entry point, see the module
+    doc): ``DecisionLoop``'s arguments; ``park_idle`` True by default, as training parks the
+    scripted navigator's idle crews (the event floor has no low level and ignores it)."""
+    return TargetEvaluationEnv(DecisionLoop(
+        case, make_low_level, fidelity=fidelity, calibration=calibration,
+        max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s, with_state=with_state))

@@ -17,10 +17,21 @@ Every variant takes the env's arguments as keyword overrides (``seed``, ``render
 unless ``evaluator`` says otherwise: a name of ``evaluate.EVALUATORS`` (``"nearest"``, ...)
 or an evaluator object.
 The version (``-v1``) follows the env's (``CMDPEnv.metadata["name"]``).
+
+The stage-2 decision env (``decision_loop.TargetEvaluationEnv``: one step is one target
+evaluation) is a single-agent Gymnasium env, in Gymnasium's registry::
+
+    import cmdp_pymunk, gymnasium
+    env = gymnasium.make("cmdp/TargetEvaluation-v1")         # the pymunk floor, the navigator
+    env = gymnasium.make("cmdp/TargetEvaluationEvent-v1")    # the event floor: fast, same spaces
+
+``DECISION_VARIANTS``; each takes ``decision_loop.make_decision_env``'s arguments as keyword
+overrides (``case``, ``max_time_s``, ``with_state``, ``calibration``, ...).
 """
 
 from __future__ import annotations
 
+import gymnasium
 from pettingzoo import register
 from pettingzoo.utils.conversions import parallel_to_aec
 
@@ -47,6 +58,14 @@ GENERATED = {f"cmdp/GeneratedFloor-{split}{k}-v1": {"stage": 2, "case": str(path
 VARIANTS.update(GENERATED)
 
 
+# Gymnasium id -> default keyword arguments of decision_loop.make_decision_env (the stage-2
+# decision env; case None: the built-in case). The event floor's: the same spaces, no low level.
+DECISION_VARIANTS: dict[str, dict] = {
+    "cmdp/TargetEvaluation-v1": {"fidelity": "pymunk"},
+    "cmdp/TargetEvaluationEvent-v1": {"fidelity": "event"},
+}
+
+
 def make_parallel(**kwargs) -> CMDPEnv:
     """A registered variant as a PettingZoo ParallelEnv (``CMDPEnv``'s arguments)."""
     return CMDPEnv(**kwargs)
@@ -62,3 +81,10 @@ def register_variants(variants: dict[str, dict] | None = None) -> None:
     for env_id, kwargs in (VARIANTS if variants is None else variants).items():
         register("parallel", env_id, entry_point=f"{__name__}:make_parallel", kwargs=dict(kwargs))
         register("aec", env_id, entry_point=f"{__name__}:make_aec", kwargs=dict(kwargs))
+
+
+def register_decision_variants(variants: dict[str, dict] | None = None) -> None:
+    """Register each stage-2 decision env in Gymnasium's registry (``gymnasium.make``)."""
+    for env_id, kwargs in (DECISION_VARIANTS if variants is None else variants).items():
+        gymnasium.register(env_id, entry_point="cmdp_pymunk.adapters.decision_loop:"
+                           "make_decision_env", kwargs=dict(kwargs))
