@@ -273,3 +273,14 @@ def test_tiny_floors_correlate_with_the_pymunk_floors():
     assert np.corrcoef(a, b)[0, 1] >= 0.8
     assert abs(b.mean() / a.mean() - 1) < 0.1
     assert not math.isnan(a.sum() + b.sum())
+
+
+def test_a_disruption_longer_than_the_stall_guard_is_no_stall():
+    """The guard counts no disrupted second (as on the pymunk floor, whose mark moves every
+    one of them): a weather stop of 5,000 s under a guard of 3,600 s is waited out."""
+    data = disrupted_tiny()
+    data["disruptions"] = {"weather_stops": [{"at_s": 300.0, "duration_s": 5000.0}]}
+    floor = EventFloor(case_from_dict(data), evaluator="priority", stall_s=3600.0)
+    floor.reset(0)
+    floor.run()
+    assert floor.stalled is None and floor.makespan_s > 5300

@@ -324,6 +324,7 @@ class EventFloor(Engine):
         causes, the log, R_e's terms)."""
         site = self.site
         self.events_run += 1
+        disrupted_span = bool(site.disrupted)  # the seconds jumped over were disrupted
         self._count(k)
         terms_before = self._terms
         site.time_s += k
@@ -348,6 +349,9 @@ class EventFloor(Engine):
         for name, v in terms_before.items():
             out.terms[name] += v * (k - 1) + self._terms[name]
         out.elapsed += k
+        if disrupted_span:  # the stall guard does not count a disruption's seconds: on the
+            # pymunk floor its mark moved every one of them, up to the last
+            self._progress_mark = (site.time_s - 1, self._task_progress())
         self._plan_walks()
 
     def _reward_terms(self) -> dict[str, float]:

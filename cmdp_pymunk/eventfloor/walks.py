@@ -113,6 +113,7 @@ class WalkPlanner:
         self._components = [c.rect for c in site.components]
         self._radii: dict[float, _Radius] = {}
         self._fields: dict = {}  # (radius, goal) -> predecessor list toward the goal
+        self._paths: dict = {}  # (radius, goal, start cell) -> points and step lengths
         self.lateral_m_s = case.simulation.lateral_velocity_m_s
         self.outlet = (case.plane.outlet_x_m, case.plane.outlet_y_m,
                        case.plane.outlet_radius_m)
@@ -157,10 +158,30 @@ class WalkPlanner:
         task = crew.scope.get(target, -1)
         goal, region = self._goal_of(site, target, task)
         radius = crew.spec.radius_m
-        pred = self._predecessors(radius, goal)
         plane = self.plane
         i, j = plane.cell(*start)
         cell = self._radius(radius).nearest_free[j * plane.nx + i]
+        key = (round(radius, 3), goal, cell)
+        path = self._paths.get(key)
+        if path is None:
+            path = self._paths[key] = self._path(radius, goal, region, cell)
+        px, py, steps = path
+        xs = np.concatenate(((start[0],), px))
+        ys = np.concatenate(((start[1],), py))
+        first = math.hypot(px[0] - start[0], py[0] - start[1])
+        speed = walking_velocities(crew, congestion_along(site, xs[:-1], ys[:-1]),
+                                   self.lateral_m_s)
+        times = np.empty(len(xs))
+        times[0] = 0.0
+        np.cumsum(np.concatenate(((first,), steps)) / speed, out=times[1:])
+        times *= walk_factor
+        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
+        return Walk(target, task, now_s, xs, ys, times, arrival)
+
+    def _path(self, radius: float, goal: tuple, region: tuple, cell: int):
+        """The path's points from a free cell to the goal and into its reach region, and
+        the length of each step between them (kept per radius, goal and start cell)."""
+        pred = self._predecessors(radius, goal)
         cells = [cell]
         if pred is not None:
             while True:
@@ -171,14 +192,9 @@ class WalkPlanner:
                 cell = nxt
         cells = np.asarray(cells)
         end = _into(region, float(self.xs[cells[-1]]), float(self.ys[cells[-1]]))
-        xs = np.concatenate(([start[0]], self.xs[cells], [end[0]]))
-        ys = np.concatenate(([start[1]], self.ys[cells], [end[1]]))
-        steps = np.hypot(np.diff(xs), np.diff(ys))
-        speed = walking_velocities(crew, congestion_along(site, xs[:-1], ys[:-1]),
-                                   self.lateral_m_s)
-        times = np.concatenate(([0.0], np.cumsum(steps / speed))) * walk_factor
-        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
-        return Walk(target, task, now_s, xs, ys, times, arrival)
+        px = np.concatenate((self.xs[cells], (end[0],)))
+        py = np.concatenate((self.ys[cells], (end[1],)))
+        return px, py, np.hypot(np.diff(px), np.diff(py))
 
     def _goal_of(self, site: Site, target: int, task: int) -> tuple[tuple, tuple]:
         """(the goal's key, the reach region: ("rect", rect) or ("disc", x, y, r))."""
