@@ -39,6 +39,7 @@ import time
 from dataclasses import dataclass
 
 from cmdp_pymunk.evaluate import Evaluator
+from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 from cmdp_pymunk.observe import ReachingObservations
 from cmdp_pymunk.rollout import play
 from cmdp_pymunk.state import ScopeKind
@@ -61,6 +62,11 @@ class LookaheadSettings:
             time limit, so that it always loses to one that finishes.
         workers: processes that run the branches of a decision side by side (1: in this
             process); the choices are the same for any number.
+        think_on: "same" branches the floor itself (``Engine.clone``); "event" branches an
+            event floor built from its state at the decision
+            (``cmdp_pymunk.eventfloor.EventFloor.from_engine``, the case's calibration): the
+            lookahead thinks on the event floor, some 50 times cheaper a branch, and acts on
+            the floor it values (the pymunk one).
     """
 
     candidates: int = 3
@@ -68,6 +74,7 @@ class LookaheadSettings:
     expected_paces: bool = False
     unfinished_penalty_s: float = 100_000.0
     workers: int = 1
+    think_on: str = "same"
 
     def __post_init__(self):
         if not (isinstance(self.candidates, int) and self.candidates >= 1):
@@ -78,6 +85,10 @@ class LookaheadSettings:
         if not (isinstance(self.futures, int) and self.futures >= 0):
             raise ValueError(f"lookahead futures must be an int >= 0 (0: the floor's own "
                              f"future), not {self.futures!r}")
+        if self.think_on not in ("same", "event"):
+            raise ValueError(f"lookahead think_on must be 'same' (branch the floor itself) or "
+                             f"'event' (branch event floors built from it), not "
+                             f"{self.think_on!r}")
         if self.expected_paces and self.futures != 1:
             raise ValueError(f"lookahead with expected paces branches once per candidate: "
                              f"futures must be 1, not {self.futures!r}")
@@ -133,12 +144,24 @@ class LookaheadEvaluator(Evaluator):
         self._pool = None
         self._episode = None
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
+        self.calibration = None  # the event floor's, when it thinks there (``prepare``)
+        self._thinking = None  # (engine's site and time, the event floor built at them)
 
     def prepare(self, case) -> None:
-        """The base, the acting policy and the branches' low level must fit the case."""
+        """The base, the acting policy and the branches' low level must fit the case; the
+        event floor's calibration is found once (``think_on="event"``)."""
         self.base.prepare(case)
         if self.acting is not None:
             self.acting.prepare(case)
+        if self.settings.think_on == "event":
+            self.calibration = calibration_for(case)
+
+    def thinking_floor(self, engine):
+        """What the branches of this decision are cloned from: the floor itself, or an
+        event floor at its state (``think_on``)."""
+        if self.settings.think_on == "event" and engine.fidelity != "event":
+            return EventFloor.from_engine(engine, self.calibration)
+        return engine
 
     def values_for(self, engine, i: int) -> dict[int, float]:
         """V_Tar for crew i's scope: the base's values, with the lookahead's choice on top."""
@@ -204,15 +227,26 @@ class LookaheadEvaluator(Evaluator):
                         scenario: int | None) -> float:
         """The floor's makespan when crew i heads for ``target`` now and the base rule decides
         everything after, on a branch with future ``scenario``."""
-        branch = engine.clone(scenario, keep_log=False)
+        branch = self._source(engine).clone(scenario, keep_log=False)
         return run_branch(branch, self.low_level, self.base, i, values, target,
                           self.settings.unfinished_penalty_s)
+
+    def _source(self, engine):
+        """``thinking_floor`` built once per decision (every candidate and future of it)."""
+        if self.settings.think_on != "event":
+            return engine
+        key = (engine.site.time_s, tuple(engine.pending))
+        held = self._thinking
+        if held is None or held[0] is not engine.site or held[1] != key:
+            self._thinking = held = (engine.site, key, self.thinking_floor(engine))
+        return held[2]
 
     def _parallel_makespans(self, engine, i: int, values: dict[int, float],
                             candidates: list[int]) -> list[float]:
         """Every (candidate, future) branch in the worker processes: the floor is pickled
         once per decision (its event log left out) and each worker rebuilds it."""
-        branch = engine.clone(engine.streams.scenario, keep_log=False)
+        source = self._source(engine)
+        branch = source.clone(source.streams.scenario, keep_log=False)
         branch.evaluator = self.base  # so the pickle holds no lookahead (nor its pool)
         blob = pickle.dumps(branch, protocol=pickle.HIGHEST_PROTOCOL)
         futures = self.scenarios()
@@ -239,6 +273,7 @@ class LookaheadEvaluator(Evaluator):
     def __getstate__(self):  # a pool does not pickle; a copy starts its own
         state = dict(self.__dict__)
         state["_pool"] = None
+        state["_thinking"] = None
         return state
 
     # -- what it did ----------------------------------------------------------------------------
@@ -249,7 +284,8 @@ class LookaheadEvaluator(Evaluator):
         return {"decisions": len(d), "overrides": sum(x.choice != x.base_choice for x in d),
                 "wall_s": round(math.fsum(x.wall_s for x in d), 2),
                 "candidates": self.settings.candidates,
-                "futures": "expected" if self.settings.expected_paces else self.settings.futures}
+                "futures": "expected" if self.settings.expected_paces else self.settings.futures,
+                "thinks_on": self.settings.think_on}
 
 
 def run_branch(branch, low_level, base, i: int, values: dict[int, float], target: int,

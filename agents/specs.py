@@ -61,8 +61,9 @@ def make_evaluator(spec: str):
 
 
 def make_lookahead(options: str):
-    """``lookahead:candidates=K+futures=F+base=SPEC`` (each optional; ``+`` because
-    ``--strategies`` separates strategies with commas) as an evaluator."""
+    """``lookahead:candidates=K+futures=F+base=SPEC+floor=event`` (each optional; ``+``
+    because ``--strategies`` separates strategies with commas) as an evaluator; ``floor=event``
+    branches on event floors built from the floor's state (think there, act on the floor)."""
     from .lookahead import LookaheadEvaluator, LookaheadSettings
 
     settings, base = {}, "priority"
@@ -74,10 +75,12 @@ def make_lookahead(options: str):
             settings["expected_paces"] = True
         elif key in ("candidates", "futures", "workers") and sep and value.isdigit():
             settings[key] = int(value)
+        elif key == "floor" and value in ("same", "event"):
+            settings["think_on"] = value
         else:
             raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
-                             f"candidates=INT, futures=INT or expected, workers=INT, base=SPEC "
-                             f"(joined by +); e.g. "
+                             f"candidates=INT, futures=INT or expected, workers=INT, base=SPEC, "
+                             f"floor=same or event (joined by +); e.g. "
                              f"lookahead:candidates=3+futures=1+base=priority")
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "
