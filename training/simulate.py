@@ -580,6 +580,9 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
             if floor.fidelity == "event" and args.charts and args.seed_charts:
                 print("cmdp-simulate: the event floor places crews at events, not along their "
                       "walks: no trajectories.png", flush=True)
+            if args.episodes >= 100 and args.charts and args.seed_charts:
+                print("cmdp-simulate: each seed's Gantt charts take about a second to draw; "
+                      "--no-seed-charts keeps the histogram and the S-curve alone", flush=True)
             if floor.uncalibrated_note(args.case):
                 print(f"cmdp-simulate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
                       flush=True)
