@@ -87,17 +87,22 @@ class Episode:
 
 
 def play(engine: Engine, low_level: LowLevel, reaching: ReachingObservations | None = None,
-         before_step: Callable[[], None] | None = None) -> None:
+         before_step: Callable[[], None] | None = None,
+         pause: Callable[[], bool] | None = None) -> None:
     """Drive ``engine`` from where it stands to the end of its episode (every task ended, the
     time limit or the stall guard): the low level's actions on this second's observations
     (cast by ``reaching`` if it ``reads_rays``), then on to the next second at which a crew
-    needs a decision (the idle jump). ``before_step`` is called before each step (frames)."""
+    needs a decision (the idle jump). ``before_step`` is called before each step (frames).
+    A floor without a low level (the event floor) runs to its end in one go, or, with
+    ``pause``, stops after the first event at which ``pause()`` holds (a frame is due) to
+    call ``before_step`` again."""
     n = len(engine.site.crews)
     if not engine.needs_low_level:  # the event floor: crews walk, no low level acts
+        until = pause or _never
         while True:
             if before_step is not None:
                 before_step()
-            run = engine.advance(None, until=_never)
+            run = engine.advance(None, until=until)
             if run.terminated or run.truncated:
                 return
     while True:
@@ -169,9 +174,11 @@ def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float |
         ended[0] = site.tasks_ended
         bar.set_postfix_str(f"t = {site.time_s:,.0f} s", refresh=False)
 
+    # a floor that jumps from event to event stops at the first event after a frame is due
+    pause = (lambda: site.time_s >= next_frame[0]) if frame_every_s is not None else None
     start = time.perf_counter()
     with sigint_guard(), bar:  # Ctrl-C stops the loop even when it lands inside pymunk
-        play(engine, low_level, reaching, before_step)
+        play(engine, low_level, reaching, before_step, pause)
     stalled = stall_report(engine, engine.stalled["after_s"]) if engine.stalled else None
     if frame_every_s is not None:
         keep(render(engine))

@@ -10,7 +10,10 @@
   as time goes on, with the components it worked on numbered in the order it started them;
   (b) every crew's path, one small panel per crew.
 - :func:`draw_run` draws all three into a run folder; :class:`GifStream` writes frames as a GIF
-  as they come (:func:`write_gif` for a sequence of them).
+  as they come (:func:`write_gif` for a sequence of them). A run on the event floor
+  (``summary.json``'s ``fidelity``, docs/event-floor.md) says so in the Gantt charts' titles
+  and gets no trajectories: its crews are where the floor has them at events only, not along
+  their walks.
 
 Both Gantt charts mark how the run ended (:class:`RunEnd`): a finished run's makespan (the
 last ``task_finish``) as a dashed line, or, for a run that stalled or reached its time limit,
@@ -660,7 +663,8 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
     How the run ended (:func:`run_end`) comes from ``run_dir/summary.json`` when there is one,
     else from the log and the case's number of tasks; a case with a working calendar (its
     ``case.json`` keeps the one the run used) gives both Gantt charts a date axis. Returns the
-    paths of ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png``. Raises
+    paths of ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png`` (not drawn
+    for a run on the event floor: see the module doc). Raises
     FileNotFoundError when there is no ``events.csv`` and ValueError when the log names tasks
     that ``case`` does not define (the run was made with another case).
     """
@@ -675,14 +679,17 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
         shown = ", ".join(unknown[:5]) + (", ..." if len(unknown) > 5 else "")
         raise ValueError(f"{log}: {len(unknown)} task(s) not in case {case.case.name!r} "
                          f"({shown}); fix: pass the case the run was made with")
-    name = case.case.name
-    end = run_end(events, len(case.tasks), read_summary(run_dir))
+    summary = read_summary(run_dir)
+    event_floor = (summary or {}).get("fidelity") == "event"
+    name = case.case.name + (" (event floor)" if event_floor else "")
+    end = run_end(events, len(case.tasks), summary)
     return [
         gantt_agents(events, run_dir / CHART_FILES[0], title=f"Crews' activities: {name}",
                      end=end, calendar=case.calendar),
         gantt_tasks(events, run_dir / CHART_FILES[1], case=case, title=f"Tasks: {name}",
                     end=end),
-        trajectories(events, case, run_dir / CHART_FILES[2]),
+        # paths need positions along the walks, which the event floor does not have
+        *([] if event_floor else [trajectories(events, case, run_dir / CHART_FILES[2])]),
     ]
 
 

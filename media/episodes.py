@@ -11,8 +11,10 @@
   the histograms one panel per strategy on a shared time axis, the S-curves one colour per
   strategy on one axis, so a planner reads which strategy ends the floor sooner and surer.
 
-Times in seconds in, hours on the axes. Rendered off-screen and written atomically, like
-``media.charts``.
+Episodes of the event floor (``fidelity`` "event" in the stats or the summary entries;
+docs/event-floor.md) say so in the titles (:func:`floor_note`), so that no chart of it passes
+for the pymunk floor's. Times in seconds in, hours on the axes. Rendered off-screen and
+written atomically, like ``media.charts``.
 """
 
 from __future__ import annotations
@@ -31,6 +33,11 @@ EPISODE_FILES = ("makespan_histogram.png", "s_curve.png")
 BAND = (10, 90)  # the S-curve's band: percentiles over episodes at each time
 CURVE_POINTS = 400
 PERCENTILE_STYLE = {50: "-", 80: "--", 90: ":"}
+
+
+def floor_note(stats: dict | None) -> str:
+    """`` (event floor)`` for the stats or summary entry of episodes on the event floor."""
+    return " (event floor)" if (stats or {}).get("fidelity") == "event" else ""
 
 
 def _mark_percentiles(ax, stats: dict, color: str = "black") -> None:
@@ -62,7 +69,7 @@ def makespan_histogram(stats: dict, path: str | Path) -> Path:
     ax.set_xlabel("makespan (h)")
     ax.set_ylabel("episodes")
     ax.set_title(f"Makespan over {len(stats['makespans_s'])} episodes "
-                 f"({len(done)} finished)")
+                 f"({len(done)} finished){floor_note(stats)}")
     ax.grid(axis="y", alpha=0.3)
     return save_png(fig, path)
 
@@ -98,7 +105,7 @@ def s_curve(finishes: Sequence[Sequence[float]], total_tasks: int, path: str | P
     ax.set_ylim(0, total_tasks * 1.04)
     ax.set_xlabel("simulated time (h)")
     ax.set_ylabel(f"tasks ended (of {total_tasks})")
-    ax.set_title(s_curve_title(finishes, total_tasks, stats is not None))
+    ax.set_title(s_curve_title(finishes, total_tasks, stats is not None) + floor_note(stats))
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     return save_png(fig, path)
@@ -184,7 +191,8 @@ def strategy_histograms(rows: Sequence[dict], summary: Sequence[dict], path: str
         if ax.get_legend_handles_labels()[0]:
             ax.legend(fontsize=7, loc="upper right")
     axes[-1].set_xlabel("makespan (h)")
-    fig.suptitle("Makespan per strategy, P50 / P80 / P90 marked", fontsize=11)
+    fig.suptitle("Makespan per strategy, P50 / P80 / P90 marked"
+                 + floor_note(summary[0] if summary else None), fontsize=11)
     return save_png(fig, path)
 
 
@@ -225,7 +233,7 @@ def strategy_s_curves(rows: Sequence[dict], summary: Sequence[dict], total_tasks
     ax.set_xlabel("simulated time (h)")
     ax.set_ylabel(f"tasks ended (of {total_tasks})")
     ax.set_title(f"Tasks ended over time per strategy (line: median; band: {BAND[0]}-{BAND[1]} "
-                 "% of episodes)", fontsize=10)
+                 "% of episodes)" + floor_note(summary[0] if summary else None), fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="upper left")
     return save_png(fig, path)

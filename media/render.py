@@ -7,9 +7,11 @@ red: a task being performed, green: every task ended); the outlet; the tower cra
 queue length; the crews (a disc of the crew's occupation area in its crew type's colour, a
 tick for its heading, its id and its status beside it, placed where no other crew's label is:
 above, below, right or left of the disc, or further off with a thin line back to it) with a
-thin line to the target it values most while it moves; a clock line above the plane; and
-below the plane a legend of the colours (component states, task areas, storages, crane,
-outlet, disruptions, and each crew type's colour with its name).
+thin line to the target it values most while it moves; a clock line above the plane (it
+says "event floor" for a frame of the event floor, whose crews jump along their walks from
+event to event: docs/event-floor.md); and below the plane a legend of the colours
+(component states, task areas, storages, crane, outlet, disruptions, and each crew type's
+colour with its name).
 
 With disruptions (docs/disruptions.md): the header names what is disrupted (weather stop,
 crane down, late deliveries, crews away) in magenta; a broken-down crane is crossed out; a
@@ -320,7 +322,9 @@ class _Renderer:
         self._draw_crews(engine)
 
         header = (f"t {format_clock(site.time_s)}   tasks {site.tasks_ended}/{len(site.tasks)}"
-                  f"   stage {engine.stage}   {engine.case.case.name}")
+                  f"   stage {engine.stage}   {engine.case.case.name}"
+                  # the event floor's crews jump along their walks: say whose frame this is
+                  + ("   event floor" if engine.fidelity == "event" else ""))
         disrupted = disruption_text(site)
         if disrupted:
             header += "   " + disrupted

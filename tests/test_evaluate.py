@@ -119,7 +119,9 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
     bounds = {s: seed_lower_bound(case, s).seed_bound_s for s in (0, 1)}
     jsonl = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert all(r["seed_bound_s"] == pytest.approx(bounds[r["seed"]], abs=1e-3) for r in jsonl)
-    assert list(rows[0])[-1] == "seed_bound_s"
+    # appended after it: the floor the episode ran on (--fidelity; tests/test_fidelity_cli.py)
+    assert list(rows[0])[-2:] == ["seed_bound_s", "fidelity"]
+    assert {r["fidelity"] for r in rows} == {"pymunk"}
     assert prio["seed_bound_mean_s"] == pytest.approx((bounds[0] + bounds[1]) / 2, abs=1e-3)
     mine = [r for r in jsonl if r["strategy"] == "priority"]
     assert prio["over_seed_bound"] == pytest.approx(

@@ -3,6 +3,7 @@
     cmdp-evaluate [--case FILE] [--seeds 0-19] [--strategies priority,nearest,ga:PATH,cpsat,M.zip]
                   [--navigators scripted,MODEL.zip] [--workers N] [--ray [ADDRESS]]
                   [--out DIR] [--resume] [--cpsat-bound] [--cpsat-s 20]
+                  [--fidelity pymunk|event [--calibration PATH]]
 
 Runs every seed x strategy x low level (the evaluators of ``cmdp-simulate --evaluator``,
 including a stage-2 model ``.zip``; the low levels of ``--navigator``) in worker processes,
@@ -12,7 +13,12 @@ workers. CP-SAT is solved only when asked for: the ``cpsat`` strategy (solved on
 ``--cpsat-s`` seconds, and its plan, saved as ``cpsat_plan.json``, replayed) or
 ``--cpsat-bound`` (its bound only); it is announced with its time limit before it runs.
 Without it the bound columns use the cheap lower bound (``cmdp_pymunk.bounds``) alone and
-the outputs say so. Writes into DIR:
+the outputs say so. ``--fidelity event`` plays every episode on the event floor (fast,
+calibrated on the pymunk floor, stage 2 without a low level: scripted navigators only;
+``--calibration PATH``, as in ``cmdp-simulate``; docs/event-floor.md): the header, the first
+line of ``summary.md``, each summary entry (``fidelity``, ``calibration``,
+``calibration_fingerprint``), each episode row and ``settings.json`` say so, and ``--resume``
+continues a run only on the floor and calibration it started on. Writes into DIR:
 
 - ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish,
   with ``task_end_times_s`` (when each task ended, seconds): a stopped run (Ctrl-C, a lost
@@ -68,6 +74,7 @@ from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
 from training.cli import OneLineParser, add_ray_option, plain, positive_int, positive_seconds
+from training.fidelity import Floor, add_fidelity_options, resolve_floor
 from training.runs.backends import BackendError, WorkerLost, open_backend
 from training.runs.paired import (
     csv_text,
@@ -133,6 +140,8 @@ class EvaluateArgs:
     cpsat_bound: bool = False  # solve CP-SAT for its bound even without the cpsat strategy
     per_seed: bool = False  # Figs. 12-14 as the paper's lines over the seeds
     disruption_cost: bool = True  # a disrupted case's episodes also played without (doc)
+    fidelity: str = "pymunk"  # the floor: the paper's, or the event floor (training/fidelity.py)
+    calibration: Path | None = None  # the event floor's (None: the case's, if any)
 
     @property
     def solves_cpsat(self) -> bool:
@@ -195,6 +204,7 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "them (what they cost: undisrupted_makespan_s, disruption_delay_s; "
                         "measuring it doubles the work). A case without disruptions is played "
                         "once either way")
+    add_fidelity_options(p)
     p.add_argument("--no-progress", action="store_true", help="show no progress bar")
     a = p.parse_args(argv)
     if not a.strategies or not a.navigators:
@@ -205,7 +215,7 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
                         not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
-                        a.per_seed, not a.no_disruption_cost)
+                        a.per_seed, not a.no_disruption_cost, a.fidelity, a.calibration)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int,
@@ -269,10 +279,26 @@ def read_log(path: Path) -> list[dict]:
 def resume_settings(case, args: EvaluateArgs) -> dict:
     """What must not change between a run and its ``--resume``."""
     out = {"case": case.model_dump(mode="json"),
-           **{k: getattr(args, k) for k in ("stall_s", "max_time_s", "deterministic")}}
+           **{k: getattr(args, k) for k in ("stall_s", "max_time_s", "deterministic")},
+           # the floor: a run on the event floor resumes only on it, with the same numbers
+           **resume_floor(run_floor(case, args))}
     if measures_cost(args, case):  # only then: runs written before it resume as they were
         out["disruption_cost"] = True
     return out
+
+
+def resume_floor(floor: Floor) -> dict:
+    """The floor as ``resume.json`` keeps it: the fidelity and the calibration's numbers
+    (wherever its file is now)."""
+    return {"fidelity": floor.fidelity, "calibration": floor.calibration.model_dump(mode="json")
+            if floor.calibration is not None else None}
+
+
+def run_floor(case, args: EvaluateArgs) -> Floor:
+    """The floor of the run (``--fidelity``, ``--calibration``; ``training.fidelity``);
+    ValueError naming the option and the fix."""
+    return resolve_floor(case, args.case, args.fidelity, args.calibration,
+                         {"--navigators": args.navigators})
 
 
 def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
@@ -292,7 +318,9 @@ def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
     jobs = [(run_specs[s], n, seed, cost) for s, n, seed in todo]
     bar = tqdm(total=len(labels), initial=len(labels) - len(todo), unit="episode",
                disable=not args.progress, mininterval=1.0, desc="cmdp-evaluate")
-    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
+    floor = run_floor(case, args)
+    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic, None,
+                   *floor.runner_args)
     log_path = args.out / LOG
     with log_path.open("a" if done else "w") as log:
         if done:  # the earlier rows only (a cut last line is dropped)
@@ -305,7 +333,8 @@ def evaluate(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None,
                     open_backend(_episode_job, runner_args, args.workers) as backend:
                 for i, row in backend.as_completed(jobs):
                     strategy, navigator, seed = todo[i]
-                    row = {"strategy": strategy, "navigator": navigator, "seed": seed, **row}
+                    row = {"strategy": strategy, "navigator": navigator, "seed": seed,
+                           "fidelity": floor.fidelity, **row}
                     log.write(json.dumps(row) + "\n")
                     log.flush()
                     rows[todo[i]] = row
@@ -342,6 +371,7 @@ def _main(args: EvaluateArgs) -> int:
 
     try:
         case = cmdp_pymunk.load_case(args.case)
+        floor = run_floor(case, args)  # before anything is built or run
         check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
                     args.deterministic)
     except ValueError as err:  # CaseError is a ValueError
@@ -349,7 +379,8 @@ def _main(args: EvaluateArgs) -> int:
     run_specs = {s: s for s in args.strategies}
     done = _resumable(case, args) if args.resume else []
     args.out.mkdir(parents=True, exist_ok=True)
-    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic)
+    runner_args = (case, args.stall_s, args.max_time_s, args.deterministic, None,
+                   *floor.runner_args)
     # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
     with open_backend(_episode_job, runner_args, args.workers, args.ray) as pool:
         lb = lower_bound(case)
@@ -361,14 +392,17 @@ def _main(args: EvaluateArgs) -> int:
             print(f"cmdp-evaluate: solving CP-SAT {why}, time limit {args.cpsat_s:g} s ...",
                   flush=True)
             cpsat = solve(case, args.cpsat_s)
-            print(f"cmdp-evaluate: case {case.case.name!r}: lower bound "
+            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}: lower bound "
                   f"{lb.lower_bound_s:,.0f} s; CP-SAT bound {cpsat.bound_s:,.0f} s "
                   f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
                   f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
         else:
-            print(f"cmdp-evaluate: case {case.case.name!r}: lower bound "
+            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}: lower bound "
                   f"{lb.lower_bound_s:,.0f} s (CP-SAT not solved: add the cpsat strategy or "
                   "--cpsat-bound for its bound)")
+        if floor.uncalibrated_note(args.case):
+            print(f"cmdp-evaluate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
+                  flush=True)
         if "cpsat" in args.strategies:
             plan = args.out / "cpsat_plan.json"
             if args.resume and plan.is_file():  # the kept episodes replayed this plan
@@ -413,15 +447,22 @@ def _main(args: EvaluateArgs) -> int:
         wall = time.perf_counter() - start
     ran = len(rows) - kept
     cpsat_dict = cpsat.as_dict() if cpsat else None
-    summary = summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)
+    # each strategy's entry says the floor it ran on (appended: older columns keep their places)
+    summary = [{**e, "fidelity": floor.fidelity, "calibration": floor.source or "",
+                "calibration_fingerprint": floor.calibration.fingerprint
+                if floor.calibration is not None else ""}
+               for e in summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)]
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS, *STRUCK_FIELDS, *COST_FIELDS,
-              *SEED_BOUND_FIELDS]
+              *SEED_BOUND_FIELDS, "fidelity"]
     time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
+    if floor.fidelity == "event":  # no event-floor table may pass for the pymunk floor's
+        table = f"On the {floor.label()}, not the pymunk floor.\n\n" + table
     if time_use:
         table += "\n" + time_use_table(time_use)
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
+                **floor.record(),
                 "lower_bound": lb.as_dict(), "cpsat": cpsat_dict, "episodes": len(rows),
                 "episodes_resumed": kept, "wall_s": round(wall, 1),
                 "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
@@ -463,12 +504,15 @@ def _resumable(case, args: EvaluateArgs) -> list[dict]:
         raise _Stop(f"--resume: {saved} not found: no earlier run in {args.out}; fix: drop "
                     "--resume, or give the --out of the run to finish")
     before = json.loads(saved.read_text())
+    before.setdefault("fidelity", "pymunk")  # written before --fidelity: the pymunk floor
+    before.setdefault("calibration", None)
     now = json.loads(json.dumps(resume_settings(case, args)))
     changed = sorted(k for k in now if before.get(k) != now[k])
     if changed:
         raise _Stop(f"--resume: the run in {args.out} used other settings ({', '.join(changed)}); "
                     "fix: resume with the same ones, or start a new --out")
-    return read_log(args.out / LOG)
+    # rows of a run from before --fidelity: its resume.json matched, so they are pymunk rows
+    return [{**r, "fidelity": r.get("fidelity", "pymunk")} for r in read_log(args.out / LOG)]
 
 
 def entry_point() -> None:

@@ -2,7 +2,7 @@
 
     cmdp-simulate [--case FILE] [--evaluator priority|nearest|ga:PATH|cpsat|MODEL.zip]
                   [--navigator scripted|MODEL.zip] [--seed N] [--episodes N] [--out DIR] [--gif]
-                  [--workers N] [--ray [ADDRESS]]
+                  [--workers N] [--ray [ADDRESS]] [--fidelity pymunk|event [--calibration PATH]]
                   [--cpsat-s SECONDS] [--ifc MODEL.ifc [--ifc-start ISO-DATETIME]]
                   [--calendar FILE.toml] [--start ISO-DATETIME] [--working-hours HH:MM-HH:MM]
                   [--working-days DAYS] [--holidays DATES]
@@ -52,6 +52,19 @@ pace in both, so the delay is the disruptions' alone), the console says it per s
 ``--episodes N`` ``makespans.json`` gives the mean delay with its 95 % interval. Measuring the
 cost plays each floor twice, so it is on only for a case with disruptions (a planner's first
 question of one), and ``--no-disruption-cost`` turns it off.
+
+``--fidelity event`` runs the episodes on the event floor (``cmdp_pymunk.eventfloor``,
+docs/event-floor.md): crews walk shortest paths and time jumps from event to event, about 50
+times faster than the pymunk floor (the default, the paper's, the ground truth), with walk
+times and Eq. 2's invasion calibrated on it (``--calibration PATH``; by default the case's
+``<stem>.event.toml``, else a built-in one for the same floor, else none: the command says it
+runs uncalibrated and how to calibrate, ``cmdp-calibrate``). It is stage 2 without a low
+level: a trained ``--navigator`` is refused. ``summary.json`` and ``makespans.json`` record
+``fidelity`` and ``calibration`` (its file or "uncalibrated", fingerprint and numbers), the
+console header and the charts' titles name the event floor, and its crews are placed at events
+only, so there is no ``trajectories.png`` (the GIF shows them jump along their walks). With
+``--episodes 1000`` add ``--no-seed-charts``: each seed's Gantt charts take about a second,
+the histogram and the S-curve are still drawn.
 
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported with the crews and tasks involved; the command then exits with 1.
@@ -114,11 +127,15 @@ class SimulateArgs:
     working_days: str | None = None
     holidays: str | None = None
     disruption_cost: bool = True  # a disrupted case's floors also played without (module doc)
+    fidelity: str = "pymunk"  # the floor: the paper's, or the event floor (training/fidelity.py)
+    calibration: Path | None = None  # the event floor's (None: the case's, if any)
+    seed_charts: bool = True  # each seed's Gantt charts and trajectories (with ``charts``)
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     import cmdp_pymunk
     from agents.specs import EVALUATOR_HELP
+    from training.fidelity import add_fidelity_options
 
     p = OneLineParser(prog="cmdp-simulate", description=plain(__doc__), epilog=(
         "Writes into --out: summary.json, events.csv, schedule.csv, case.json, "
@@ -150,6 +167,10 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     p.add_argument("--max-time-s", type=positive_seconds, default=None,
                    help="time limit per episode (default: the case's)")
     p.add_argument("--no-charts", action="store_true", help="skip the PNG charts")
+    p.add_argument("--no-seed-charts", action="store_true",
+                   help="skip each seed's Gantt charts and trajectories (about a second a "
+                        "seed); with --episodes N the histogram and the S-curve are still "
+                        "drawn")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--deterministic", action="store_true",
                    help="a model navigator takes its argmax action instead of sampling (it "
@@ -186,6 +207,7 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    help="on a case with disruptions, do not also play each seed without them "
                         "(what they cost: summary.json's disruption_cost; measuring it doubles "
                         "the work). A case without disruptions is played once either way")
+    add_fidelity_options(p)
     p.add_argument("--stochastic", action="store_true",
                    help="accepted for old scripts; sampling is the default now")
     a = p.parse_args(argv)
@@ -193,7 +215,8 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                         a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
                         a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray,
                         a.calendar, a.start, a.working_hours, a.working_days, a.holidays,
-                        not a.no_disruption_cost)
+                        not a.no_disruption_cost, a.fidelity, a.calibration,
+                        not a.no_seed_charts)
 
 
 def with_calendar(case, args: SimulateArgs):
@@ -257,7 +280,11 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
     seed_bound = episode_seed_bound(engine)
     data = {
         "case": site.case.case.name, "case_file": case_label, "seed": episode.seed,
-        "stage": engine.stage, "evaluator": args.evaluator, "navigator": args.navigator,
+        "stage": engine.stage,
+        # the floor it ran on: "pymunk" (the paper's) or "event" (calibration: its file,
+        # fingerprint and numbers, filled in by ``write_outputs``; None on the pymunk floor)
+        "fidelity": engine.fidelity, "calibration": None,
+        "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
         "makespan_s": makespan,
         "tasks_finished": site.tasks_ended, "tasks_total": len(site.tasks),
@@ -331,16 +358,20 @@ def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: s
 
 
 def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=None,
-                  gif=None, undisrupted: dict | None = None) -> dict:
+                  gif=None, undisrupted: dict | None = None, floor=None) -> dict:
     """Every file of one seed into ``folder``, each atomically; ``gif``: its ``GifStream``,
     finished here; ``undisrupted``: the episode row of the same seed on the case without its
-    disruptions (``disruption_cost``; None: not measured). Returns ``summary.json``'s
+    disruptions (``disruption_cost``; None: not measured); ``floor``: the run's
+    ``training.fidelity.Floor``, whose calibration (file, fingerprint, numbers) goes into
+    ``summary.json`` beside the fidelity the episode ran at. Returns ``summary.json``'s
     data."""
     from cmdp_pymunk.events import EventLog, write_atomic
     from cmdp_pymunk.schedule import schedule_csv
 
     folder.mkdir(parents=True, exist_ok=True)
     data = dict(run.summary)
+    if floor is not None:
+        data["calibration"] = floor.calibration_record()
     data["disruption_cost"] = seed_cost(data, undisrupted)
     if cpsat is not None:
         makespan = data["makespan_s"]
@@ -368,7 +399,7 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
             datetime.datetime.fromisoformat(args.ifc_start or DEFAULT_IFC_START)
         export_4d(args.ifc, case, task_bars(run.events),
                   folder / f"{args.ifc.stem}-4d.ifc", start)
-    if args.charts:
+    if args.charts and args.seed_charts:
         from media.charts import draw_run
 
         draw_run(folder, case)
@@ -460,12 +491,17 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     import cmdp_pymunk
     from agents.specs import make_evaluator, make_navigator
     from cmdp_pymunk.bounds import lower_bound
+    from training.fidelity import resolve_floor
     from training.runs.backends import BackendError, open_backend
     from training.runs.runner import make_engine
 
     args = parse_args(argv)
     try:
         case = with_calendar(cmdp_pymunk.load_case(args.case), args)
+        # the floor (--fidelity, --calibration): checked and its calibration found before
+        # anything is built or run
+        floor = resolve_floor(case, args.case, args.fidelity, args.calibration,
+                              {"--navigator": [args.navigator]})
         evaluator = make_evaluator(args.evaluator)
         if args.ifc is not None:  # before simulating: a model that cannot take it fails now
             from cmdp_pymunk.cases.ifc_export import open_for_4d
@@ -488,7 +524,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     # every crew's decision, as in the paper. The workers build their engines with the same
     # options; this one checks the navigator and renders the GIF's seed.
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic,
-                   POSITION_LOG_EVERY_S)
+                   POSITION_LOG_EVERY_S, *floor.runner_args)
     workers = args.workers or (1 if args.ray is None else None)
     try:
         # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
@@ -505,7 +541,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                     evaluator.use(cpsat)
             try:  # the evaluator is prepared for the case here (a misfit: exit 2)
                 engine = make_engine(case, evaluator, args.navigator, args.max_time_s,
-                                     POSITION_LOG_EVERY_S)
+                                     POSITION_LOG_EVERY_S, *floor.runner_args)
                 navigator = make_navigator(args.navigator, engine, args.deterministic)
             except ValueError as err:
                 print(f"cmdp-simulate: {err}", file=sys.stderr)
@@ -538,9 +574,18 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
             progress.out = args.out
             print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, "
                   f"{len(case.tasks)} tasks), lower bound {lb.lower_bound_s:.0f} s, evaluator "
-                  f"{args.evaluator}, navigator {args.navigator}"
+                  f"{args.evaluator}, navigator {args.navigator}, {floor.label()}"
                   + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
                   flush=True)
+            if floor.fidelity == "event" and args.charts and args.seed_charts:
+                print("cmdp-simulate: the event floor places crews at events, not along their "
+                      "walks: no trajectories.png", flush=True)
+            if args.episodes >= 100 and args.charts and args.seed_charts:
+                print("cmdp-simulate: each seed's Gantt charts take about a second to draw; "
+                      "--no-seed-charts keeps the histogram and the S-curve alone", flush=True)
+            if floor.uncalibrated_note(args.case):
+                print(f"cmdp-simulate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
+                      flush=True)
             if case.calendar is not None:
                 print(f"cmdp-simulate: {calendar_line(case.calendar)}", flush=True)
             if measures_cost(args, case):
@@ -548,7 +593,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                       "without them, for what they cost (--no-disruption-cost to skip)",
                       flush=True)
             rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, engine,
-                                               navigator, pool, progress)
+                                               navigator, pool, progress, floor)
     except BackendError as err:
         print(f"cmdp-simulate: {err}", file=sys.stderr)
         return 2
@@ -565,7 +610,8 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
-    what = "charts, summary" if args.charts else "summary"
+    what = ("charts, summary" if args.charts and (args.seed_charts or args.episodes > 1)
+            else "summary")
     print(f"cmdp-simulate: {what}, schedule.csv and events.csv in {args.out}")
     return 1 if failed else 0
 
@@ -576,7 +622,8 @@ def measures_cost(args: SimulateArgs, case) -> bool:
 
 
 def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, engine,
-              navigator, pool, progress: Progress) -> tuple[list[dict], list[list[float]], bool]:
+              navigator, pool, progress: Progress,
+              floor=None) -> tuple[list[dict], list[list[float]], bool]:
     """Every seed, in seed order: the GIF's seed played on ``engine`` here, the others on
     ``pool``
     (the backend's results come back in job order, so seed folders are written in seed order
@@ -651,7 +698,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                 # seed's folder is either complete or not started.
                 interrupt.enter()
                 try:
-                    data = write_outputs(run, folder, args, case, cpsat, gif, base)
+                    data = write_outputs(run, folder, args, case, cpsat, gif, base, floor)
                 finally:
                     interrupt.leave()
             except BaseException:
@@ -720,12 +767,16 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
                  if measured else "")
               for r, c in zip(rows, costs, strict=True)]
     write_atomic(out / "makespans.csv", "\n".join(lines) + "\n")
-    stats = makespan_stats(rows)
+    # the floor the episodes ran on first, so that no event-floor result passes for pymunk's
+    stats = {"fidelity": rows[0].get("fidelity", "pymunk"),
+             "calibration": rows[0].get("calibration"), **makespan_stats(rows)}
     stats["disruptions"] = mean_struck([r.get("disruptions") for r in rows])
     stats["disruption_cost"] = mean_cost(rows) if measured else None
     write_json(out / "makespans.json", stats)
     if stats["finished"]:
-        print(f"cmdp-simulate: {stats['finished']}/{len(rows)} episodes finished; makespan mean "
+        floor = " on the event floor" if stats["fidelity"] == "event" else ""
+        print(f"cmdp-simulate: {stats['finished']}/{len(rows)} episodes finished{floor}; "
+              "makespan mean "
               f"{seconds_and_hours(stats['mean_s'])}, std {stats['std_s']:.0f} s, min "
               f"{stats['min_s']:.0f}, max {stats['max_s']:.0f} "
               f"({stats['mean_over_lower_bound']:.2f} x lower bound"
