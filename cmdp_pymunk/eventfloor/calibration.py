@@ -119,7 +119,12 @@ def load_calibration(path: str | Path, case: Case) -> Calibration:
                     "write the file again with cmdp-calibrate" for e in err.errors()]
         raise CaseError(source, problems) from None
     unknown = sorted(set(calibration.crew_types) - set(case.crew_types))
-    if calibration.fingerprint != fingerprint(case) or unknown:
+    if unknown and calibration.fingerprint == fingerprint(case):
+        raise CaseError(source, [f"event_floor.crew_types: {', '.join(unknown)} not crew "
+                                 f"types of the case ({', '.join(sorted(case.crew_types))}); "
+                                 "fix: remove them, or write the file again with "
+                                 "cmdp-calibrate"])
+    if calibration.fingerprint != fingerprint(case):
         raise CaseError(source, [
             f"was fitted on another floor (case {calibration.case!r}, fingerprint "
             f"{calibration.fingerprint}; this case {case.case.name!r} is {fingerprint(case)}); "
@@ -150,7 +155,8 @@ def calibration_for(case: Case, case_path: str | Path | None = None,
             raw = tomllib.loads(candidate.read_text(encoding="utf-8"))
         except (OSError, tomllib.TOMLDecodeError):
             continue
-        if raw.get("event_floor", {}).get("fingerprint") == mark:
+        table = raw.get("event_floor")
+        if isinstance(table, dict) and table.get("fingerprint") == mark:
             return load_calibration(candidate, case)
     return uncalibrated(case)
 

@@ -345,6 +345,7 @@ class EventFloor(Engine):
         if self.timeline is not None:
             disruptions.refresh_causes(site)
         self._log_activities()
+        self._log_positions()
         self._terms = self._reward_terms()
         for name, v in terms_before.items():
             out.terms[name] += v * (k - 1) + self._terms[name]
@@ -373,13 +374,30 @@ class EventFloor(Engine):
                     timeouts = (before + k) // stats_cap - before // stats_cap
                     stats.reach_timeouts += timeouts
                     self.metrics.window[crew.index]["timeouts"] += timeouts
-                    x0, y0 = self.positions[crew.index]
-                    x1, y1 = walk.at(self.site.time_s + k)
-                    stats.distance_m += math.hypot(x1 - x0, y1 - y0)
+                    now = self.site.time_s
+                    stats.distance_m += walk.distance_at(now + k) - walk.distance_at(now)
                 elif crew.status == CrewStatus.REACHING and crew.idle_cause:
                     stats.idle_steps[crew.idle_cause] += k
             elif crew.status == CrewStatus.WAITING:
                 stats.crane_wait_steps += k
+
+    def _log_positions(self) -> None:
+        """``position`` events of the crews on the move, at each event (not every
+        ``position_log_every_s``: between events a crew's place is its path's), so that
+        trajectories can be drawn; none unless ``position_log_every_s`` is set."""
+        if self.position_log_every_s is None or not self.walks:
+            return
+        for crew in self.site.crews:
+            walk = self.walks[crew.index]
+            if walk is None or not crew.moving:
+                continue
+            x, y = self.positions[crew.index]
+            last = self._last_logged[crew.index]
+            if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
+                continue
+            self._last_logged[crew.index] = (x, y)
+            self.log.add(self.site.time_s, "position", crew.id,
+                         f"{x:.2f},{y:.2f},{math.degrees(walk.heading()) % 360:.0f}")
 
     def _plan_walks(self) -> None:
         """Each crew on the move heads for its best target: a new walk from where it stands

@@ -61,9 +61,8 @@ def walking_velocities(crew: CrewState, congestion: np.ndarray,
 
 @dataclass
 class Walk:
-    """One walk: where it goes, the points it passes and when (seconds from its start,
-    before the calibrated factor is applied to them), and when it arrives (a simulated
-    second)."""
+    """One walk: where it goes, the points it passes and when (seconds from its start, the
+    calibrated walk factor applied), and when it arrives (a simulated second)."""
 
     target: int
     task: int  # the task index behind a component target, or -1
@@ -72,6 +71,7 @@ class Walk:
     ys: np.ndarray
     times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
     arrival_s: float
+    distances: np.ndarray | None = None  # cumulative metres at each point (made when asked)
 
     def at(self, time_s: float) -> tuple[float, float]:
         """Where the crew is at ``time_s`` (on the path's points; at the start before it,
@@ -81,6 +81,13 @@ class Walk:
         k = int(np.searchsorted(self.times, time_s - self.start_s, side="right")) - 1
         k = min(max(k, 0), len(self.xs) - 1)
         return float(self.xs[k]), float(self.ys[k])
+
+    def distance_at(self, time_s: float) -> float:
+        """Metres walked along the path by ``time_s`` (linear between its points)."""
+        if self.distances is None:
+            steps = np.hypot(np.diff(self.xs), np.diff(self.ys))
+            self.distances = np.concatenate(((0.0,), np.cumsum(steps)))
+        return float(np.interp(time_s - self.start_s, self.times, self.distances))
 
     def heading(self) -> float:
         """The heading of the walk's last step (rad)."""
