@@ -12,6 +12,16 @@ seconds of CPU a floor costs on each. Issue 30's criteria are checked and printe
 >= 0.9 for Eq. 9, mean and P80 within 3 %, time use within 15 %, the same ranking, paired
 differences within +-50 % of the pymunk floor's.
 
+A paired difference measured on 40 seeds carries an interval of about +-400 s on either floor,
+as wide as the differences themselves, so the event floor also runs ``--event-seeds`` (default
+the validation seeds and the next 260, 300 in all: a few seconds a strategy): its paired
+differences and ranking are taken there, and checked against the pymunk floor's (inside its
+95 % interval, within +-50 % of its mean, the same order).
+
+The pymunk floors' rows are kept in ``--out`` (``pymunk_rows.json``, by case and seed) and
+reused by the next run on the same case (re-calibrating and validating again costs only the
+event floors); ``--fresh`` runs them again.
+
 Writes ``validation.json`` (every number, per-seed makespans, the settings and versions) and
 ``validation.md`` (the tables, as docs/event-floor.md shows them) into ``--out``. Validate on
 seeds the calibration was not fitted on (it was fitted on 0-19; the default here is 100-139).
@@ -54,14 +64,48 @@ def _job(runner: EpisodeRunner, strategy: str, seed: int) -> dict:
 
 
 def floor_rows(runner_args: tuple, strategies: list[str], seeds: list[int],
-               workers: int | None) -> dict[str, list[dict]]:
-    """Every strategy's rows over the seeds on the floor ``runner_args`` builds."""
-    jobs = [(s, seed) for s in strategies for seed in seeds]
-    with open_backend(_job, runner_args, workers) as backend:
-        rows = backend.map(jobs)
-    out: dict[str, list[dict]] = {s: [] for s in strategies}
-    for (strategy, _), row in zip(jobs, rows, strict=True):
-        out[strategy].append(row)
+               workers: int | None, kept: dict | None = None) -> dict[str, list[dict]]:
+    """Every strategy's rows over the seeds on the floor ``runner_args`` builds; rows in
+    ``kept`` (strategy -> seed as text -> row) are taken from there, and the new ones added
+    to it."""
+    kept = {} if kept is None else kept
+    jobs = [(s, seed) for s in strategies for seed in seeds
+            if str(seed) not in kept.get(s, {})]
+    if jobs:
+        with open_backend(_job, runner_args, workers) as backend:
+            rows = backend.map(jobs)
+        for (strategy, seed), row in zip(jobs, rows, strict=True):
+            kept.setdefault(strategy, {})[str(seed)] = row
+    return {s: [kept[s][str(seed)] for seed in seeds] for s in strategies}
+
+
+def case_key(case) -> str:
+    """The whole case, hashed: pymunk rows are reused only for the very same case."""
+    import hashlib
+
+    return hashlib.sha256(case.model_dump_json().encode()).hexdigest()[:16]
+
+
+def paired_on_many(event_many: dict[str, list[dict]], pymunk: dict[str, list[dict]]) -> dict:
+    """Each strategy's paired difference to Eq. 9 on the event floor's many seeds, against
+    the pymunk floor's on the validation seeds (see the module doc)."""
+    ref = _makespans(event_many[REFERENCE])
+    out = {}
+    for strategy, rows in event_many.items():
+        if strategy == REFERENCE:
+            continue
+        diffs = [a - b for a, b in zip(_makespans(rows), ref, strict=True) if a and b]
+        mean, _, half = mean_ci(diffs)
+        p_ref, p_own = _makespans(pymunk[REFERENCE]), _makespans(pymunk[strategy])
+        p_mean, _, p_half = mean_ci([a - b for a, b in zip(p_own, p_ref, strict=True)
+                                     if a and b])
+        out[strategy] = {"event_many_paired_s": mean, "event_many_paired_half_s": half,
+                         "event_many_mean_s": mean_ci(_makespans(rows))[0],
+                         "pymunk_paired_s": p_mean, "pymunk_paired_half_s": p_half,
+                         "ratio": mean / p_mean if p_mean else None,
+                         "inside_pymunk_interval": p_half is not None
+                         and abs(mean - p_mean) <= p_half}
+    out[REFERENCE] = {"event_many_mean_s": mean_ci(ref)[0]}
     return out
 
 
@@ -73,9 +117,12 @@ def _gap(a: float | None, b: float | None) -> float | None:
     return None if a is None or b is None or b == 0 else a / b - 1.0
 
 
-def compare(pymunk: dict[str, list[dict]], event: dict[str, list[dict]]) -> dict:
-    """The validation numbers (see the module doc) from the two floors' rows."""
-    out: dict = {"strategies": {}, "criteria": {}}
+def compare(pymunk: dict[str, list[dict]], event: dict[str, list[dict]],
+            event_many: dict[str, list[dict]] | None = None) -> dict:
+    """The validation numbers (see the module doc) from the two floors' rows (and the event
+    floor's on many seeds, for the paired differences and the ranking)."""
+    out: dict = {"strategies": {}, "criteria": {},
+                 "many_seeds": paired_on_many(event_many, pymunk) if event_many else None}
     ref_p, ref_e = _makespans(pymunk[REFERENCE]), _makespans(event[REFERENCE])
     for strategy in pymunk:
         mp, me = _makespans(pymunk[strategy]), _makespans(event[strategy])
@@ -109,7 +156,13 @@ def compare(pymunk: dict[str, list[dict]], event: dict[str, list[dict]]) -> dict
     gaps = [abs(_gap(out["time_use"]["event"][ct][c], v))
             for ct, use in out["time_use"]["pymunk"].items() for c, v in use.items()
             if v >= 0.02 * sum(use.values()) and ct in out["time_use"]["event"]]
-    ratios = [e["paired_ratio"] for s, e in out["strategies"].items() if s != REFERENCE]
+    many = out.get("many_seeds")
+    if many:  # the paired differences and ranking on the event floor's many seeds
+        ratios = [e["ratio"] for s, e in many.items() if s != REFERENCE]
+        order_e = sorted(pymunk, key=lambda s: many[s]["event_many_mean_s"] or np.inf)
+        out["ranking"]["event"] = order_e
+    else:
+        ratios = [e["paired_ratio"] for s, e in out["strategies"].items() if s != REFERENCE]
     out["criteria"] = {
         "correlation_eq9": (ref["correlation"], (ref["correlation"] or 0) >= MIN_CORRELATION),
         "mean_within_3pct": (ref["mean_gap"], abs(ref["mean_gap"] or 1) <= MAX_GAP),
@@ -119,6 +172,8 @@ def compare(pymunk: dict[str, list[dict]], event: dict[str, list[dict]]) -> dict
         "same_ranking": (None, order_p == order_e),
         "paired_within_50pct": (ratios, all(r is not None and abs(r - 1) <= MAX_PAIRED_GAP
                                             for r in ratios)),
+        "paired_inside_pymunk_interval": (None, bool(many) and all(
+            e["inside_pymunk_interval"] for s, e in many.items() if s != REFERENCE)),
         "unfinished": (sum(e["event_unfinished"] for e in out["strategies"].values()),
                        all(e["event_unfinished"] <= e["pymunk_unfinished"]
                            for e in out["strategies"].values())),
@@ -162,6 +217,19 @@ def markdown(result: dict, seeds_text: str) -> str:
             f"{_pct(e['mean_gap'])} | {_s(e['pymunk_p80_s'])} | {_s(e['event_p80_s'])} | "
             f"{_pct(e['p80_gap'])} | {_s(e['correlation'], 3)} | {paired[0]} | {paired[1]} | "
             f"{e['pymunk_cpu_s']:.2f} / {e['event_cpu_s']:.3f} |")
+    many = result.get("many_seeds")
+    if many:
+        lines += ["", f"Paired difference to Eq. 9: the event floor on {result['event_seeds']} "
+                  f"against the pymunk floor on {seeds_text} (mean ± 95 % interval):", "",
+                  "| strategy | event floor, many seeds | pymunk floor | ratio | inside the "
+                  "pymunk interval |", "|---|---|---|---|---|"]
+        for strategy, e in many.items():
+            if strategy == REFERENCE:
+                continue
+            lines.append(f"| {strategy} | {e['event_many_paired_s']:+,.0f} ± "
+                         f"{_s(e['event_many_paired_half_s'])} | {e['pymunk_paired_s']:+,.0f} ± "
+                         f"{_s(e['pymunk_paired_half_s'])} | {_s(e['ratio'], 2)} | "
+                         f"{'yes' if e['inside_pymunk_interval'] else 'no'} |")
     lines += ["", "Eq. 9's crew-hours per floor by crew type (pymunk / event):", "",
               "| crew type | " + " | ".join(TIME_USE_SHOWN) + " |",
               "|---|" + "---|" * len(TIME_USE_SHOWN)]
@@ -192,6 +260,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--strategies", default=",".join(DEFAULT_STRATEGIES),
                    help="comma-separated strategies as cmdp-evaluate takes them; the first "
                         "must be priority (Eq. 9, the reference)")
+    p.add_argument("--event-seeds", type=seed_list, default=None,
+                   help="seeds for the event floor's paired differences and ranking (default: "
+                        "the validation seeds and the next 260)")
+    p.add_argument("--fresh", action="store_true",
+                   help="run the pymunk floors again instead of reusing --out's rows")
     p.add_argument("--calibration", type=Path, default=None,
                    help="the event floor's calibration (default: beside the case, or built in)")
     p.add_argument("--workers", type=positive_int, default=None,
@@ -223,19 +296,35 @@ def main(argv: list[str] | None = None) -> int:
     seeds = args.seeds
     print(f"cmdp-validate-event-floor: {case.case.name}, {len(strategies)} strategies x "
           f"{len(seeds)} seeds on both floors")
+    many_seeds = args.event_seeds or sorted(set(seeds) | set(range(seeds[-1] + 1,
+                                                                   seeds[-1] + 261)))
     start = time.perf_counter()
-    event = floor_rows((case, 3600.0, None, False, None, "event", calibration), strategies,
-                       seeds, 1)
-    print(f"  event floors: {time.perf_counter() - start:.1f} s")
+    event_args = (case, 3600.0, None, False, None, "event", calibration)
+    event_many = floor_rows(event_args, strategies, many_seeds, args.workers)
+    event = {s: [r for r, seed in zip(rows, many_seeds, strict=True) if seed in set(seeds)]
+             for s, rows in event_many.items()} if set(seeds) <= set(many_seeds) \
+        else floor_rows(event_args, strategies, seeds, args.workers)
+    print(f"  event floors: {time.perf_counter() - start:.1f} s ({len(many_seeds)} seeds)")
+    args.out.mkdir(parents=True, exist_ok=True)
+    cache = args.out / "pymunk_rows.json"
+    kept = {}
+    if cache.is_file() and not args.fresh:
+        stored = json.loads(cache.read_text(encoding="utf-8"))
+        kept = stored["rows"] if stored.get("case") == case_key(case) else {}
     start = time.perf_counter()
-    pymunk = floor_rows((case, 3600.0), strategies, seeds, args.workers)
+    pymunk = floor_rows((case, 3600.0), strategies, seeds, args.workers, kept)
+    tmp = cache.with_suffix(".tmp")
+    tmp.write_text(json.dumps({"case": case_key(case), "rows": kept}), encoding="utf-8")
+    tmp.replace(cache)
     print(f"  pymunk floors: {time.perf_counter() - start:.0f} s")
-    result = compare(pymunk, event)
+    result = compare(pymunk, event, event_many)
+    ms = many_seeds
+    result["event_seeds"] = f"{ms[0]}-{ms[-1]}" if ms == list(range(ms[0], ms[-1] + 1)) \
+        else f"{len(ms)} seeds"
     seeds_text = f"{seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) \
         else ",".join(map(str, seeds))
     table = markdown(result, seeds_text)
     print("\n" + table)
-    args.out.mkdir(parents=True, exist_ok=True)
     record = {"case": case.case.name, "seeds": seeds, "strategies": strategies,
               "calibration": calibration.model_dump(), "versions": versions(),
               "command": "cmdp-validate-event-floor " + " ".join(

@@ -59,6 +59,7 @@ class CrewTypeCalibration(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
     walk_factor: Factor = 1.0
+    dock_s: Annotated[float, Strict(), Field(ge=0, le=600, allow_inf_nan=False)] = 0.0
     task_invasion: Invasion = 0.0
     fetch_invasion: Invasion = 0.0
 

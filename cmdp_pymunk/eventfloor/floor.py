@@ -418,7 +418,8 @@ class EventFloor(Engine):
                 continue
             fitted = self.calibration.of(crew.type)
             self.walks[i] = self.world.planner.walk(site, crew, self.positions[i], target,
-                                                    site.time_s, fitted.walk_factor)
+                                                    site.time_s, fitted.walk_factor,
+                                                    fitted.dock_s)
 
 
 def make_floor(case: Case, fidelity: str = "pymunk", calibration: Calibration | None = None,

@@ -7,7 +7,8 @@ radius cannot stand on are blocked). The walk's time is the sum over the path's 
 length / velocity, each step at the crew's Eq. 1 maximum in that cell
 (``move.congested_velocity``: slowed by the carried load's deceleration and by the most
 congested task or storage area holding the cell, never below v_min), times the crew type's
-calibrated ``walk_factor`` (turning, docking, swerving around crews: ``calibration``).
+calibrated ``walk_factor`` (swerving around crews, detours), plus its ``dock_s`` once per
+arrival (turning toward the target and docking at it: ``calibration``).
 
 Paths to one goal from every cell are one multi-source Dijkstra (``scipy``), kept per crew
 radius and goal for the life of the planner: a floor and its clones and later episodes of the
@@ -158,7 +159,7 @@ class WalkPlanner:
         return self._fields[key]
 
     def walk(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
-             now_s: float, walk_factor: float) -> Walk:
+             now_s: float, walk_factor: float, dock_s: float = 0.0) -> Walk:
         """The crew's walk from ``start`` to ``target`` of its scope, leaving at ``now_s``
         (see the module doc); it arrives at a whole second, one at the earliest (the engine
         sees a reach at the end of a second)."""
@@ -182,6 +183,7 @@ class WalkPlanner:
         times[0] = 0.0
         np.cumsum(np.concatenate(((first,), steps)) / speed, out=times[1:])
         times *= walk_factor
+        times[-1] += dock_s  # turning to the target and docking at it, once per arrival
         arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
         return Walk(target, task, now_s, xs, ys, times, arrival)
 
