@@ -298,3 +298,23 @@ def test_the_lookahead_thinks_on_the_event_floor_and_acts_on_the_pymunk_one():
     assert summary["thinks_on"] == "event" and summary["decisions"] >= 1
     with pytest.raises(ValueError, match="floor=same or event"):
         make_evaluator("lookahead:floor=fast")
+
+
+@pytest.mark.slow
+def test_built_in_floors_on_held_out_seeds_track_the_pymunk_floor():
+    """A small sample of the validation (docs/event-floor.md): Eq. 9 on seeds 100-109 of
+    the built-in floor, both floors; at this commit r = 0.83, mean gap -1.7 %. The pymunk
+    floor against itself with crews 1 % faster correlates 0.86 on 100-139 (the trajectories'
+    own sensitivity), so the bound asked here is 0.75."""
+    case = cmdp_pymunk.load_case()
+    engine = Engine(case, evaluator="priority", park_idle=True)
+    floor = EventFloor(case, evaluator="priority", calibration=calibration_for(case))
+    pairs = []
+    for seed in range(100, 110):
+        a = run_episode(engine, Navigator(), seed, 3600, progress=False).makespan_s
+        floor.reset(seed)
+        floor.run()
+        pairs.append((a, floor.makespan_s))
+    a, b = np.array(pairs).T
+    assert np.corrcoef(a, b)[0, 1] >= 0.75
+    assert abs(b.mean() / a.mean() - 1) <= 0.03
