@@ -16,8 +16,9 @@ same case share them (``WalkPlanner.__deepcopy__``).
 
 from __future__ import annotations
 
+import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -59,7 +60,7 @@ def walking_velocities(crew: CrewState, congestion: np.ndarray,
     return np.maximum(c * congestion * v_f, min(v_f, lateral_m_s))
 
 
-@dataclass
+@dataclass(eq=False)
 class Walk:
     """One walk: where it goes, the points it passes and when (seconds from its start, the
     calibrated walk factor applied), and when it arrives (a simulated second)."""
@@ -72,28 +73,42 @@ class Walk:
     times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
     arrival_s: float
     distances: np.ndarray | None = None  # cumulative metres at each point (made when asked)
+    # Every event looks up where each walker is: on plain lists (the same numbers) a lookup
+    # costs a bisection, not numpy's per-call overhead; the last distance asked is kept, as
+    # each event asks for the one the event before it asked for (``EventFloor._count``).
+    _points: tuple = field(init=False, repr=False)
+    _last_distance: tuple = field(init=False, repr=False, default=(math.nan, 0.0))
+
+    def __post_init__(self):
+        self._points = (self.times.tolist(), self.xs.tolist(), self.ys.tolist())
 
     def at(self, time_s: float) -> tuple[float, float]:
         """Where the crew is at ``time_s`` (on the path's points; at the start before it,
         at the end after it)."""
+        times, xs, ys = self._points
         if time_s >= self.arrival_s:
-            return float(self.xs[-1]), float(self.ys[-1])
-        k = int(np.searchsorted(self.times, time_s - self.start_s, side="right")) - 1
-        k = min(max(k, 0), len(self.xs) - 1)
-        return float(self.xs[k]), float(self.ys[k])
+            return xs[-1], ys[-1]
+        k = bisect.bisect_right(times, time_s - self.start_s) - 1
+        k = min(max(k, 0), len(xs) - 1)
+        return xs[k], ys[k]
 
     def distance_at(self, time_s: float) -> float:
         """Metres walked along the path by ``time_s`` (linear between its points)."""
+        if self._last_distance[0] == time_s:
+            return self._last_distance[1]
         if self.distances is None:
             steps = np.hypot(np.diff(self.xs), np.diff(self.ys))
             self.distances = np.concatenate(((0.0,), np.cumsum(steps)))
-        return float(np.interp(time_s - self.start_s, self.times, self.distances))
+        metres = float(np.interp(time_s - self.start_s, self.times, self.distances))
+        self._last_distance = (time_s, metres)
+        return metres
 
     def heading(self) -> float:
         """The heading of the walk's last step (rad)."""
-        if len(self.xs) < 2:
+        _, xs, ys = self._points
+        if len(xs) < 2:
             return 0.0
-        return math.atan2(self.ys[-1] - self.ys[-2], self.xs[-1] - self.xs[-2])
+        return math.atan2(ys[-1] - ys[-2], xs[-1] - xs[-2])
 
 
 class _Radius:
