@@ -44,6 +44,9 @@ class Context:
     log: events.EventLog
     reached: dict = field(default_factory=dict)  # crew index -> target index reached, or -1
     reached_value: dict = field(default_factory=dict)  # crew index -> V_Tar of a reach
+    # crew index -> ``site.version`` when the table last found no row but c2 to fire for the
+    # crew (``apply_decision_table``), for ``only_execution_fires`` right after the table
+    settled: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -360,10 +363,23 @@ def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
     return None
 
 
-def only_execution_fires(ctx: Context) -> bool:
-    """True when, for every crew, no row but c2 (execute) would fire: a quiet second."""
+# each state's last row: c2 firing first, when it is the last, means no other row fires
+_LAST_ROW = {s: rows[-1] for s, rows in ROWS_BY_STATUS.items() if rows}
+
+
+def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
+    """True when, for every crew, no row but c2 (execute) would fire: a quiet second.
+
+    ``settled``: the ``Context.settled`` of a table run on the same state, nothing changed
+    since but values, walks and disruption causes (the event floor's next event, asked right
+    after its table). A crew the table settled at the site's version now is skipped: another
+    crew's rows change what a crew's triggers read only through pools and task areas, which
+    bump the version; its own state has not changed since."""
+    version = ctx.site.version
     for crew in ctx.site.crews:
         if crew.absent:
+            continue
+        if settled is not None and settled.get(crew.index) == version:
             continue
         for rule in ROWS_BY_STATUS[crew.status]:
             if rule.code != "c2" and rule.trigger(crew, ctx):
@@ -380,6 +396,8 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):
             rule = first_rule(crew, ctx)
+            if rule is None or (rule.code == "c2" and rule is _LAST_ROW[crew.status]):
+                ctx.settled[crew.index] = ctx.site.version
             if rule is None:
                 break
             rule.effect(crew, ctx)

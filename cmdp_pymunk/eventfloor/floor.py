@@ -156,12 +156,14 @@ class EventFloor(Engine):
         self.calibration = calibration if calibration is not None else uncalibrated(case)
         self.walks: list[Walk | None] = []
         self.events_run = 0  # events jumped to this episode (the speed benchmark's count)
+        self._settled: dict | None = None  # the last table's ``decide.Context.settled``
 
     # -- an episode ---------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None) -> None:
         self.walks = [None] * len(self.case.crews)
         self.events_run = 0
+        self._settled = None
         super().reset(seed)
         self._plan_walks()
 
@@ -260,7 +262,9 @@ class EventFloor(Engine):
         site = self.site
         now = site.time_s
         ctx = self._context()
-        if not decide.only_execution_fires(ctx):
+        # the crews the table settled at the last event need no second look (``settled``)
+        settled, self._settled = self._settled, None
+        if not decide.only_execution_fires(ctx, settled):
             return 1
         soonest = self.max_time_s - now
         disrupted = site.disrupted
@@ -341,7 +345,9 @@ class EventFloor(Engine):
         construct.advance(site, self.positions, self.log, float(k), self._invasion)
         self._construct_logged = len(self.log.events) != logged
         self._disrupt()
-        self._decide(self._context())
+        ctx = self._context()
+        self._decide(ctx)
+        self._settled = ctx.settled  # for the next event's look at the table (``settled``)
         if self.timeline is not None:
             disruptions.refresh_causes(site)
         self._log_activities()
