@@ -158,6 +158,17 @@ class EventFloor(Engine):
         self.events_run = 0  # events jumped to this episode (the speed benchmark's count)
         self._settled: dict | None = None  # the last table's ``decide.Context.settled``
 
+    @property
+    def calibration(self) -> Calibration:
+        """The fitted numbers the floor runs on (``calibration.calibration_for``)."""
+        return self._calibration
+
+    @calibration.setter
+    def calibration(self, value: Calibration) -> None:
+        self._calibration = value
+        # each crew type's numbers, looked up at every event (Eq. 2's invasion, the walks)
+        self._fitted = {t: value.of(t) for t in self.case.crew_types}
+
     # -- an episode ---------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None) -> None:
@@ -253,7 +264,7 @@ class EventFloor(Engine):
 
     def _invasion(self, site: Site, positions, crew: CrewState, area) -> float:
         """Eq. 2's n * I_agent on the event floor: the crew type's calibrated expectation."""
-        fitted = self.calibration.of(crew.type)
+        fitted = self._fitted[crew.type]
         return fitted.task_invasion if crew.status == CrewStatus.TASKING \
             else fitted.fetch_invasion
 
@@ -422,7 +433,7 @@ class EventFloor(Engine):
             task = crew.scope.get(target, -1)
             if walk is not None and walk.target == target and walk.task == task:
                 continue
-            fitted = self.calibration.of(crew.type)
+            fitted = self._fitted[crew.type]
             self.walks[i] = self.world.planner.walk(site, crew, self.positions[i], target,
                                                     site.time_s, fitted.walk_factor)
 
