@@ -308,12 +308,17 @@ def activity(crew: CrewState) -> str:
     """What the crew is doing, in the categories of the agents' Gantt chart (Fig. 9); a crew
     a disruption keeps from working is ``idle_<kind>`` (``disruptions``)."""
     if crew.disruption:
-        return "idle_" + crew.disruption.name.lower()
+        return _IDLE_ACTIVITY[crew.disruption]
     if crew.status == CrewStatus.REACHING:
         if crew.scope:
             return "navigating"
-        return "idle_" + (crew.idle_cause.name.lower() if crew.idle_cause else "no_target")
-    return crew.status.name.lower()
+        return _IDLE_ACTIVITY[crew.idle_cause]
+    return _STATUS_ACTIVITY[crew.status]
+
+
+# the names ``activity`` gives, made once (it is asked for every crew at every event)
+_IDLE_ACTIVITY = {c: "idle_" + (c.name.lower() if c else "no_target") for c in IdleCause}
+_STATUS_ACTIVITY = {s: s.name.lower() for s in CrewStatus}
 
 
 ACTIVITIES = ("navigating", "idle_predecessor", "idle_area", "idle_no_target", "tasking",
