@@ -51,12 +51,17 @@ def evaluation_reward_terms(site: Site, weights: EvaluationReward) -> dict[str, 
     working or heading to a target; episode: the step's share of the episode's duration (plus
     the completion bonus on the step the last task ends); path: crews moving.
     """
-    present = [c for c in site.crews if c.status != CrewStatus.LEFT]
-    idle = [c for c in present if c.status == CrewStatus.REACHING and not c.scope]
-    idle_pre = sum(c.idle_cause == IdleCause.PREDECESSOR for c in idle)
-    idle_area = sum(c.idle_cause == IdleCause.AREA for c in idle)
-    moving = sum(c.moving for c in present)
-    share_working = (len(present) - len(idle)) / len(present) if present else 1.0
+    present = idle = idle_pre = idle_area = moving = 0  # one pass: asked at every event
+    for c in site.crews:
+        if c.status == CrewStatus.LEFT:
+            continue
+        present += 1
+        moving += c.moving
+        if c.status == CrewStatus.REACHING and not c.scope:
+            idle += 1
+            idle_pre += c.idle_cause == IdleCause.PREDECESSOR
+            idle_area += c.idle_cause == IdleCause.AREA
+    share_working = (present - idle) / present if present else 1.0
     return {
         "idle_pre": weights.idle_predecessor * idle_pre,
         "idle_area": weights.idle_area * idle_area,
