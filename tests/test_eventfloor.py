@@ -21,7 +21,7 @@ from cmdp_pymunk.eventfloor.calibration import (
     uncalibrated,
     write_calibration,
 )
-from cmdp_pymunk.eventfloor.walks import congestion_along
+from cmdp_pymunk.eventfloor.walks import _interp, congestion_along
 from cmdp_pymunk.rollout import play, run_episode
 from cmdp_pymunk.state import Site
 
@@ -214,6 +214,22 @@ def test_congestion_along_a_path_is_eq1s_index_point_by_point():
     want = [move.congestion_index(site, x, y) for x, y in zip(xs, ys, strict=True)]
     assert got.tolist() == want
     assert min(want) < 1.0
+
+
+def test_the_walks_interpolation_is_numpys_to_the_last_bit():
+    """A walk's distance at a time (``Walk.distance_at``) is numpy.interp done on lists: the
+    same float at the ends, before the start, on a point, on repeated times (a step of zero
+    length) and between points; random paths with random times too."""
+    xp, fp = [0.0, 0.0, 1.5, 1.5, 4.0], [0.0, 0.0, 0.7, 0.9, 2.0]
+    for x in (-1.0, 0.0, 0.3, 1.5, 2.0, 4.0, 9.0):
+        assert _interp(x, xp, fp) == float(np.interp(x, xp, fp)), x
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        times = np.concatenate(((0.0,), np.cumsum(rng.exponential(1.0, 30))))
+        metres = np.concatenate(((0.0,), np.cumsum(rng.exponential(0.5, 30))))
+        for x in rng.uniform(-1.0, times[-1] + 1.0, 20).tolist() + times.tolist():
+            assert _interp(x, times.tolist(), metres.tolist()) == \
+                float(np.interp(x, times, metres))
 
 
 def test_bad_inputs_are_refused_with_the_fix(tmp_path):

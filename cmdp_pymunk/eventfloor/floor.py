@@ -392,7 +392,8 @@ class EventFloor(Engine):
                     stats.reach_timeouts += timeouts
                     self.metrics.window[crew.index]["timeouts"] += timeouts
                     now = self.site.time_s
-                    stats.distance_m += walk.distance_at(now + k) - walk.distance_at(now)
+                    walked = walk.distance_at(now)  # asked at the last event (kept there)
+                    stats.distance_m += walk.distance_at(now + k) - walked
                 elif crew.status == CrewStatus.REACHING and crew.idle_cause:
                     stats.idle_steps[crew.idle_cause] += k
             elif crew.status == CrewStatus.WAITING:

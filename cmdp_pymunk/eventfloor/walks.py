@@ -72,10 +72,10 @@ class Walk:
     ys: np.ndarray
     times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
     arrival_s: float
-    distances: np.ndarray | None = None  # cumulative metres at each point (made when asked)
-    # Every event looks up where each walker is: on plain lists (the same numbers) a lookup
-    # costs a bisection, not numpy's per-call overhead; the last distance asked is kept, as
-    # each event asks for the one the event before it asked for (``EventFloor._count``).
+    distances: list | None = None  # cumulative metres at each point (made when asked)
+    # Every event looks up where each walker is and how far it walked: on plain lists (the
+    # same numbers) a lookup costs a bisection, not numpy's per-call overhead; the last
+    # distance asked is kept, as each event asks again for the one the last event asked for.
     _points: tuple = field(init=False, repr=False)
     _last_distance: tuple = field(init=False, repr=False, default=(math.nan, 0.0))
 
@@ -98,8 +98,8 @@ class Walk:
             return self._last_distance[1]
         if self.distances is None:
             steps = np.hypot(np.diff(self.xs), np.diff(self.ys))
-            self.distances = np.concatenate(((0.0,), np.cumsum(steps)))
-        metres = float(np.interp(time_s - self.start_s, self.times, self.distances))
+            self.distances = np.concatenate(((0.0,), np.cumsum(steps))).tolist()
+        metres = _interp(time_s - self.start_s, self._points[0], self.distances)
         self._last_distance = (time_s, metres)
         return metres
 
@@ -229,6 +229,21 @@ class WalkPlanner:
             return ("storage", rect), ("rect", rect)
         area = site.tasks[task].area if task >= 0 else site.components[target].rect
         return ("area", area), ("rect", area)
+
+
+def _interp(x: float, xp: list, fp: list) -> float:
+    """``numpy.interp(x, xp, fp)`` for one x on lists (xp increasing, two points or more):
+    numpy's own steps (its ends, a point hit exactly, then slope times offset plus the
+    start), so the same number without numpy's per-call cost."""
+    if x >= xp[-1]:
+        return fp[-1]
+    if x < xp[0]:
+        return fp[0]
+    j = bisect.bisect_right(xp, x) - 1
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
 
 
 def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
