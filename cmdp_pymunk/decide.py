@@ -31,6 +31,7 @@ from .streams import RandomStreams
 
 MAX_ROWS_PER_STEP = 3
 EPS = construct.EPS
+_UNSTARTED = (Pool.QUEUE, Pool.WAIT)  # made once: an enum member read off its class is slow
 
 
 @dataclass
@@ -306,8 +307,9 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     """Scope: components with executable tasks of its type; storages if it holds no material;
     the outlet (and deregistration) when no task of its type is queued or waiting."""
     site = ctx.site
-    mine = [site.tasks[t] for t in site.tasks_of_crew_type[crew.type]]
-    remaining = [t for t in mine if t.pool in (Pool.QUEUE, Pool.WAIT)]
+    tasks = site.tasks
+    remaining = [tasks[i] for i in site.tasks_of_crew_type[crew.type]
+                 if tasks[i].pool in _UNSTARTED]
     if not remaining:
         crew.clear_scope()
         crew.scope_kind = ScopeKind.OUTLET
@@ -320,7 +322,10 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
         set_storage_scope(crew, site)
         crew.idle_cause = IdleCause.NONE
         return
-    scope = {t.component: t.index for t in remaining if site.executable(t)}
+    # each queued task's space conflicts looked at once (the scope, then the idle cause)
+    queued = [t for t in remaining if t.pool == Pool.QUEUE]
+    executable = [t for t in queued if site.executable(t)]
+    scope = {t.component: t.index for t in executable}
     if scope.keys() != crew.scope.keys() or crew.scope_kind != ScopeKind.TASKS:
         crew.values = {}  # new targets: the evaluator values them this step
     crew.scope_kind = ScopeKind.TASKS if scope else ScopeKind.NONE
@@ -328,9 +333,8 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     crew.scope_version = site.version
     if scope:
         crew.idle_cause = IdleCause.NONE
-    elif any(t.pool == Pool.QUEUE for t in remaining):
-        crew.idle_cause = IdleCause.AREA if any(
-            t.pool == Pool.QUEUE and not site.executable(t) for t in remaining) \
+    elif queued:  # some queued task is not executable: blocked by an area
+        crew.idle_cause = IdleCause.AREA if len(executable) < len(queued) \
             else IdleCause.NO_TARGET
     else:
         crew.idle_cause = IdleCause.PREDECESSOR

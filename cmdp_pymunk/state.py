@@ -61,6 +61,7 @@ class ScopeKind(IntEnum):
 
 
 MOVING = (CrewStatus.REACHING, CrewStatus.DEREGISTERED)
+_ON = Pool.ON  # a module name: on Python 3.11 an enum member read off its class costs ~65 ns
 
 
 def expand(rect: Rect, by: float) -> Rect:
@@ -272,8 +273,13 @@ class Site:
 
     def executable(self, task: TaskState) -> bool:
         """Queued, and no space conflict with a task area already on the plane."""
-        return task.pool == Pool.QUEUE and not any(
-            self.tasks[o].pool == Pool.ON for o in task.conflicts)
+        if task.pool != Pool.QUEUE:
+            return False
+        tasks = self.tasks
+        for o in task.conflicts:  # a plain loop: asked for every queued task at every c10
+            if tasks[o].pool == _ON:
+                return False
+        return True
 
     def in_congestion_area(self, x: float, y: float) -> bool:
         """Inside an active task area or a storage area: where an idle crew is in the way."""
