@@ -26,12 +26,31 @@ from dataclasses import dataclass, field
 
 from . import construct, events, precedence
 from .physics import Physics
-from .state import CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site, inside
+from .precedence import QUEUE, WAIT
+from .state import (
+    DEREGISTERED,
+    FETCHING,
+    LEFT,
+    NO_SCOPE,
+    OUTLET,
+    PAUSED,
+    REACHING,
+    STORAGES,
+    TASKING,
+    TASKS,
+    WAITING,
+    CraneRequest,
+    CrewState,
+    CrewStatus,
+    IdleCause,
+    Site,
+    inside,
+)
 from .streams import RandomStreams
 
 MAX_ROWS_PER_STEP = 3
 EPS = construct.EPS
-_UNSTARTED = (Pool.QUEUE, Pool.WAIT)  # made once: an enum member read off its class is slow
+_UNSTARTED = (QUEUE, WAIT)  # the pools of the tasks not yet started
 
 
 @dataclass
@@ -71,17 +90,17 @@ def reached_target(crew: CrewState, ctx: Context) -> int:
         return ctx.reached[crew.index]
     site, hit = ctx.site, -1
     x, y = ctx.positions[crew.index]
-    if crew.scope_kind in (ScopeKind.TASKS, ScopeKind.PAUSED):
+    if crew.scope_kind in (TASKS, PAUSED):
         for target, task in crew.scope.items():
             if inside(x, y, site.tasks[task].area):
                 hit = target
                 break
-    elif crew.scope_kind == ScopeKind.STORAGES:
+    elif crew.scope_kind == STORAGES:
         for target in crew.scope:
             if inside(x, y, site.storages[target - len(site.components)].rect):
                 hit = target
                 break
-    elif crew.scope_kind == ScopeKind.OUTLET:
+    elif crew.scope_kind == OUTLET:
         plane = site.case.plane
         if math.hypot(x - plane.outlet_x_m, y - plane.outlet_y_m) <= plane.outlet_radius_m:
             hit = site.outlet_target
@@ -90,7 +109,7 @@ def reached_target(crew: CrewState, ctx: Context) -> int:
 
 
 def _reached_storage(crew: CrewState, ctx: Context):
-    if crew.status != CrewStatus.REACHING or crew.scope_kind != ScopeKind.STORAGES:
+    if crew.status != REACHING or crew.scope_kind != STORAGES:
         return None
     target = reached_target(crew, ctx)
     return None if target < 0 else ctx.site.storages[target - len(ctx.site.components)]
@@ -101,7 +120,7 @@ def _task(crew: CrewState, ctx: Context):
 
 
 def _tasking(crew: CrewState, ctx: Context) -> bool:
-    return crew.status == CrewStatus.TASKING
+    return crew.status == TASKING
 
 
 def _record_reach(crew: CrewState, ctx: Context, target: int) -> None:
@@ -124,7 +143,7 @@ def target_id(site: Site, target: int) -> str:
 # -- c1 Initiate task -------------------------------------------------------------------------
 
 def reached_task_target_with_equipment(crew: CrewState, ctx: Context) -> bool:
-    if crew.status != CrewStatus.REACHING or crew.scope_kind != ScopeKind.TASKS \
+    if crew.status != REACHING or crew.scope_kind != TASKS \
             or crew.scope_version != ctx.site.version:
         return False
     target = reached_target(crew, ctx)
@@ -146,7 +165,7 @@ def initiate_task(crew: CrewState, ctx: Context) -> None:
     crew.task = task.index
     crew.clear_scope()
     ctx.log.add(site.time_s, "task_start", crew.id, task.id)
-    events.set_status(site, ctx.log, crew, CrewStatus.TASKING)
+    events.set_status(site, ctx.log, crew, TASKING)
 
 
 # -- c2 Execute task --------------------------------------------------------------------------
@@ -179,12 +198,12 @@ def pause_task(crew: CrewState, ctx: Context) -> None:
     crew.sightings[task.component] = (*ctx.positions[crew.index], ctx.site.time_s)
     ctx.log.add(ctx.site.time_s, "task_pause", crew.id, _task(crew, ctx).id)
     set_storage_scope(crew, ctx.site)
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+    events.set_status(ctx.site, ctx.log, crew, REACHING)
 
 
 def set_storage_scope(crew: CrewState, site: Site) -> None:
     crew.clear_scope()
-    crew.scope_kind = ScopeKind.STORAGES
+    crew.scope_kind = STORAGES
     crew.scope = {s.target: -1 for s in site.storages if s.material == crew.material}
     crew.scope_version = site.version
 
@@ -192,7 +211,7 @@ def set_storage_scope(crew: CrewState, site: Site) -> None:
 # -- c4 Resume task ---------------------------------------------------------------------------
 
 def reached_paused_task(crew: CrewState, ctx: Context) -> bool:
-    return (crew.status == CrewStatus.REACHING and crew.scope_kind == ScopeKind.PAUSED
+    return (crew.status == REACHING and crew.scope_kind == PAUSED
             and reached_target(crew, ctx) >= 0)
 
 
@@ -201,7 +220,7 @@ def resume_task(crew: CrewState, ctx: Context) -> None:
     crew.paused = False
     crew.clear_scope()
     ctx.log.add(ctx.site.time_s, "task_resume", crew.id, _task(crew, ctx).id)
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.TASKING)
+    events.set_status(ctx.site, ctx.log, crew, TASKING)
 
 
 # -- c5 Fetch materials -----------------------------------------------------------------------
@@ -217,29 +236,29 @@ def fetch_materials(crew: CrewState, ctx: Context) -> None:
     crew.storage = storage.index
     crew.stats.material_trips += 1
     crew.clear_scope()
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.FETCHING)
+    events.set_status(ctx.site, ctx.log, crew, FETCHING)
 
 
 # -- c6 Fetching completed --------------------------------------------------------------------
 
 def fetching_at_full_load(crew: CrewState, ctx: Context) -> bool:
-    return crew.status == CrewStatus.FETCHING and crew.load >= crew.capacity - EPS
+    return crew.status == FETCHING and crew.load >= crew.capacity - EPS
 
 
 def complete_fetching(crew: CrewState, ctx: Context) -> None:
     crew.storage = -1
     if crew.paused:
         task = _task(crew, ctx)
-        crew.scope_kind = ScopeKind.PAUSED
+        crew.scope_kind = PAUSED
         crew.scope = {task.component: task.index}
         crew.scope_version = ctx.site.version
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+    events.set_status(ctx.site, ctx.log, crew, REACHING)
 
 
 # -- c7 Request crane for material ------------------------------------------------------------
 
 def storage_running_out(crew: CrewState, ctx: Context) -> bool:
-    if crew.status == CrewStatus.FETCHING:
+    if crew.status == FETCHING:
         return crew.load < crew.capacity - EPS and \
             ctx.site.storages[crew.storage].stock <= EPS
     storage = _reached_storage(crew, ctx)
@@ -247,7 +266,7 @@ def storage_running_out(crew: CrewState, ctx: Context) -> bool:
 
 
 def request_crane_for_material(crew: CrewState, ctx: Context) -> None:
-    if crew.status == CrewStatus.REACHING:
+    if crew.status == REACHING:
         storage = _reached_storage(crew, ctx)
         _record_reach(crew, ctx, storage.target)
         crew.storage = storage.index
@@ -259,7 +278,7 @@ def request_crane_for_material(crew: CrewState, ctx: Context) -> None:
         construct.request_crane(ctx.site, ctx.log, CraneRequest(
             crew.index, "material", storage=storage.index))
     crew.stats.crane_waits += 1
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.WAITING)
+    events.set_status(ctx.site, ctx.log, crew, WAITING)
 
 
 # -- c8 Request crane for task ----------------------------------------------------------------
@@ -275,7 +294,7 @@ def started_crane_task_with_material(crew: CrewState, ctx: Context) -> bool:
 def request_crane_for_task(crew: CrewState, ctx: Context) -> None:
     construct.request_crane(ctx.site, ctx.log, CraneRequest(crew.index, "task", task=crew.task))
     crew.stats.crane_waits += 1
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.WAITING)
+    events.set_status(ctx.site, ctx.log, crew, WAITING)
 
 
 # -- c9 Complete task -------------------------------------------------------------------------
@@ -292,14 +311,14 @@ def complete_task(crew: CrewState, ctx: Context) -> None:
     crew.task = -1
     crew.clear_scope()
     ctx.log.add(ctx.site.time_s, "task_finish", crew.id, task.id)
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+    events.set_status(ctx.site, ctx.log, crew, REACHING)
 
 
 # -- c10 Acquire target -----------------------------------------------------------------------
 
 def reaching_without_current_scope(crew: CrewState, ctx: Context) -> bool:
-    return (crew.status == CrewStatus.REACHING and not crew.paused
-            and crew.scope_kind in (ScopeKind.NONE, ScopeKind.TASKS)
+    return (crew.status == REACHING and not crew.paused
+            and crew.scope_kind in (NO_SCOPE, TASKS)
             and crew.scope_version != ctx.site.version)
 
 
@@ -312,23 +331,23 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
                  if tasks[i].pool in _UNSTARTED]
     if not remaining:
         crew.clear_scope()
-        crew.scope_kind = ScopeKind.OUTLET
+        crew.scope_kind = OUTLET
         crew.scope = {site.outlet_target: -1}
         crew.scope_version = site.version
         crew.idle_cause = IdleCause.NONE
-        events.set_status(site, ctx.log, crew, CrewStatus.DEREGISTERED)
+        events.set_status(site, ctx.log, crew, DEREGISTERED)
         return
     if crew.material is not None and crew.load <= EPS:
         set_storage_scope(crew, site)
         crew.idle_cause = IdleCause.NONE
         return
     # each queued task's space conflicts looked at once (the scope, then the idle cause)
-    queued = [t for t in remaining if t.pool == Pool.QUEUE]
+    queued = [t for t in remaining if t.pool == QUEUE]
     executable = [t for t in queued if site.executable(t)]
     scope = {t.component: t.index for t in executable}
-    if scope.keys() != crew.scope.keys() or crew.scope_kind != ScopeKind.TASKS:
+    if scope.keys() != crew.scope.keys() or crew.scope_kind != TASKS:
         crew.values = {}  # new targets: the evaluator values them this step
-    crew.scope_kind = ScopeKind.TASKS if scope else ScopeKind.NONE
+    crew.scope_kind = TASKS if scope else NO_SCOPE
     crew.scope = scope
     crew.scope_version = site.version
     if scope:
@@ -340,7 +359,7 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
         crew.idle_cause = IdleCause.PREDECESSOR
 
 
-_T, _F, _R = (CrewStatus.TASKING,), (CrewStatus.FETCHING,), (CrewStatus.REACHING,)
+_T, _F, _R = (TASKING,), (FETCHING,), (REACHING,)
 DECISION_TABLE: tuple[Rule, ...] = (
     Rule("c9", "Complete task", tasking_with_progress_complete, complete_task, _T),
     Rule("c3", "Pause task", tasking_with_material_running_out, pause_task, _T),
@@ -395,7 +414,7 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}
     for crew in ctx.site.crews:
-        if crew.status == CrewStatus.LEFT or crew.absent:  # away (a disruption): no decisions
+        if crew.status == LEFT or crew.absent:  # away (a disruption): no decisions
             continue
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):
@@ -409,7 +428,7 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
             codes.append(rule.code)
             if rule.code in TERMINAL_ROWS:
                 break
-        if crew.status == CrewStatus.DEREGISTERED:
+        if crew.status == DEREGISTERED:
             leave_through_outlet(crew, ctx)
         fired[crew.index] = codes
     return fired
@@ -421,7 +440,7 @@ def leave_through_outlet(crew: CrewState, ctx: Context) -> None:
         _record_reach(crew, ctx, ctx.site.outlet_target)
         crew.clear_scope()
         ctx.world.remove_crew(crew.index)
-        events.set_status(ctx.site, ctx.log, crew, CrewStatus.LEFT)
+        events.set_status(ctx.site, ctx.log, crew, LEFT)
     ctx.reached.pop(crew.index, None)
 
 

@@ -15,7 +15,7 @@ from enum import IntEnum
 import numpy as np
 
 from .cases.model import Case, CrewType
-from .precedence import Pool, initial_pools
+from .precedence import ON, QUEUE, Pool, initial_pools
 
 Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
 
@@ -60,8 +60,17 @@ class ScopeKind(IntEnum):
     OUTLET = 4
 
 
-MOVING = (CrewStatus.REACHING, CrewStatus.DEREGISTERED)
-_ON = Pool.ON  # a module name: on Python 3.11 an enum member read off its class costs ~65 ns
+# The members as module names, for the code that runs for every crew at every step (the
+# decision table, P_cons, R_e's terms, the event floor): on Python 3.11 a member read off its
+# class (``CrewStatus.TASKING``) goes through the enum metaclass's ``__getattr__`` hook and
+# costs ~65 ns, a module name ~10 (a tenth of an event floor's time). The same objects.
+REACHING, TASKING, FETCHING, WAITING, DEREGISTERED, LEFT = (
+    CrewStatus.REACHING, CrewStatus.TASKING, CrewStatus.FETCHING, CrewStatus.WAITING,
+    CrewStatus.DEREGISTERED, CrewStatus.LEFT)
+NO_SCOPE, TASKS, STORAGES, PAUSED, OUTLET = (
+    ScopeKind.NONE, ScopeKind.TASKS, ScopeKind.STORAGES, ScopeKind.PAUSED, ScopeKind.OUTLET)
+
+MOVING = (REACHING, DEREGISTERED)
 
 
 def expand(rect: Rect, by: float) -> Rect:
@@ -196,7 +205,7 @@ class CrewState:
 
     def clear_scope(self) -> None:
         """No target scope, and none current: c10 acquires one at its next chance."""
-        self.scope_kind = ScopeKind.NONE
+        self.scope_kind = NO_SCOPE
         self.scope = {}
         self.values = {}
         self.scope_version = -1
@@ -273,11 +282,11 @@ class Site:
 
     def executable(self, task: TaskState) -> bool:
         """Queued, and no space conflict with a task area already on the plane."""
-        if task.pool != Pool.QUEUE:
+        if task.pool != QUEUE:
             return False
         tasks = self.tasks
         for o in task.conflicts:  # a plain loop: asked for every queued task at every c10
-            if tasks[o].pool == _ON:
+            if tasks[o].pool == ON:
                 return False
         return True
 
@@ -315,7 +324,7 @@ def activity(crew: CrewState) -> str:
     a disruption keeps from working is ``idle_<kind>`` (``disruptions``)."""
     if crew.disruption:
         return _IDLE_ACTIVITY[crew.disruption]
-    if crew.status == CrewStatus.REACHING:
+    if crew.status == REACHING:
         if crew.scope:
             return "navigating"
         return _IDLE_ACTIVITY[crew.idle_cause]

@@ -46,7 +46,7 @@ from ..engine import Advance, Engine
 from ..evaluate import TargetEvaluator
 from ..physics import N_KINDS
 from ..policy import best_target
-from ..state import CrewState, CrewStatus, Site
+from ..state import FETCHING, REACHING, TASKING, WAITING, CrewState, Site
 from .calibration import Calibration, uncalibrated
 from .walks import Walk, WalkPlanner
 
@@ -265,7 +265,7 @@ class EventFloor(Engine):
     def _invasion(self, site: Site, positions, crew: CrewState, area) -> float:
         """Eq. 2's n * I_agent on the event floor: the crew type's calibrated expectation."""
         fitted = self._fitted[crew.type]
-        return fitted.task_invasion if crew.status == CrewStatus.TASKING \
+        return fitted.task_invasion if crew.status == TASKING \
             else fitted.fetch_invasion
 
     def _next_event_in(self) -> int:
@@ -284,7 +284,7 @@ class EventFloor(Engine):
         for crew in site.crews:
             if crew.absent:
                 continue
-            if crew.status == CrewStatus.TASKING and not weather:
+            if crew.status == TASKING and not weather:
                 task = site.tasks[crew.task]
                 if not (construct.crane_ready(task) and construct.material_sufficient(
                         crew, task)) or task.progress >= task.work - construct.EPS:
@@ -297,7 +297,7 @@ class EventFloor(Engine):
                 if task.material_per_work > 0.0:
                     left = min(left, crew.load / (task.material_per_work * rate))
                 soonest = min(soonest, left)
-            elif crew.status == CrewStatus.FETCHING and not weather:
+            elif crew.status == FETCHING and not weather:
                 storage = site.storages[crew.storage]
                 rate = construct.invaded_efficiency(
                     site.case.materials[storage.material].acquire_per_min / 60.0,
@@ -394,9 +394,9 @@ class EventFloor(Engine):
                     now = self.site.time_s
                     walked = walk.distance_at(now)  # asked at the last event (kept there)
                     stats.distance_m += walk.distance_at(now + k) - walked
-                elif crew.status == CrewStatus.REACHING and crew.idle_cause:
+                elif crew.status == REACHING and crew.idle_cause:
                     stats.idle_steps[crew.idle_cause] += k
-            elif crew.status == CrewStatus.WAITING:
+            elif crew.status == WAITING:
                 stats.crane_wait_steps += k
 
     def _log_positions(self) -> None:
