@@ -119,10 +119,6 @@ def _task(crew: CrewState, ctx: Context):
     return ctx.site.tasks[crew.task]
 
 
-def _tasking(crew: CrewState, ctx: Context) -> bool:
-    return crew.status == TASKING
-
-
 def _record_reach(crew: CrewState, ctx: Context, target: int) -> None:
     ctx.reached_value[crew.index] = crew.values.get(target, 0.0)
     crew.stats.reaches += 1
@@ -171,9 +167,9 @@ def initiate_task(crew: CrewState, ctx: Context) -> None:
 # -- c2 Execute task --------------------------------------------------------------------------
 
 def tasking_with_equipment_and_material(crew: CrewState, ctx: Context) -> bool:
-    if not _tasking(crew, ctx):
+    if crew.status != TASKING:
         return False
-    task = _task(crew, ctx)
+    task = ctx.site.tasks[crew.task]
     return (task.progress < task.work - EPS and construct.crane_ready(task)
             and construct.material_sufficient(crew, task))
 
@@ -185,9 +181,9 @@ def execute_task(crew: CrewState, ctx: Context) -> None:
 # -- c3 Pause task ----------------------------------------------------------------------------
 
 def tasking_with_material_running_out(crew: CrewState, ctx: Context) -> bool:
-    if not _tasking(crew, ctx):
+    if crew.status != TASKING:
         return False
-    task = _task(crew, ctx)
+    task = ctx.site.tasks[crew.task]
     return task.progress < task.work - EPS and not construct.material_sufficient(crew, task)
 
 
@@ -284,9 +280,9 @@ def request_crane_for_material(crew: CrewState, ctx: Context) -> None:
 # -- c8 Request crane for task ----------------------------------------------------------------
 
 def started_crane_task_with_material(crew: CrewState, ctx: Context) -> bool:
-    if not _tasking(crew, ctx):
+    if crew.status != TASKING:
         return False
-    task = _task(crew, ctx)
+    task = ctx.site.tasks[crew.task]
     return (task.progress < task.work - EPS and not construct.crane_ready(task)
             and construct.material_sufficient(crew, task))
 
@@ -300,7 +296,10 @@ def request_crane_for_task(crew: CrewState, ctx: Context) -> None:
 # -- c9 Complete task -------------------------------------------------------------------------
 
 def tasking_with_progress_complete(crew: CrewState, ctx: Context) -> bool:
-    return _tasking(crew, ctx) and _task(crew, ctx).progress >= _task(crew, ctx).work - EPS
+    if crew.status != TASKING:
+        return False
+    task = ctx.site.tasks[crew.task]
+    return task.progress >= task.work - EPS
 
 
 def complete_task(crew: CrewState, ctx: Context) -> None:
