@@ -218,7 +218,8 @@ def test_congestion_along_a_path_is_eq1s_index_point_by_point():
 
 def test_a_walks_congestion_from_its_kept_path_is_congestion_along_it():
     """What a walk reads of Eq. 1's I_area (the areas each kept path's points lie in, kept
-    per path and area) is ``congestion_along`` its points, whatever the areas on the plane."""
+    per path and area) is ``congestion_along`` its points, whatever the areas on the plane;
+    its distances are its points' own."""
     case = cmdp_pymunk.load_case()
     site = Site(case, 2)
     planner = WalkPlanner(site)
@@ -237,6 +238,9 @@ def test_a_walks_congestion_from_its_kept_path_is_congestion_along_it():
         got = planner._congestion(site, path, start)
         want = congestion_along(site, walk.xs[:-1], walk.ys[:-1])
         assert got.tolist() == want.tolist(), trial
+        # and its metres at each point are its steps' (made from the kept path's steps)
+        steps = np.hypot(np.diff(walk.xs), np.diff(walk.ys))
+        assert walk.distances == np.concatenate(((0.0,), np.cumsum(steps))).tolist()
 
 
 def test_the_walks_interpolation_is_numpys_to_the_last_bit():

@@ -73,7 +73,7 @@ class Walk:
     ys: np.ndarray
     times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
     arrival_s: float
-    distances: list | None = None  # cumulative metres at each point (made when asked)
+    distances: list | None = None  # cumulative metres at each point (None: made when asked)
     # Every event looks up where each walker is and how far it walked: on plain lists (the
     # same numbers) a lookup costs a bisection, not numpy's per-call overhead; the last
     # distance asked is kept, as each event asks again for the one the last event asked for.
@@ -207,7 +207,10 @@ class WalkPlanner:
         np.cumsum(np.concatenate(((first,), path.steps)) / speed, out=times[1:])
         times *= walk_factor
         arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
-        return Walk(target, task, now_s, xs, ys, times, arrival)
+        # the metres at each point (``Walk.distance_at``) from the path's kept steps
+        lengths = np.concatenate(((np.hypot(px[0] - start[0], py[0] - start[1]),), path.steps))
+        distances = np.concatenate(((0.0,), np.cumsum(lengths))).tolist()
+        return Walk(target, task, now_s, xs, ys, times, arrival, distances)
 
     def path(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
              task: int) -> _Path:
