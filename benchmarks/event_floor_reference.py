@@ -8,9 +8,10 @@ CLI) on seeds 0-9 with the evaluators priority, nearest and the searched student
 built-in, the disrupted and the tiny case, and prints per floor a hash of its event log (time,
 kind, crew, subject and detail of every event), its makespan, events run and a hash of every
 crew's ``stats``. Then the paths that branch and feed the floor: position events (trajectories),
-values from outside (``pending``), a clone continued, and ``EventFloor.from_engine`` (from an
-event floor, and from the pymunk floor on the tiny case). Speed is not measured here
-(``bench_event_floor.py``): any line that changes means a result changed.
+values from outside (``pending``), clones continued (the floor's own future and a sampled
+one) and ``EventFloor.from_engine`` (from an event floor, and from the pymunk floor on the tiny
+case). Speed is not measured here (``bench_event_floor.py``): any line that changes means a
+result changed.
 """
 
 from __future__ import annotations
@@ -93,12 +94,13 @@ def main() -> int:
                 part = floor.advance(None)
                 terms.append((part.elapsed, tuple(part.terms.values()), floor.metrics.window))
             branch = floor.clone()
+            sampled = floor.clone(scenario=seed + 1)  # another future: paces, disruptions
             rebuilt = EventFloor.from_engine(floor, calibration, keep_log=True)
-            for f in (floor, branch, rebuilt):
+            for f in (floor, branch, sampled, rebuilt):
                 f.run()
             out.write(f"{name} branch seed {seed}: terms={_hash(repr(terms))} "
                       f"original {fingerprint(floor)} clone {fingerprint(branch)} "
-                      f"from_engine {fingerprint(rebuilt)}\n")
+                      f"scenario {fingerprint(sampled)} from_engine {fingerprint(rebuilt)}\n")
     # from the pymunk floor at a decision (the lookahead's way), on the tiny case
     case = cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE)
     for seed in range(2):
