@@ -37,6 +37,7 @@ level's reaching, its rewards and rays) needs the pymunk floor.
 
 from __future__ import annotations
 
+import bisect
 import copy
 import math
 
@@ -157,6 +158,7 @@ class EventFloor(Engine):
         self.walks: list[Walk | None] = []
         self.events_run = 0  # events jumped to this episode (the speed benchmark's count)
         self._settled: dict | None = None  # the last table's ``decide.Context.settled``
+        self._disruption_edges: tuple | None = None  # (windows, their edges): see its use
 
     @property
     def calibration(self) -> Calibration:
@@ -325,13 +327,18 @@ class EventFloor(Engine):
 
     def _next_disruption_change(self, now: float) -> float:
         """The next whole second at which a disruption window opens or closes."""
-        nxt = math.inf
-        for entry in self.timeline.entries:
-            for a, b in entry.windows:
-                for edge in (math.ceil(a), math.ceil(b)):
-                    if now < edge < nxt:
-                        nxt = edge
-        return nxt
+        # The whole seconds at which windows open or close, sorted, kept while the timeline
+        # holds the same windows (``Timeline.resample`` gives an entry new ones): asked at
+        # every event, they were a loop over every window.
+        windows = [entry.windows for entry in self.timeline.entries]
+        held = self._disruption_edges
+        if held is None or len(held[0]) != len(windows) or any(
+                a is not b for a, b in zip(held[0], windows, strict=True)):
+            edges = sorted({math.ceil(t) for w in windows for a, b in w for t in (a, b)})
+            held = self._disruption_edges = (windows, edges)
+        edges = held[1]
+        i = bisect.bisect_right(edges, now)
+        return edges[i] if i < len(edges) else math.inf
 
     def _jump(self, k: int, out: Advance) -> None:
         """``k`` seconds on: walkers move along their paths, P_cons runs them through, then
