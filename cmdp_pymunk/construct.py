@@ -90,9 +90,10 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
     calibrated expectation and steps ``dt`` of many seconds between events: every rate is
     constant within such a step, so one step of ``dt`` is ``dt`` steps of one second."""
     now = site.disrupted
+    disrupted = bool(now)  # once, not per crew
     invaded = invasion if invasion_of is None else invasion_of
     for crew in site.crews:
-        if now and (now.weather or crew.absent):
+        if disrupted and (now.weather or crew.absent):
             continue
         if crew.status == TASKING:
             _work(site, positions, crew, dt, invaded)
