@@ -13,7 +13,19 @@ from collections.abc import Callable
 import numpy as np
 
 from . import events
-from .state import CraneRequest, CrewState, CrewStatus, Rect, Site, StorageState, TaskState, inside
+from .state import (
+    FETCHING,
+    LEFT,
+    TASKING,
+    WAITING,
+    CraneRequest,
+    CrewState,
+    Rect,
+    Site,
+    StorageState,
+    TaskState,
+    inside,
+)
 
 EPS = 1e-9
 MIN_PACE_SHARE = 0.1  # a draw below 10 % of the mean is clipped there: no crew stands still
@@ -34,7 +46,7 @@ def invasion(site: Site, positions, crew: CrewState, area: Rect) -> float:
     """n * I_agent for the area a crew works in: the indices of the other crews inside it."""
     total = 0.0
     for other in site.crews:
-        if other is not crew and other.status != CrewStatus.LEFT:
+        if other is not crew and other.status != LEFT:
             x, y = positions[other.index]
             if inside(x, y, area):
                 total += other.spec.invasion_index
@@ -78,13 +90,14 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
     calibrated expectation and steps ``dt`` of many seconds between events: every rate is
     constant within such a step, so one step of ``dt`` is ``dt`` steps of one second."""
     now = site.disrupted
+    disrupted = bool(now)  # once, not per crew
     invaded = invasion if invasion_of is None else invasion_of
     for crew in site.crews:
-        if now and (now.weather or crew.absent):
+        if disrupted and (now.weather or crew.absent):
             continue
-        if crew.status == CrewStatus.TASKING:
+        if crew.status == TASKING:
             _work(site, positions, crew, dt, invaded)
-        elif crew.status == CrewStatus.FETCHING:
+        elif crew.status == FETCHING:
             _fetch(site, positions, crew, dt, invaded)
     if not (now and now.crane_stopped()):  # broken down or weather: its queue waits
         _serve_crane(site, log, dt)
@@ -170,11 +183,11 @@ def _complete(site: Site, log: events.EventLog, request: CraneRequest) -> None:
         log.add(site.time_s, "crane_done", site.crews[request.crew].id, storage.id, "material")
         for crew in site.crews:
             # a crew waiting for a lift holds its storage; one waiting for hoisting holds none
-            if crew.status == CrewStatus.WAITING and crew.storage == storage.index:
-                events.set_status(site, log, crew, CrewStatus.FETCHING)
+            if crew.status == WAITING and crew.storage == storage.index:
+                events.set_status(site, log, crew, FETCHING)
     else:
         task = site.tasks[request.task]
         task.crane_assisted = True
         crew = site.crews[request.crew]
         log.add(site.time_s, "crane_done", crew.id, task.id, "task")
-        events.set_status(site, log, crew, CrewStatus.TASKING)
+        events.set_status(site, log, crew, TASKING)

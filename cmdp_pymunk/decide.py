@@ -26,11 +26,31 @@ from dataclasses import dataclass, field
 
 from . import construct, events, precedence
 from .physics import Physics
-from .state import CraneRequest, CrewState, CrewStatus, IdleCause, Pool, ScopeKind, Site, inside
+from .precedence import QUEUE, WAIT
+from .state import (
+    DEREGISTERED,
+    FETCHING,
+    LEFT,
+    NO_SCOPE,
+    OUTLET,
+    PAUSED,
+    REACHING,
+    STORAGES,
+    TASKING,
+    TASKS,
+    WAITING,
+    CraneRequest,
+    CrewState,
+    CrewStatus,
+    IdleCause,
+    Site,
+    inside,
+)
 from .streams import RandomStreams
 
 MAX_ROWS_PER_STEP = 3
 EPS = construct.EPS
+_UNSTARTED = (QUEUE, WAIT)  # the pools of the tasks not yet started
 
 
 @dataclass
@@ -44,6 +64,9 @@ class Context:
     log: events.EventLog
     reached: dict = field(default_factory=dict)  # crew index -> target index reached, or -1
     reached_value: dict = field(default_factory=dict)  # crew index -> V_Tar of a reach
+    # crew index -> ``site.version`` when the table last found no row but c2 to fire for the
+    # crew (``apply_decision_table``), for ``only_execution_fires`` right after the table
+    settled: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -67,17 +90,17 @@ def reached_target(crew: CrewState, ctx: Context) -> int:
         return ctx.reached[crew.index]
     site, hit = ctx.site, -1
     x, y = ctx.positions[crew.index]
-    if crew.scope_kind in (ScopeKind.TASKS, ScopeKind.PAUSED):
+    if crew.scope_kind in (TASKS, PAUSED):
         for target, task in crew.scope.items():
             if inside(x, y, site.tasks[task].area):
                 hit = target
                 break
-    elif crew.scope_kind == ScopeKind.STORAGES:
+    elif crew.scope_kind == STORAGES:
         for target in crew.scope:
             if inside(x, y, site.storages[target - len(site.components)].rect):
                 hit = target
                 break
-    elif crew.scope_kind == ScopeKind.OUTLET:
+    elif crew.scope_kind == OUTLET:
         plane = site.case.plane
         if math.hypot(x - plane.outlet_x_m, y - plane.outlet_y_m) <= plane.outlet_radius_m:
             hit = site.outlet_target
@@ -86,7 +109,7 @@ def reached_target(crew: CrewState, ctx: Context) -> int:
 
 
 def _reached_storage(crew: CrewState, ctx: Context):
-    if crew.status != CrewStatus.REACHING or crew.scope_kind != ScopeKind.STORAGES:
+    if crew.status != REACHING or crew.scope_kind != STORAGES:
         return None
     target = reached_target(crew, ctx)
     return None if target < 0 else ctx.site.storages[target - len(ctx.site.components)]
@@ -94,10 +117,6 @@ def _reached_storage(crew: CrewState, ctx: Context):
 
 def _task(crew: CrewState, ctx: Context):
     return ctx.site.tasks[crew.task]
-
-
-def _tasking(crew: CrewState, ctx: Context) -> bool:
-    return crew.status == CrewStatus.TASKING
 
 
 def _record_reach(crew: CrewState, ctx: Context, target: int) -> None:
@@ -120,7 +139,7 @@ def target_id(site: Site, target: int) -> str:
 # -- c1 Initiate task -------------------------------------------------------------------------
 
 def reached_task_target_with_equipment(crew: CrewState, ctx: Context) -> bool:
-    if crew.status != CrewStatus.REACHING or crew.scope_kind != ScopeKind.TASKS \
+    if crew.status != REACHING or crew.scope_kind != TASKS \
             or crew.scope_version != ctx.site.version:
         return False
     target = reached_target(crew, ctx)
@@ -142,15 +161,15 @@ def initiate_task(crew: CrewState, ctx: Context) -> None:
     crew.task = task.index
     crew.clear_scope()
     ctx.log.add(site.time_s, "task_start", crew.id, task.id)
-    events.set_status(site, ctx.log, crew, CrewStatus.TASKING)
+    events.set_status(site, ctx.log, crew, TASKING)
 
 
 # -- c2 Execute task --------------------------------------------------------------------------
 
 def tasking_with_equipment_and_material(crew: CrewState, ctx: Context) -> bool:
-    if not _tasking(crew, ctx):
+    if crew.status != TASKING:
         return False
-    task = _task(crew, ctx)
+    task = ctx.site.tasks[crew.task]
     return (task.progress < task.work - EPS and construct.crane_ready(task)
             and construct.material_sufficient(crew, task))
 
@@ -162,9 +181,9 @@ def execute_task(crew: CrewState, ctx: Context) -> None:
 # -- c3 Pause task ----------------------------------------------------------------------------
 
 def tasking_with_material_running_out(crew: CrewState, ctx: Context) -> bool:
-    if not _tasking(crew, ctx):
+    if crew.status != TASKING:
         return False
-    task = _task(crew, ctx)
+    task = ctx.site.tasks[crew.task]
     return task.progress < task.work - EPS and not construct.material_sufficient(crew, task)
 
 
@@ -175,12 +194,12 @@ def pause_task(crew: CrewState, ctx: Context) -> None:
     crew.sightings[task.component] = (*ctx.positions[crew.index], ctx.site.time_s)
     ctx.log.add(ctx.site.time_s, "task_pause", crew.id, _task(crew, ctx).id)
     set_storage_scope(crew, ctx.site)
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+    events.set_status(ctx.site, ctx.log, crew, REACHING)
 
 
 def set_storage_scope(crew: CrewState, site: Site) -> None:
     crew.clear_scope()
-    crew.scope_kind = ScopeKind.STORAGES
+    crew.scope_kind = STORAGES
     crew.scope = {s.target: -1 for s in site.storages if s.material == crew.material}
     crew.scope_version = site.version
 
@@ -188,7 +207,7 @@ def set_storage_scope(crew: CrewState, site: Site) -> None:
 # -- c4 Resume task ---------------------------------------------------------------------------
 
 def reached_paused_task(crew: CrewState, ctx: Context) -> bool:
-    return (crew.status == CrewStatus.REACHING and crew.scope_kind == ScopeKind.PAUSED
+    return (crew.status == REACHING and crew.scope_kind == PAUSED
             and reached_target(crew, ctx) >= 0)
 
 
@@ -197,7 +216,7 @@ def resume_task(crew: CrewState, ctx: Context) -> None:
     crew.paused = False
     crew.clear_scope()
     ctx.log.add(ctx.site.time_s, "task_resume", crew.id, _task(crew, ctx).id)
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.TASKING)
+    events.set_status(ctx.site, ctx.log, crew, TASKING)
 
 
 # -- c5 Fetch materials -----------------------------------------------------------------------
@@ -213,29 +232,29 @@ def fetch_materials(crew: CrewState, ctx: Context) -> None:
     crew.storage = storage.index
     crew.stats.material_trips += 1
     crew.clear_scope()
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.FETCHING)
+    events.set_status(ctx.site, ctx.log, crew, FETCHING)
 
 
 # -- c6 Fetching completed --------------------------------------------------------------------
 
 def fetching_at_full_load(crew: CrewState, ctx: Context) -> bool:
-    return crew.status == CrewStatus.FETCHING and crew.load >= crew.capacity - EPS
+    return crew.status == FETCHING and crew.load >= crew.capacity - EPS
 
 
 def complete_fetching(crew: CrewState, ctx: Context) -> None:
     crew.storage = -1
     if crew.paused:
         task = _task(crew, ctx)
-        crew.scope_kind = ScopeKind.PAUSED
+        crew.scope_kind = PAUSED
         crew.scope = {task.component: task.index}
         crew.scope_version = ctx.site.version
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+    events.set_status(ctx.site, ctx.log, crew, REACHING)
 
 
 # -- c7 Request crane for material ------------------------------------------------------------
 
 def storage_running_out(crew: CrewState, ctx: Context) -> bool:
-    if crew.status == CrewStatus.FETCHING:
+    if crew.status == FETCHING:
         return crew.load < crew.capacity - EPS and \
             ctx.site.storages[crew.storage].stock <= EPS
     storage = _reached_storage(crew, ctx)
@@ -243,7 +262,7 @@ def storage_running_out(crew: CrewState, ctx: Context) -> bool:
 
 
 def request_crane_for_material(crew: CrewState, ctx: Context) -> None:
-    if crew.status == CrewStatus.REACHING:
+    if crew.status == REACHING:
         storage = _reached_storage(crew, ctx)
         _record_reach(crew, ctx, storage.target)
         crew.storage = storage.index
@@ -255,15 +274,15 @@ def request_crane_for_material(crew: CrewState, ctx: Context) -> None:
         construct.request_crane(ctx.site, ctx.log, CraneRequest(
             crew.index, "material", storage=storage.index))
     crew.stats.crane_waits += 1
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.WAITING)
+    events.set_status(ctx.site, ctx.log, crew, WAITING)
 
 
 # -- c8 Request crane for task ----------------------------------------------------------------
 
 def started_crane_task_with_material(crew: CrewState, ctx: Context) -> bool:
-    if not _tasking(crew, ctx):
+    if crew.status != TASKING:
         return False
-    task = _task(crew, ctx)
+    task = ctx.site.tasks[crew.task]
     return (task.progress < task.work - EPS and not construct.crane_ready(task)
             and construct.material_sufficient(crew, task))
 
@@ -271,13 +290,16 @@ def started_crane_task_with_material(crew: CrewState, ctx: Context) -> bool:
 def request_crane_for_task(crew: CrewState, ctx: Context) -> None:
     construct.request_crane(ctx.site, ctx.log, CraneRequest(crew.index, "task", task=crew.task))
     crew.stats.crane_waits += 1
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.WAITING)
+    events.set_status(ctx.site, ctx.log, crew, WAITING)
 
 
 # -- c9 Complete task -------------------------------------------------------------------------
 
 def tasking_with_progress_complete(crew: CrewState, ctx: Context) -> bool:
-    return _tasking(crew, ctx) and _task(crew, ctx).progress >= _task(crew, ctx).work - EPS
+    if crew.status != TASKING:
+        return False
+    task = ctx.site.tasks[crew.task]
+    return task.progress >= task.work - EPS
 
 
 def complete_task(crew: CrewState, ctx: Context) -> None:
@@ -288,14 +310,14 @@ def complete_task(crew: CrewState, ctx: Context) -> None:
     crew.task = -1
     crew.clear_scope()
     ctx.log.add(ctx.site.time_s, "task_finish", crew.id, task.id)
-    events.set_status(ctx.site, ctx.log, crew, CrewStatus.REACHING)
+    events.set_status(ctx.site, ctx.log, crew, REACHING)
 
 
 # -- c10 Acquire target -----------------------------------------------------------------------
 
 def reaching_without_current_scope(crew: CrewState, ctx: Context) -> bool:
-    return (crew.status == CrewStatus.REACHING and not crew.paused
-            and crew.scope_kind in (ScopeKind.NONE, ScopeKind.TASKS)
+    return (crew.status == REACHING and not crew.paused
+            and crew.scope_kind in (NO_SCOPE, TASKS)
             and crew.scope_version != ctx.site.version)
 
 
@@ -303,37 +325,40 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     """Scope: components with executable tasks of its type; storages if it holds no material;
     the outlet (and deregistration) when no task of its type is queued or waiting."""
     site = ctx.site
-    mine = [site.tasks[t] for t in site.tasks_of_crew_type[crew.type]]
-    remaining = [t for t in mine if t.pool in (Pool.QUEUE, Pool.WAIT)]
+    tasks = site.tasks
+    remaining = [tasks[i] for i in site.tasks_of_crew_type[crew.type]
+                 if tasks[i].pool in _UNSTARTED]
     if not remaining:
         crew.clear_scope()
-        crew.scope_kind = ScopeKind.OUTLET
+        crew.scope_kind = OUTLET
         crew.scope = {site.outlet_target: -1}
         crew.scope_version = site.version
         crew.idle_cause = IdleCause.NONE
-        events.set_status(site, ctx.log, crew, CrewStatus.DEREGISTERED)
+        events.set_status(site, ctx.log, crew, DEREGISTERED)
         return
     if crew.material is not None and crew.load <= EPS:
         set_storage_scope(crew, site)
         crew.idle_cause = IdleCause.NONE
         return
-    scope = {t.component: t.index for t in remaining if site.executable(t)}
-    if scope.keys() != crew.scope.keys() or crew.scope_kind != ScopeKind.TASKS:
+    # each queued task's space conflicts looked at once (the scope, then the idle cause)
+    queued = [t for t in remaining if t.pool == QUEUE]
+    executable = [t for t in queued if site.executable(t)]
+    scope = {t.component: t.index for t in executable}
+    if scope.keys() != crew.scope.keys() or crew.scope_kind != TASKS:
         crew.values = {}  # new targets: the evaluator values them this step
-    crew.scope_kind = ScopeKind.TASKS if scope else ScopeKind.NONE
+    crew.scope_kind = TASKS if scope else NO_SCOPE
     crew.scope = scope
     crew.scope_version = site.version
     if scope:
         crew.idle_cause = IdleCause.NONE
-    elif any(t.pool == Pool.QUEUE for t in remaining):
-        crew.idle_cause = IdleCause.AREA if any(
-            t.pool == Pool.QUEUE and not site.executable(t) for t in remaining) \
+    elif queued:  # some queued task is not executable: blocked by an area
+        crew.idle_cause = IdleCause.AREA if len(executable) < len(queued) \
             else IdleCause.NO_TARGET
     else:
         crew.idle_cause = IdleCause.PREDECESSOR
 
 
-_T, _F, _R = (CrewStatus.TASKING,), (CrewStatus.FETCHING,), (CrewStatus.REACHING,)
+_T, _F, _R = (TASKING,), (FETCHING,), (REACHING,)
 DECISION_TABLE: tuple[Rule, ...] = (
     Rule("c9", "Complete task", tasking_with_progress_complete, complete_task, _T),
     Rule("c3", "Pause task", tasking_with_material_running_out, pause_task, _T),
@@ -360,10 +385,23 @@ def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
     return None
 
 
-def only_execution_fires(ctx: Context) -> bool:
-    """True when, for every crew, no row but c2 (execute) would fire: a quiet second."""
+# each state's last row: c2 firing first, when it is the last, means no other row fires
+_LAST_ROW = {s: rows[-1] for s, rows in ROWS_BY_STATUS.items() if rows}
+
+
+def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
+    """True when, for every crew, no row but c2 (execute) would fire: a quiet second.
+
+    ``settled``: the ``Context.settled`` of a table run on the same state, nothing changed
+    since but values, walks and disruption causes (the event floor's next event, asked right
+    after its table). A crew the table settled at the site's version now is skipped: another
+    crew's rows change what a crew's triggers read only through pools and task areas, which
+    bump the version; its own state has not changed since."""
+    version = ctx.site.version
     for crew in ctx.site.crews:
         if crew.absent:
+            continue
+        if settled is not None and settled.get(crew.index) == version:
             continue
         for rule in ROWS_BY_STATUS[crew.status]:
             if rule.code != "c2" and rule.trigger(crew, ctx):
@@ -375,11 +413,13 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}
     for crew in ctx.site.crews:
-        if crew.status == CrewStatus.LEFT or crew.absent:  # away (a disruption): no decisions
+        if crew.status == LEFT or crew.absent:  # away (a disruption): no decisions
             continue
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):
             rule = first_rule(crew, ctx)
+            if rule is None or (rule.code == "c2" and rule is _LAST_ROW[crew.status]):
+                ctx.settled[crew.index] = ctx.site.version
             if rule is None:
                 break
             rule.effect(crew, ctx)
@@ -387,7 +427,7 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
             codes.append(rule.code)
             if rule.code in TERMINAL_ROWS:
                 break
-        if crew.status == CrewStatus.DEREGISTERED:
+        if crew.status == DEREGISTERED:
             leave_through_outlet(crew, ctx)
         fired[crew.index] = codes
     return fired
@@ -399,7 +439,7 @@ def leave_through_outlet(crew: CrewState, ctx: Context) -> None:
         _record_reach(crew, ctx, ctx.site.outlet_target)
         crew.clear_scope()
         ctx.world.remove_crew(crew.index)
-        events.set_status(ctx.site, ctx.log, crew, CrewStatus.LEFT)
+        events.set_status(ctx.site, ctx.log, crew, LEFT)
     ctx.reached.pop(crew.index, None)
 
 

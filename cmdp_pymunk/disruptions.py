@@ -98,7 +98,10 @@ def random_windows(rng: np.random.Generator, entry: Disruption, from_s: float,
 
 def active(windows, time_s: float) -> bool:
     """Whether ``time_s`` lies in one of the windows [start, end)."""
-    return any(a <= time_s < b for a, b in windows)
+    for a, b in windows:  # a plain loop: every entry's windows are looked at every second
+        if a <= time_s < b:
+            return True
+    return False
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,8 @@ import difflib
 import math
 from typing import Protocol, runtime_checkable
 
-from .state import CrewState, Pool, Site
+from .precedence import QUEUE
+from .state import CrewState, Site
 
 BETAS = (1.0, 0.5, -1.0)  # Eq. 9's weights of successors, distance and conflicts (section 5.3)
 
@@ -134,7 +135,7 @@ def target_attributes(crew: CrewState, site: Site, position) -> dict[int, tuple[
         dist = math.dist(position, site.target_points[target])
         if task_index >= 0:
             task = site.tasks[task_index]
-            spa = sum(site.tasks[o].pool == Pool.QUEUE for o in task.conflicts)
+            spa = sum(site.tasks[o].pool == QUEUE for o in task.conflicts)
             out[target] = (task.all_successors, dist, spa)
         else:
             out[target] = (0, dist, 0)

@@ -18,6 +18,10 @@ class Pool(IntEnum):
     END = 3
 
 
+# The pools as module names, for code that runs at every step (``state`` says why).
+WAIT, QUEUE, ON, END = Pool.WAIT, Pool.QUEUE, Pool.ON, Pool.END
+
+
 def initial_pools(site: Site) -> None:
     """Every task unstarted (section 5.1): in the queue if it has no predecessor, else waiting."""
     for task in site.tasks:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .cases.model import EvaluationReward, ReachingReward
 from .physics import COMPONENT, CREW, N_KINDS, STORAGE, TASK_AREA, WALL
-from .state import CrewStatus, IdleCause, Site
+from .state import LEFT, REACHING, IdleCause, Site
 
 
 def reach_reward(k: float, target_value: float) -> float:
@@ -40,6 +40,7 @@ def reaching_reward(contacts, eta, reached_value: float | None, has_target: bool
     return collision + reach + time
 
 
+_PREDECESSOR, _AREA = IdleCause.PREDECESSOR, IdleCause.AREA  # module names (``state`` says why)
 EVALUATION_TERMS = ("idle_pre", "idle_area", "efficiency", "episode", "path")
 
 
@@ -51,12 +52,17 @@ def evaluation_reward_terms(site: Site, weights: EvaluationReward) -> dict[str, 
     working or heading to a target; episode: the step's share of the episode's duration (plus
     the completion bonus on the step the last task ends); path: crews moving.
     """
-    present = [c for c in site.crews if c.status != CrewStatus.LEFT]
-    idle = [c for c in present if c.status == CrewStatus.REACHING and not c.scope]
-    idle_pre = sum(c.idle_cause == IdleCause.PREDECESSOR for c in idle)
-    idle_area = sum(c.idle_cause == IdleCause.AREA for c in idle)
-    moving = sum(c.moving for c in present)
-    share_working = (len(present) - len(idle)) / len(present) if present else 1.0
+    present = idle = idle_pre = idle_area = moving = 0  # one pass: asked at every event
+    for c in site.crews:
+        if c.status == LEFT:
+            continue
+        present += 1
+        moving += c.moving
+        if c.status == REACHING and not c.scope:
+            idle += 1
+            idle_pre += c.idle_cause == _PREDECESSOR
+            idle_area += c.idle_cause == _AREA
+    share_working = (present - idle) / present if present else 1.0
     return {
         "idle_pre": weights.idle_predecessor * idle_pre,
         "idle_area": weights.idle_area * idle_area,

@@ -15,7 +15,7 @@ from enum import IntEnum
 import numpy as np
 
 from .cases.model import Case, CrewType
-from .precedence import Pool, initial_pools
+from .precedence import ON, QUEUE, Pool, initial_pools
 
 Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
 
@@ -60,7 +60,17 @@ class ScopeKind(IntEnum):
     OUTLET = 4
 
 
-MOVING = (CrewStatus.REACHING, CrewStatus.DEREGISTERED)
+# The members as module names, for the code that runs for every crew at every step (the
+# decision table, P_cons, R_e's terms, the event floor): on Python 3.11 a member read off its
+# class (``CrewStatus.TASKING``) goes through the enum metaclass's ``__getattr__`` hook and
+# costs ~65 ns, a module name ~10 (a tenth of an event floor's time). The same objects.
+REACHING, TASKING, FETCHING, WAITING, DEREGISTERED, LEFT = (
+    CrewStatus.REACHING, CrewStatus.TASKING, CrewStatus.FETCHING, CrewStatus.WAITING,
+    CrewStatus.DEREGISTERED, CrewStatus.LEFT)
+NO_SCOPE, TASKS, STORAGES, PAUSED, OUTLET = (
+    ScopeKind.NONE, ScopeKind.TASKS, ScopeKind.STORAGES, ScopeKind.PAUSED, ScopeKind.OUTLET)
+
+MOVING = (REACHING, DEREGISTERED)
 
 
 def expand(rect: Rect, by: float) -> Rect:
@@ -77,6 +87,15 @@ def inside(x: float, y: float, r: Rect) -> bool:
 
 def overlap(a: Rect, b: Rect) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def overlaps(rects: list[Rect]) -> np.ndarray:
+    """``overlap`` of every pair at once (made for every episode: a loop over the pairs was
+    a few percent of an event floor): ``[i, j]`` whether rects i and j overlap."""
+    r = np.asarray(rects, dtype=np.float64).reshape(-1, 4)
+    a, b = r[:, None, :], r[None, :, :]
+    return ((a[..., 0] < b[..., 2]) & (b[..., 0] < a[..., 2]) & (a[..., 1] < b[..., 3])
+            & (b[..., 1] < a[..., 3]))
 
 
 @dataclass(eq=False)
@@ -195,7 +214,7 @@ class CrewState:
 
     def clear_scope(self) -> None:
         """No target scope, and none current: c10 acquires one at its next chance."""
-        self.scope_kind = ScopeKind.NONE
+        self.scope_kind = NO_SCOPE
         self.scope = {}
         self.values = {}
         self.scope_version = -1
@@ -227,10 +246,11 @@ class Site:
         for t in self.tasks:
             for p in t.predecessors:
                 succ[p].append(t.index)
+        conflicting = overlaps([t.area for t in self.tasks])
+        np.fill_diagonal(conflicting, False)
         for t in self.tasks:
             t.successors = tuple(succ[t.index])
-            t.conflicts = tuple(o.index for o in self.tasks
-                                if o.index != t.index and overlap(t.area, o.area))
+            t.conflicts = tuple(np.flatnonzero(conflicting[t.index]).tolist())
         for t in self.tasks:
             t.all_successors = len(_descendants(t.index, succ))
         self.components = [
@@ -272,8 +292,13 @@ class Site:
 
     def executable(self, task: TaskState) -> bool:
         """Queued, and no space conflict with a task area already on the plane."""
-        return task.pool == Pool.QUEUE and not any(
-            self.tasks[o].pool == Pool.ON for o in task.conflicts)
+        if task.pool != QUEUE:
+            return False
+        tasks = self.tasks
+        for o in task.conflicts:  # a plain loop: asked for every queued task at every c10
+            if tasks[o].pool == ON:
+                return False
+        return True
 
     def in_congestion_area(self, x: float, y: float) -> bool:
         """Inside an active task area or a storage area: where an idle crew is in the way."""
@@ -308,12 +333,17 @@ def activity(crew: CrewState) -> str:
     """What the crew is doing, in the categories of the agents' Gantt chart (Fig. 9); a crew
     a disruption keeps from working is ``idle_<kind>`` (``disruptions``)."""
     if crew.disruption:
-        return "idle_" + crew.disruption.name.lower()
-    if crew.status == CrewStatus.REACHING:
+        return _IDLE_ACTIVITY[crew.disruption]
+    if crew.status == REACHING:
         if crew.scope:
             return "navigating"
-        return "idle_" + (crew.idle_cause.name.lower() if crew.idle_cause else "no_target")
-    return crew.status.name.lower()
+        return _IDLE_ACTIVITY[crew.idle_cause]
+    return _STATUS_ACTIVITY[crew.status]
+
+
+# the names ``activity`` gives, made once (it is asked for every crew at every event)
+_IDLE_ACTIVITY = {c: "idle_" + (c.name.lower() if c else "no_target") for c in IdleCause}
+_STATUS_ACTIVITY = {s: s.name.lower() for s in CrewStatus}
 
 
 ACTIVITIES = ("navigating", "idle_predecessor", "idle_area", "idle_no_target", "tasking",

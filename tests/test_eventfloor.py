@@ -21,7 +21,7 @@ from cmdp_pymunk.eventfloor.calibration import (
     uncalibrated,
     write_calibration,
 )
-from cmdp_pymunk.eventfloor.walks import congestion_along
+from cmdp_pymunk.eventfloor.walks import WalkPlanner, _interp, congestion_along
 from cmdp_pymunk.rollout import play, run_episode
 from cmdp_pymunk.state import Site
 
@@ -214,6 +214,49 @@ def test_congestion_along_a_path_is_eq1s_index_point_by_point():
     want = [move.congestion_index(site, x, y) for x, y in zip(xs, ys, strict=True)]
     assert got.tolist() == want
     assert min(want) < 1.0
+
+
+def test_a_walks_congestion_from_its_kept_path_is_congestion_along_it():
+    """What a walk reads of Eq. 1's I_area (the areas each kept path's points lie in, kept
+    per path and area) is ``congestion_along`` its points, whatever the areas on the plane;
+    its distances are its points' own."""
+    case = cmdp_pymunk.load_case()
+    site = Site(case, 2)
+    planner = WalkPlanner(site)
+    crew = site.crews[0]
+    rng = np.random.default_rng(1)
+    hw, hh = case.plane.half_extents
+    for trial in range(40):
+        site.active_areas[:] = rng.choice(len(site.tasks), 6, replace=False).tolist()
+        for storage in site.storages:
+            storage.stock = storage.capacity * rng.choice([0.0, 0.3, 1.0])
+        task = site.tasks[site.active_areas[0]]
+        crew.scope = {task.component: task.index}
+        start = (float(rng.uniform(-hw, hw)), float(rng.uniform(-hh, hh)))
+        walk = planner.walk(site, crew, start, task.component, 0.0, 1.0)
+        path = planner.path(site, crew, start, task.component, task.index)
+        got = planner._congestion(site, path, start)
+        want = congestion_along(site, walk.xs[:-1], walk.ys[:-1])
+        assert got.tolist() == want.tolist(), trial
+        # and its metres at each point are its steps' (made from the kept path's steps)
+        steps = np.hypot(np.diff(walk.xs), np.diff(walk.ys))
+        assert walk.distances == np.concatenate(((0.0,), np.cumsum(steps))).tolist()
+
+
+def test_the_walks_interpolation_is_numpys_to_the_last_bit():
+    """A walk's distance at a time (``Walk.distance_at``) is numpy.interp done on lists: the
+    same float at the ends, before the start, on a point, on repeated times (a step of zero
+    length) and between points; random paths with random times too."""
+    xp, fp = [0.0, 0.0, 1.5, 1.5, 4.0], [0.0, 0.0, 0.7, 0.9, 2.0]
+    for x in (-1.0, 0.0, 0.3, 1.5, 2.0, 4.0, 9.0):
+        assert _interp(x, xp, fp) == float(np.interp(x, xp, fp)), x
+    rng = np.random.default_rng(0)
+    for _ in range(200):
+        times = np.concatenate(((0.0,), np.cumsum(rng.exponential(1.0, 30))))
+        metres = np.concatenate(((0.0,), np.cumsum(rng.exponential(0.5, 30))))
+        for x in rng.uniform(-1.0, times[-1] + 1.0, 20).tolist() + times.tolist():
+            assert _interp(x, times.tolist(), metres.tolist()) == \
+                float(np.interp(x, times, metres))
 
 
 def test_bad_inputs_are_refused_with_the_fix(tmp_path):

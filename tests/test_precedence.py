@@ -34,6 +34,20 @@ def test_successor_counts_and_space_conflicts(tiny_case):
     assert KA in site.tasks[XA].conflicts and XA in site.tasks[KA].conflicts
 
 
+def test_space_conflicts_are_the_pairwise_overlaps():
+    """The site finds every pair at once (``state.overlaps``): the pairs ``overlap`` finds one
+    by one, in task order, as plain ints, on the built-in case."""
+    import cmdp_pymunk
+    from cmdp_pymunk.state import overlap
+
+    site = Site(cmdp_pymunk.load_case(), stage=2)
+    want = [tuple(o.index for o in site.tasks if o is not t and overlap(t.area, o.area))
+            for t in site.tasks]
+    assert [t.conflicts for t in site.tasks] == want
+    assert all(type(o) is int for t in site.tasks for o in t.conflicts)
+    assert sum(map(len, want)) > len(site.tasks)
+
+
 def test_a_task_waits_until_every_predecessor_ends(tiny_case):
     from conftest import tiny_dict
 

@@ -36,17 +36,16 @@ from pathlib import Path
 import numpy as np
 
 import cmdp_pymunk
+from agents.navigator import Navigator
+from agents.specs import make_evaluator
 from cmdp_pymunk.cases.load import BUILTIN_CASE, CaseError, load_case
 from cmdp_pymunk.eventfloor.calibration import (
     Calibration,
     CrewTypeCalibration,
     beside,
     fingerprint,
-    uncalibrated,
     write_calibration,
 )
-from agents.navigator import Navigator
-from agents.specs import make_evaluator
 from cmdp_pymunk.eventfloor.walks import WalkPlanner
 from cmdp_pymunk.policy import best_target
 from cmdp_pymunk.rollout import Episode, play, stall_report

@@ -37,6 +37,7 @@ level's reaching, its rewards and rays) needs the pymunk floor.
 
 from __future__ import annotations
 
+import bisect
 import copy
 import math
 
@@ -46,7 +47,7 @@ from ..engine import Advance, Engine
 from ..evaluate import TargetEvaluator
 from ..physics import N_KINDS
 from ..policy import best_target
-from ..state import CrewState, CrewStatus, Site
+from ..state import FETCHING, REACHING, TASKING, WAITING, CrewState, Site
 from .calibration import Calibration, uncalibrated
 from .walks import Walk, WalkPlanner
 
@@ -156,12 +157,26 @@ class EventFloor(Engine):
         self.calibration = calibration if calibration is not None else uncalibrated(case)
         self.walks: list[Walk | None] = []
         self.events_run = 0  # events jumped to this episode (the speed benchmark's count)
+        self._settled: dict | None = None  # the last table's ``decide.Context.settled``
+        self._disruption_edges: tuple | None = None  # (windows, their edges): see its use
+
+    @property
+    def calibration(self) -> Calibration:
+        """The fitted numbers the floor runs on (``calibration.calibration_for``)."""
+        return self._calibration
+
+    @calibration.setter
+    def calibration(self, value: Calibration) -> None:
+        self._calibration = value
+        # each crew type's numbers, looked up at every event (Eq. 2's invasion, the walks)
+        self._fitted = {t: value.of(t) for t in self.case.crew_types}
 
     # -- an episode ---------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None) -> None:
         self.walks = [None] * len(self.case.crews)
         self.events_run = 0
+        self._settled = None
         super().reset(seed)
         self._plan_walks()
 
@@ -251,8 +266,8 @@ class EventFloor(Engine):
 
     def _invasion(self, site: Site, positions, crew: CrewState, area) -> float:
         """Eq. 2's n * I_agent on the event floor: the crew type's calibrated expectation."""
-        fitted = self.calibration.of(crew.type)
-        return fitted.task_invasion if crew.status == CrewStatus.TASKING \
+        fitted = self._fitted[crew.type]
+        return fitted.task_invasion if crew.status == TASKING \
             else fitted.fetch_invasion
 
     def _next_event_in(self) -> int:
@@ -260,7 +275,9 @@ class EventFloor(Engine):
         site = self.site
         now = site.time_s
         ctx = self._context()
-        if not decide.only_execution_fires(ctx):
+        # the crews the table settled at the last event need no second look (``settled``)
+        settled, self._settled = self._settled, None
+        if not decide.only_execution_fires(ctx, settled):
             return 1
         soonest = self.max_time_s - now
         disrupted = site.disrupted
@@ -269,7 +286,7 @@ class EventFloor(Engine):
         for crew in site.crews:
             if crew.absent:
                 continue
-            if crew.status == CrewStatus.TASKING and not weather:
+            if crew.status == TASKING and not weather:
                 task = site.tasks[crew.task]
                 if not (construct.crane_ready(task) and construct.material_sufficient(
                         crew, task)) or task.progress >= task.work - construct.EPS:
@@ -282,7 +299,7 @@ class EventFloor(Engine):
                 if task.material_per_work > 0.0:
                     left = min(left, crew.load / (task.material_per_work * rate))
                 soonest = min(soonest, left)
-            elif crew.status == CrewStatus.FETCHING and not weather:
+            elif crew.status == FETCHING and not weather:
                 storage = site.storages[crew.storage]
                 rate = construct.invaded_efficiency(
                     site.case.materials[storage.material].acquire_per_min / 60.0,
@@ -310,13 +327,18 @@ class EventFloor(Engine):
 
     def _next_disruption_change(self, now: float) -> float:
         """The next whole second at which a disruption window opens or closes."""
-        nxt = math.inf
-        for entry in self.timeline.entries:
-            for a, b in entry.windows:
-                for edge in (math.ceil(a), math.ceil(b)):
-                    if now < edge < nxt:
-                        nxt = edge
-        return nxt
+        # The whole seconds at which windows open or close, sorted, kept while the timeline
+        # holds the same windows (``Timeline.resample`` gives an entry new ones): asked at
+        # every event, they were a loop over every window.
+        windows = [entry.windows for entry in self.timeline.entries]
+        held = self._disruption_edges
+        if held is None or len(held[0]) != len(windows) or any(
+                a is not b for a, b in zip(held[0], windows, strict=True)):
+            edges = sorted({math.ceil(t) for w in windows for a, b in w for t in (a, b)})
+            held = self._disruption_edges = (windows, edges)
+        edges = held[1]
+        i = bisect.bisect_right(edges, now)
+        return edges[i] if i < len(edges) else math.inf
 
     def _jump(self, k: int, out: Advance) -> None:
         """``k`` seconds on: walkers move along their paths, P_cons runs them through, then
@@ -341,7 +363,9 @@ class EventFloor(Engine):
         construct.advance(site, self.positions, self.log, float(k), self._invasion)
         self._construct_logged = len(self.log.events) != logged
         self._disrupt()
-        self._decide(self._context())
+        ctx = self._context()
+        self._decide(ctx)
+        self._settled = ctx.settled  # for the next event's look at the table (``settled``)
         if self.timeline is not None:
             disruptions.refresh_causes(site)
         self._log_activities()
@@ -375,10 +399,11 @@ class EventFloor(Engine):
                     stats.reach_timeouts += timeouts
                     self.metrics.window[crew.index]["timeouts"] += timeouts
                     now = self.site.time_s
-                    stats.distance_m += walk.distance_at(now + k) - walk.distance_at(now)
-                elif crew.status == CrewStatus.REACHING and crew.idle_cause:
+                    walked = walk.distance_at(now)  # asked at the last event (kept there)
+                    stats.distance_m += walk.distance_at(now + k) - walked
+                elif crew.status == REACHING and crew.idle_cause:
                     stats.idle_steps[crew.idle_cause] += k
-            elif crew.status == CrewStatus.WAITING:
+            elif crew.status == WAITING:
                 stats.crane_wait_steps += k
 
     def _log_positions(self) -> None:
@@ -411,12 +436,15 @@ class EventFloor(Engine):
             target = best_target(crew)
             walk = self.walks[i]
             if target < 0:
-                self.walks[i] = None
+                # values asked from outside come before any time passes: the walk holds until
+                # they do (so values from outside run as the same rule injected)
+                if i not in self.pending:
+                    self.walks[i] = None
                 continue
             task = crew.scope.get(target, -1)
             if walk is not None and walk.target == target and walk.task == task:
                 continue
-            fitted = self.calibration.of(crew.type)
+            fitted = self._fitted[crew.type]
             self.walks[i] = self.world.planner.walk(site, crew, self.positions[i], target,
                                                     site.time_s, fitted.walk_factor,
                                                     fitted.dock_s)

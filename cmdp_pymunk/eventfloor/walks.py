@@ -17,8 +17,9 @@ same case share them (``WalkPlanner.__deepcopy__``).
 
 from __future__ import annotations
 
+import bisect
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -26,28 +27,29 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from ..cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, PlaneGrid
-from ..state import CrewState, Rect, Site
+from ..state import CrewState, Rect, Site, inside
+
+
+def congestion_areas(site: Site) -> list[tuple[Rect, float]]:
+    """The areas that slow a walk now (Eq. 1), each with its I_area: the active task areas,
+    then the stocked storages."""
+    areas = [(site.tasks[t].area, site.tasks[t].congestion_index) for t in site.active_areas]
+    areas += [(st.rect, site.storage_congestion(st)) for st in site.storages if st.stock > 0.0]
+    return areas
 
 
 def congestion_along(site: Site, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     """I_area (Eq. 1) at many points at once: the most congested (lowest) index of the active
     task areas and stocked storages holding each point, 1 outside them
     (``move.congestion_index`` for one point; a test holds the two equal)."""
-    rects, indices = [], []
-    for t in site.active_areas:
-        task = site.tasks[t]
-        rects.append(task.area)
-        indices.append(task.congestion_index)
-    for st in site.storages:
-        if st.stock > 0.0:
-            rects.append(st.rect)
-            indices.append(site.storage_congestion(st))
-    if not rects:
+    areas = congestion_areas(site)
+    if not areas:
         return np.ones(len(xs))
-    r = np.asarray(rects)
+    r = np.asarray([rect for rect, _ in areas])
     x, y = xs[:, None], ys[:, None]
     inside = (x >= r[:, 0]) & (x <= r[:, 2]) & (y >= r[:, 1]) & (y <= r[:, 3])
-    return np.where(inside, np.asarray(indices), 1.0).min(axis=1, initial=1.0)
+    return np.where(inside, np.asarray([index for _, index in areas]), 1.0).min(
+        axis=1, initial=1.0)
 
 
 def walking_velocities(crew: CrewState, congestion: np.ndarray,
@@ -60,7 +62,7 @@ def walking_velocities(crew: CrewState, congestion: np.ndarray,
     return np.maximum(c * congestion * v_f, min(v_f, lateral_m_s))
 
 
-@dataclass
+@dataclass(eq=False)
 class Walk:
     """One walk: where it goes, the points it passes and when (seconds from its start, the
     calibrated walk factor applied), and when it arrives (a simulated second)."""
@@ -72,29 +74,60 @@ class Walk:
     ys: np.ndarray
     times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
     arrival_s: float
-    distances: np.ndarray | None = None  # cumulative metres at each point (made when asked)
+    distances: list | None = None  # cumulative metres at each point (None: made when asked)
+    # Every event looks up where each walker is and how far it walked: on plain lists (the
+    # same numbers) a lookup costs a bisection, not numpy's per-call overhead; the last
+    # distance asked is kept, as each event asks again for the one the last event asked for.
+    _points: tuple = field(init=False, repr=False)
+    _last_distance: tuple = field(init=False, repr=False, default=(math.nan, 0.0))
+
+    def __post_init__(self):
+        self._points = (self.times.tolist(), self.xs.tolist(), self.ys.tolist())
 
     def at(self, time_s: float) -> tuple[float, float]:
         """Where the crew is at ``time_s`` (on the path's points; at the start before it,
         at the end after it)."""
+        times, xs, ys = self._points
         if time_s >= self.arrival_s:
-            return float(self.xs[-1]), float(self.ys[-1])
-        k = int(np.searchsorted(self.times, time_s - self.start_s, side="right")) - 1
-        k = min(max(k, 0), len(self.xs) - 1)
-        return float(self.xs[k]), float(self.ys[k])
+            return xs[-1], ys[-1]
+        k = bisect.bisect_right(times, time_s - self.start_s) - 1
+        k = min(max(k, 0), len(xs) - 1)
+        return xs[k], ys[k]
 
     def distance_at(self, time_s: float) -> float:
         """Metres walked along the path by ``time_s`` (linear between its points)."""
+        if self._last_distance[0] == time_s:
+            return self._last_distance[1]
         if self.distances is None:
             steps = np.hypot(np.diff(self.xs), np.diff(self.ys))
-            self.distances = np.concatenate(((0.0,), np.cumsum(steps)))
-        return float(np.interp(time_s - self.start_s, self.times, self.distances))
+            self.distances = np.concatenate(((0.0,), np.cumsum(steps))).tolist()
+        metres = _interp(time_s - self.start_s, self._points[0], self.distances)
+        self._last_distance = (time_s, metres)
+        return metres
 
     def heading(self) -> float:
         """The heading of the walk's last step (rad)."""
-        if len(self.xs) < 2:
+        _, xs, ys = self._points
+        if len(xs) < 2:
             return 0.0
-        return math.atan2(self.ys[-1] - self.ys[-2], self.xs[-1] - self.xs[-2])
+        return math.atan2(ys[-1] - ys[-2], xs[-1] - xs[-2])
+
+
+class _Path:
+    """A kept path: its points from a free cell into the goal's reach region, the length of
+    each step between them, and which of its points (but the last) each area holds."""
+
+    def __init__(self, px: np.ndarray, py: np.ndarray):
+        self.px, self.py = px, py
+        self.steps = np.hypot(np.diff(px), np.diff(py))
+        self.held: dict[Rect, np.ndarray] = {}  # rect -> indices into a walk's points
+
+    def points_in(self, rect: Rect) -> np.ndarray:
+        """The indices, among a walk's points (its start first), of this path's points but
+        the last that ``rect`` holds."""
+        px, py = self.px[:-1], self.py[:-1]
+        return np.flatnonzero((px >= rect[0]) & (px <= rect[2]) & (py >= rect[1])
+                               & (py <= rect[3])) + 1
 
 
 class _Radius:
@@ -164,6 +197,27 @@ class WalkPlanner:
         (see the module doc); it arrives at a whole second, one at the earliest (the engine
         sees a reach at the end of a second)."""
         task = crew.scope.get(target, -1)
+        path = self.path(site, crew, start, target, task)
+        px, py = path.px, path.py
+        xs = np.concatenate(((start[0],), px))
+        ys = np.concatenate(((start[1],), py))
+        first = math.hypot(px[0] - start[0], py[0] - start[1])
+        speed = walking_velocities(crew, self._congestion(site, path, start), self.lateral_m_s)
+        times = np.empty(len(xs))
+        times[0] = 0.0
+        np.cumsum(np.concatenate(((first,), path.steps)) / speed, out=times[1:])
+        times *= walk_factor
+        times[-1] += dock_s  # turning to the target and docking at it, once per arrival
+        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
+        # the metres at each point (``Walk.distance_at``) from the path's kept steps
+        lengths = np.concatenate(((np.hypot(px[0] - start[0], py[0] - start[1]),), path.steps))
+        distances = np.concatenate(((0.0,), np.cumsum(lengths))).tolist()
+        return Walk(target, task, now_s, xs, ys, times, arrival, distances)
+
+    def path(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
+             task: int) -> _Path:
+        """The kept path from the free cell nearest ``start`` to ``target`` (``task`` behind
+        it, or -1) for the crew's radius."""
         goal, region = self._goal_of(site, target, task)
         radius = crew.spec.radius_m
         plane = self.plane
@@ -173,21 +227,26 @@ class WalkPlanner:
         path = self._paths.get(key)
         if path is None:
             path = self._paths[key] = self._path(radius, goal, region, cell)
-        px, py, steps = path
-        xs = np.concatenate(((start[0],), px))
-        ys = np.concatenate(((start[1],), py))
-        first = math.hypot(px[0] - start[0], py[0] - start[1])
-        speed = walking_velocities(crew, congestion_along(site, xs[:-1], ys[:-1]),
-                                   self.lateral_m_s)
-        times = np.empty(len(xs))
-        times[0] = 0.0
-        np.cumsum(np.concatenate(((first,), steps)) / speed, out=times[1:])
-        times *= walk_factor
-        times[-1] += dock_s  # turning to the target and docking at it, once per arrival
-        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
-        return Walk(target, task, now_s, xs, ys, times, arrival)
+        return path
 
-    def _path(self, radius: float, goal: tuple, region: tuple, cell: int):
+    def _congestion(self, site: Site, path: _Path, start: tuple[float, float]) -> np.ndarray:
+        """``congestion_along(site, xs[:-1], ys[:-1])`` of the walk ``xs`` from ``start``
+        along ``path`` (a test holds the two equal). Which of a path's points an area holds
+        never changes, so it is kept per path and area: a walk looks up only the areas on
+        the plane now, instead of testing every point against every area."""
+        out = np.ones(len(path.px))  # the start, then the path's points but the last
+        x, y = start
+        for rect, index in congestion_areas(site):
+            held = path.held.get(rect)
+            if held is None:
+                held = path.held[rect] = path.points_in(rect)
+            if held.size:
+                out[held] = np.minimum(out[held], index)
+            if inside(x, y, rect) and index < out[0]:
+                out[0] = index
+        return out
+
+    def _path(self, radius: float, goal: tuple, region: tuple, cell: int) -> _Path:
         """The path's points from a free cell to the goal and into its reach region, and
         the length of each step between them (kept per radius, goal and start cell)."""
         pred = self._predecessors(radius, goal)
@@ -203,7 +262,7 @@ class WalkPlanner:
         end = _into(region, float(self.xs[cells[-1]]), float(self.ys[cells[-1]]))
         px = np.concatenate((self.xs[cells], (end[0],)))
         py = np.concatenate((self.ys[cells], (end[1],)))
-        return px, py, np.hypot(np.diff(px), np.diff(py))
+        return _Path(px, py)
 
     def _goal_of(self, site: Site, target: int, task: int) -> tuple[tuple, tuple]:
         """(the goal's key, the reach region: ("rect", rect) or ("disc", x, y, r))."""
@@ -216,6 +275,21 @@ class WalkPlanner:
             return ("storage", rect), ("rect", rect)
         area = site.tasks[task].area if task >= 0 else site.components[target].rect
         return ("area", area), ("rect", area)
+
+
+def _interp(x: float, xp: list, fp: list) -> float:
+    """``numpy.interp(x, xp, fp)`` for one x on lists (xp increasing, two points or more):
+    numpy's own steps (its ends, a point hit exactly, then slope times offset plus the
+    start), so the same number without numpy's per-call cost."""
+    if x >= xp[-1]:
+        return fp[-1]
+    if x < xp[0]:
+        return fp[0]
+    j = bisect.bisect_right(xp, x) - 1
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
 
 
 def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
@@ -232,4 +306,4 @@ def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
     return min(max(x, x0 + m), x1 - m), min(max(y, y0 + m), y1 - m)
 
 
-__all__ = ["WalkPlanner", "Walk", "congestion_along", "walking_velocities"]
+__all__ = ["WalkPlanner", "Walk", "congestion_along", "congestion_areas", "walking_velocities"]
