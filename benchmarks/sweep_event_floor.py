@@ -21,7 +21,8 @@ import cmdp_pymunk
 from cmdp_pymunk.cases.load import BUILTIN_CASE, DISRUPTED_CASE
 from training.compare import seed_list
 
-LAYOUTS = sorted((BUILTIN_CASE.parent / "layouts").glob("*.toml"))
+LAYOUTS = sorted(p for p in (BUILTIN_CASE.parent / "layouts").glob("*.toml")
+                 if not p.name.endswith(".event.toml"))  # calibrations live beside them
 EVERY_CASE = ("priority", "nearest", "student:models/searched_rule.json")
 BUILT_IN_ONLY = ("ga:models/ga_priorities.json", "models/stage2_evaluator.zip")
 
