@@ -23,7 +23,7 @@ import time
 import gymnasium
 import numpy as np
 
-import cmdp_pymunk  # noqa: F401  (importing it registers the ids)
+import cmdp_pymunk
 
 IDS = ("cmdp/TargetEvaluation-v1", "cmdp/TargetEvaluationEvent-v1")
 
@@ -44,6 +44,7 @@ def play(env, seeds, rng) -> tuple[int, float]:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    cmdp_pymunk.add_version_flag(parser)
     parser.add_argument("--case", default=None, help="a case file (default: the built-in case)")
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--episodes", type=int, default=2, help="episodes per env per round")

@@ -26,12 +26,13 @@ from cmdp_pymunk.rollout import run_episode
 from training.compare import seed_list
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=seed_list, default=list(range(5)))
     p.add_argument("--case", default=None)
     p.add_argument("--evaluator", default="priority")
-    args = p.parse_args()
+    args = p.parse_args(argv)
     case = cmdp_pymunk.load_case(args.case)
     floor = EventFloor(case, evaluator=args.evaluator, stall_s=3600.0,
                        calibration=calibration_for(case, args.case))

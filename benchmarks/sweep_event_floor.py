@@ -45,12 +45,13 @@ def sweep(case_path: str, strategy: str, seeds: list[int]) -> tuple[list, float]
     return bad, time.process_time() - start
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=seed_list, default=list(range(500)))
     p.add_argument("--cases", default="builtin,disrupted,layouts")
     p.add_argument("--workers", type=int, default=2)
-    args = p.parse_args()
+    args = p.parse_args(argv)
     jobs = []
     for name in args.cases.split(","):
         if name == "builtin":

@@ -241,7 +241,8 @@ def test_evaluate_rows_and_summaries_carry_the_cost(tmp_path, disrupted_file):
     assert header.endswith("idle_weather,crane_breakdown_count,crane_breakdown_downtime_s,"
                            "late_delivery_count,late_delivery_downtime_s,absence_count,"
                            "absence_downtime_s,weather_count,weather_downtime_s,"
-                           "undisrupted_makespan_s,disruption_delay_s,disruption_delay_pct,seed_bound_s")
+                           "undisrupted_makespan_s,disruption_delay_s,disruption_delay_pct,seed_bound_s,"
+                           "fidelity")
     summary = json.loads((out / "summary.json").read_text())
     mine = [float(r["disruption_delay_s"]) for r in rows if r["strategy"] == "priority"]
     assert summary[0]["disruption_cost_seeds"] == 2

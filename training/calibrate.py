@@ -207,6 +207,7 @@ def _mean(values) -> float:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = OneLineParser(prog="cmdp-calibrate", description=plain(__doc__),
                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None,
                    help="case file (TOML); default: the built-in case")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+import cmdp_pymunk
 from cmdp_pymunk.cases.load import BUILTIN_CASE, CaseError, load_case
 from cmdp_pymunk.eventfloor.calibration import calibration_for
 from cmdp_pymunk.rollout import versions
@@ -253,6 +254,7 @@ def markdown(result: dict, seeds_text: str) -> str:
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     p = OneLineParser(prog="cmdp-validate-event-floor", description=plain(__doc__),
                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None,
                    help="case file (TOML); default: the built-in case")
     p.add_argument("--seeds", type=seed_list, default=list(range(100, 140)),

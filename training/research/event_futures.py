@@ -110,6 +110,7 @@ def main(argv: list[str] | None = None) -> None:
     from training.compare import seed_list
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=seed_list, default=[0, 1])
     p.add_argument("--futures", type=int, default=32)
     p.add_argument("--every", type=int, default=3)
