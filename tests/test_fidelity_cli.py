@@ -82,6 +82,7 @@ def test_episodes_on_the_event_floor_give_percentiles_histogram_and_s_curve(tmp_
     assert "4/4 episodes finished on the event floor" in capsys.readouterr().out
 
 
+@pytest.mark.slow  # slow: the event floor's outputs are in the gate through the other tests here
 def test_gantt_charts_and_gif_on_the_event_floor_without_trajectories(tmp_path, capsys):
     out = tmp_path / "o"
     assert simulate.main(["--case", TINY, "--fidelity", "event", "--out", str(out),

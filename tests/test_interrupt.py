@@ -163,6 +163,7 @@ def test_simulate_stops_in_an_episode_of_the_builtin_case(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["case.json"]
 
 
+@pytest.mark.slow  # slow: the built-in floor's Ctrl-C test stays in the gate
 def test_simulate_stops_inside_a_lookahead_branch(tmp_path):
     """Ctrl-C while the lookahead runs a branch of the built-in floor: one line, exit 130,
     no half-written outputs."""

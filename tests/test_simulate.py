@@ -326,6 +326,7 @@ def seed_files(out, seeds) -> dict:
     return files
 
 
+@pytest.mark.slow  # slow: two worker processes start (test_backends keeps the gate's sample of it)
 def test_episodes_are_the_same_with_any_number_of_workers(tmp_path, capsys):
     """Seeds 4-6 in this process, in 2 worker processes, and with the GIF's seed rendered here
     and the others in the workers: the same files."""
