@@ -123,24 +123,7 @@ def resolve_floor(case, case_path: Path | None, fidelity: str, calibration: Path
 
 def calibration_file(case, case_path: Path | None, calibration: Path | None) -> Path | None:
     """The file ``eventfloor.calibration_for`` reads for these arguments (None: none, the
-    floor runs uncalibrated): the given one, else the one beside the case file, else the
-    first built-in one with the case's fingerprint. ``calibration_for`` returns the numbers
-    but not where they came from, and a run records both."""
-    import tomllib
+    floor runs uncalibrated): a run records the numbers and where they came from."""
+    from cmdp_pymunk.eventfloor.calibration import calibration_path
 
-    from cmdp_pymunk.eventfloor.calibration import CASES_DIR, SUFFIX, beside, fingerprint
-
-    if calibration is not None:
-        return Path(calibration)
-    if case_path is not None and beside(case_path).is_file():
-        return beside(case_path)
-    mark = fingerprint(case)
-    for candidate in sorted(CASES_DIR.glob("*" + SUFFIX)):
-        try:
-            raw = tomllib.loads(candidate.read_text(encoding="utf-8"))
-        except (OSError, tomllib.TOMLDecodeError):
-            continue
-        table = raw.get("event_floor")
-        if isinstance(table, dict) and table.get("fingerprint") == mark:
-            return candidate
-    return None
+    return calibration_path(case, case_path, calibration)

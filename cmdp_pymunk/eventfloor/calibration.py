@@ -140,16 +140,15 @@ def beside(case_path: str | Path) -> Path:
     return case_path.with_name(case_path.stem + SUFFIX)
 
 
-def calibration_for(case: Case, case_path: str | Path | None = None,
-                    path: str | Path | None = None) -> Calibration:
-    """The calibration an event floor of ``case`` runs on: ``path`` if given (checked);
-    else the one beside ``case_path``; else a built-in one fitted on the same floor (the
-    built-in case's serves its disrupted variant); else ``uncalibrated`` (Eq. 1 and the
-    paces alone: the CLI says so)."""
+def calibration_path(case: Case, case_path: str | Path | None = None,
+                     path: str | Path | None = None) -> Path | None:
+    """Where the calibration of an event floor of ``case`` comes from (``calibration_for``):
+    ``path`` if given; else the file beside ``case_path``; else a built-in one fitted on the
+    same floor; None: none (uncalibrated)."""
     if path is not None:
-        return load_calibration(path, case)
+        return Path(path)
     if case_path is not None and beside(case_path).is_file():
-        return load_calibration(beside(case_path), case)
+        return beside(case_path)
     mark = fingerprint(case)
     for candidate in sorted(CASES_DIR.glob("*" + SUFFIX)):
         try:
@@ -158,8 +157,18 @@ def calibration_for(case: Case, case_path: str | Path | None = None,
             continue
         table = raw.get("event_floor")
         if isinstance(table, dict) and table.get("fingerprint") == mark:
-            return load_calibration(candidate, case)
-    return uncalibrated(case)
+            return candidate
+    return None
+
+
+def calibration_for(case: Case, case_path: str | Path | None = None,
+                    path: str | Path | None = None) -> Calibration:
+    """The calibration an event floor of ``case`` runs on: ``path`` if given (checked);
+    else the one beside ``case_path``; else a built-in one fitted on the same floor (the
+    built-in case's serves its disrupted variant); else ``uncalibrated`` (Eq. 1 and the
+    paces alone: the CLI says so). ``calibration_path`` says which file."""
+    found = calibration_path(case, case_path, path)
+    return uncalibrated(case) if found is None else load_calibration(found, case)
 
 
 def _toml_value(v) -> str:
@@ -189,4 +198,5 @@ def write_calibration(calibration: Calibration, path: str | Path) -> Path:
 
 
 __all__ = ["Calibration", "CrewTypeCalibration", "UNCALIBRATED", "fingerprint", "uncalibrated",
-           "load_calibration", "beside", "calibration_for", "write_calibration"]
+           "load_calibration", "beside", "calibration_for", "calibration_path",
+           "write_calibration"]
