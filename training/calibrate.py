@@ -238,8 +238,8 @@ def main(argv: list[str] | None = None) -> int:
               "path", file=sys.stderr)
         return 2
     seeds = args.seeds
-    command = "cmdp-calibrate " + " ".join(shlex.quote(a) for a in (argv if argv is not None
-                                                                    else sys.argv[1:]))
+    given = argv if argv is not None else sys.argv[1:]
+    command = " ".join(["cmdp-calibrate", *(shlex.quote(a) for a in given)])
     fitted_on = (f"{args.evaluator}, seeds {_seed_text(seeds)}, pymunk floor, cmdp-pymunk "
                  f"{cmdp_pymunk.__version__}")
     print(f"cmdp-calibrate: {case.case.name}: {len(seeds)} pymunk floors ({args.evaluator}, "
