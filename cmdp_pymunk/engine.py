@@ -486,10 +486,15 @@ class Engine:
             return
         for crew in self.site.crews:
             if crew.moving:
-                x, y, heading = self.world.pose(crew.index)
-                last = self._last_logged[crew.index]
-                if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
-                    continue
-                self._last_logged[crew.index] = (x, y)
-                self.log.add(self.site.time_s, "position", crew.id,
-                             f"{x:.2f},{y:.2f},{math.degrees(heading) % 360:.0f}")
+                self._log_position(crew)
+
+    def _log_position(self, crew: CrewState) -> None:
+        """One ``position`` event of the crew at its pose, unless it has moved less than
+        5 cm since the last one it logged."""
+        x, y, heading = self.world.pose(crew.index)
+        last = self._last_logged[crew.index]
+        if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
+            return
+        self._last_logged[crew.index] = (x, y)
+        self.log.add(self.site.time_s, "position", crew.id,
+                     f"{x:.2f},{y:.2f},{math.degrees(heading) % 360:.0f}")

@@ -413,16 +413,8 @@ class EventFloor(Engine):
         if self.position_log_every_s is None or not self.walks:
             return
         for crew in self.site.crews:
-            walk = self.walks[crew.index]
-            if walk is None or not crew.moving:
-                continue
-            x, y = self.positions[crew.index]
-            last = self._last_logged[crew.index]
-            if last is not None and abs(x - last[0]) + abs(y - last[1]) < 0.05:
-                continue
-            self._last_logged[crew.index] = (x, y)
-            self.log.add(self.site.time_s, "position", crew.id,
-                         f"{x:.2f},{y:.2f},{math.degrees(walk.heading()) % 360:.0f}")
+            if self.walks[crew.index] is not None and crew.moving:
+                self._log_position(crew)  # the plane holds where it is on its walk
 
     def _plan_walks(self) -> None:
         """Each crew on the move heads for its best target: a new walk from where it stands
