@@ -87,7 +87,7 @@ def test_lookahead_specs_and_their_errors():
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
     assert make_evaluator("lookahead").settings == LookaheadSettings()
     with pytest.raises(ValueError,
-                       match="candidates=INT, futures=INT or expected, workers=INT, base=SPEC"):
+                       match="candidates=INT, futures=INT or expected, workers=INT, race=INT, base=SPEC"):
         make_evaluator("lookahead:cands=2")
     expected = make_evaluator("lookahead:futures=expected")
     assert expected.settings == LookaheadSettings(futures=1, expected_paces=True)
