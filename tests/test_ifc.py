@@ -668,7 +668,18 @@ def test_slabs_without_a_shape_take_their_footprints_from_aggregated_proxies(tmp
     assert report.components_by_class == {"IfcSlab": 9} and report.skipped_by_class == {}
     assert ("9 IfcSlab without a body of their own: footprints from the elements aggregated "
             "to them (IfcBuildingElementProxy), which are not components") in report.notes
-    # the 20 and 80 mm joints are lanes no crew passes (noted), the 0 mm ones are none
+    # slabs side by side with joints of 0, 20 and 80 mm (at most [import] deck_joint_max_m,
+    # 0.1 m) are decks, walked on once laid: their joints are no lanes to note
+    assert all(c["deck"] for c in data["components"])
+    assert ("9 IfcSlab side by side with joints of at most 0.1 m ([import] deck_joint_max_m) "
+            "form decks: obstacles until installed, walked on after") in report.notes
+    assert not [n for n in report.notes if n.startswith("the lane between")]
+    # with joints of at most 10 mm only row 1's slabs are a deck; the 20 and 80 mm joints are
+    # lanes no crew passes (noted), the 0 mm ones are none
+    overlay = tmp_path / "o.toml"
+    overlay.write_text("[import]\ndeck_joint_max_m = 0.01\n")
+    data, report = import_storey(path, "Level 1", load_overlay(overlay))
+    assert {c["id"] for c in data["components"] if c.get("deck")} == {"D-11", "D-12", "D-13"}
     lanes = [n for n in report.notes if n.startswith("the lane between")]
     assert len(lanes) == 4 and sum(" 0.02 m wide" in n for n in lanes) == 2
     # a slab with neither a body nor parts is still refused
