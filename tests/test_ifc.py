@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import tomllib
+from pathlib import Path
 
 import pytest
 
@@ -888,7 +889,16 @@ def test_each_storey_imports_simulates_20_seeds_and_exports_valid_4d(tmp_path, n
     for seed in range(20):
         summary = json.loads((run / f"seed-{seed}" / "summary.json").read_text())
         assert summary["tasks_finished"] == summary["tasks_total"], (name, seed)
-    logger = ifcopenshell.validate.json_logger()
-    ifcopenshell.validate.validate(ifcopenshell.open(str(run / "seed-0" / "m-4d.ifc")), logger,
-                                   express_rules=True)
-    assert logger.statements == []
+    def problems(model: Path) -> list[str]:
+        logger = ifcopenshell.validate.json_logger()
+        ifcopenshell.validate.validate(ifcopenshell.open(str(model)), logger,
+                                       express_rules=True)
+        # the rule and the instance breaking it (the message also holds object addresses)
+        return sorted(f'{s["message"].splitlines()[0]} on {s["instance"]}'
+                      for s in logger.statements)
+
+    # the export adds nothing invalid: precast_deck's own bodies, in a 'Plan' context without
+    # a RepresentationIdentifier, break an EXPRESS rule in the model and in its copy alike
+    assert problems(run / "seed-0" / "m-4d.ifc") == problems(path)
+    if name != "precast-deck":
+        assert problems(path) == []
