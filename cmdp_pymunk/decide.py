@@ -349,7 +349,9 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     # each queued task's space conflicts looked at once (the scope, then the idle cause); a
     # task whose work point the crew cannot reach yet (behind decks not laid) waits as for a
     # predecessor, or the crew would walk for it forever
-    queued = [t for t in remaining if t.pool == QUEUE and site.reachable(crew, t)]
+    queued = [t for t in remaining if t.pool == QUEUE]
+    if site.reach is not None:
+        queued = [t for t in queued if site.reachable(crew, t)]
     executable = [t for t in queued if site.executable(t)]
     scope = {t.component: t.index for t in executable}
     if scope.keys() != crew.scope.keys() or crew.scope_kind != TASKS:
