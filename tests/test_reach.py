@@ -123,3 +123,24 @@ def test_a_deck_never_laid_leaves_the_ring_closed():
     assert ("tasks: M-C (M on C): no MC crew can reach its work point from where the MC crews "
             "start, over open floor and the decks laid before it (0 of 1 decks can be laid)"
             ) in text
+
+
+def test_a_floor_cloned_after_a_deck_is_laid_goes_on_as_the_original():
+    """A clone rebuilds its plane from the site: the laid deck stays out of the space (the
+    walled-in M-C is still reached), and the clone and the original end identically."""
+    from agents.navigator import Navigator
+    from cmdp_pymunk.engine import Engine
+    from cmdp_pymunk.rollout import play
+
+    case = case_from_dict(ring_with_a_deck(True), "tiny.toml")
+    engine = Engine(case, evaluator="priority")
+    engine.reset(0)
+    navigator = Navigator()
+    while not engine.site.laid:
+        engine.advance(navigator.actions(engine), until=engine.decision_due)
+    branch = engine.clone()
+    assert 5 not in branch.world.component_shapes and 5 not in engine.world.component_shapes
+    play(engine, navigator)
+    play(branch, navigator)
+    assert engine.site.done and branch.site.done
+    assert [t.ended_s for t in engine.site.tasks] == [t.ended_s for t in branch.site.tasks]
