@@ -227,9 +227,15 @@ BEARING = {
 
 def slabs_on_beams(schema: str = "IFC4"):
     """The structural storey (module doc); returns (file, {name: element})."""
+    return storey_of_boxes(BEARING, schema)
+
+
+def storey_of_boxes(elements: dict, schema: str):
+    """A model whose "Level 1" holds ``elements``: (IFC class, name) -> (x0, y0, x1, y1,
+    z bottom, depth), metres; returns (file, {name: element})."""
     f, body, storeys = new_model(schema)
     made = {}
-    for (ifc_class, name), (x0, y0, x1, y1, z, depth) in BEARING.items():
+    for (ifc_class, name), (x0, y0, x1, y1, z, depth) in elements.items():
         made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
                                  box((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0), z=z,
                                  depth=depth)
@@ -275,10 +281,4 @@ L_STOREY = {
 def l_storey(schema: str = "IFC4"):
     """The L-shaped storey of hollow-core slabs (module doc); returns (file, {name:
     element})."""
-    f, body, storeys = new_model(schema)
-    made = {}
-    for (ifc_class, name), (x0, y0, x1, y1, z, depth) in L_STOREY.items():
-        made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
-                                 box((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0), z=z,
-                                 depth=depth)
-    return f, made
+    return storey_of_boxes(L_STOREY, schema)
