@@ -374,14 +374,14 @@ class _Plans:
             esc.best, esc.since_s, esc.rung = here, now, 0
         stuck_s = now - esc.since_s
         if esc.rung == 0 and stuck_s >= BACK_OFF_AFTER_S:
-            self._back_off(crew, esc, x, y, now)
+            self._back_off(crew, esc, own, x, y, now)
         elif esc.rung == 1 and stuck_s >= DETOUR_AFTER_S:
             self._detour_round_stuck_spots(crew, esc, target)
         elif esc.rung == 2 and stuck_s >= GIVE_UP_AFTER_S:
             self._give_up_this_way(crew, esc, x, y, now)
         if esc.retreat is not None:
             return self._carrot(esc.retreat[0], x, y, lowest=True)
-        if esc.way is not None and math.isfinite(here) and here > 0.0:
+        if esc.way is not None and here > 0.0:  # (inf: pressed into a blocked cell)
             return self._carrot(esc.way, x, y, lowest=True)
         return None
 
@@ -397,16 +397,20 @@ class _Plans:
             esc.way, esc.spots, esc.seen, esc.since_s, esc.rung = None, [], None, now, 0
         return None
 
-    def _back_off(self, crew, esc: _Escape, x: float, y: float, now: float) -> None:
-        """Rung 2: step a few metres away from the crews round it. Why: two crews nose to
-        nose, or one pressed into a corner, each re-plan sends straight back into the jam;
-        room to turn is what a crew on site makes first. It remembers where it was stuck."""
+    def _back_off(self, crew, esc: _Escape, own: np.ndarray, x: float, y: float,
+                  now: float) -> None:
+        """Rung 2: step a few metres away from the crews round it, back the way it came.
+        Why: two crews nose to nose, or one pressed into a corner, each re-plan sends
+        straight back into the jam; room to turn is what a crew on site makes first. It
+        remembers where it was stuck."""
         esc.spots.append((x, y))
         esc.rung = 1
         cells = self._retreat_cells(crew, x, y, *BACK_OFF_M)
         if cells.size:
-            far = self._distance_to_crews(crew)[np.unravel_index(cells, (self.ny, self.nx))]
-            goal = cells[np.argmax(far)]  # the freest of them (first on ties: deterministic)
+            rows_cols = np.unravel_index(cells, (self.ny, self.nx))
+            room = np.minimum(self._distance_to_crews(crew)[rows_cols], BACK_OFF_M[1])
+            # the most room from the crews, then the farthest back up its own field
+            goal = cells[np.lexsort((own[rows_cols], room))[-1]]
             esc.retreat = (self._field_to(crew, goal), now + BACK_OFF_S, False)
             self.rungs["back_off"] += 1
 
