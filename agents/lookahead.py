@@ -22,6 +22,15 @@ lookahead only labels: it values the base's candidates at every decision as abov
 decision, and returns the acting evaluator's values, so the floor goes where that policy takes
 it (the student's own states) while the labels say what one step of lookahead would pick there.
 
+Racing (``race=k``, issue 32 item 3: sequential halving's idea, dropping what is clearly
+behind rather than a fixed half): every candidate first meets k futures; a candidate whose
+paired mean difference to the best so far is above its 95 % interval (Student's t over the
+shared futures) is dropped, the others meet twice as many (the same futures again plus new
+ones: still paired), and so on until one candidate is left or the survivors have met
+``futures``; the best mean among them is the choice. Candidates clearly behind cost a few
+futures, and the budget goes to the close ones. With two candidates it stops early when one
+is clearly better; with a single candidate there is no decision (the base rule).
+
 It is an evaluator like the others (``--evaluator lookahead`` in ``cmdp-simulate`` and
 ``cmdp-evaluate``), asked between whole seconds (``between_seconds``: it branches the floor).
 Branches play on the engine alone (``Engine.clone``, then ``rollout.play``) with its own low
@@ -37,6 +46,8 @@ import pickle
 import signal
 import time
 from dataclasses import dataclass
+
+import numpy as np
 
 from cmdp_pymunk.evaluate import Evaluator
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
@@ -75,6 +86,7 @@ class LookaheadSettings:
     unfinished_penalty_s: float = 100_000.0
     workers: int = 1
     think_on: str = "same"
+    race: int = 0
 
     def __post_init__(self):
         if not (isinstance(self.candidates, int) and self.candidates >= 1):
@@ -89,6 +101,13 @@ class LookaheadSettings:
             raise ValueError(f"lookahead think_on must be 'same' (branch the floor itself) or "
                              f"'event' (branch event floors built from it), not "
                              f"{self.think_on!r}")
+        if not (isinstance(self.race, int) and (self.race == 0 or self.race >= 2)):
+            raise ValueError(f"lookahead race must be 0 (off) or an int >= 2 (the first "
+                             f"round's futures: an interval needs two), not {self.race!r}")
+        if self.race and not (self.futures >= self.race and not self.expected_paces):
+            raise ValueError(f"lookahead race={self.race} starts each candidate on that many "
+                             f"sampled futures, up to futures={self.futures}: give futures >= "
+                             f"race (and sampled futures, not expected)")
         if self.expected_paces and self.futures != 1:
             raise ValueError(f"lookahead with expected paces branches once per candidate: "
                              f"futures must be 1, not {self.futures!r}")
@@ -106,6 +125,7 @@ class Decision:
     base_choice: int
     choice: int
     wall_s: float
+    futures_seen: list[int] | None = None  # per candidate, when racing
 
 
 def promote(values: dict[int, float], target: int) -> dict[int, float]:
@@ -194,14 +214,19 @@ class LookaheadEvaluator(Evaluator):
         if site.crews[i].scope_kind != ScopeKind.TASKS or len(candidates) < 2:
             return None
         start = time.perf_counter()
-        if self.settings.workers > 1:
-            makespans = self._parallel_makespans(engine, i, values, candidates)
+        seen = None
+        if self.settings.race:
+            makespans, seen, alive = self._race(engine, i, values, candidates)
         else:
-            makespans = [self._mean_makespan(engine, i, values, c) for c in candidates]
-        choice = min(candidates, key=lambda c: (makespans[candidates.index(c)],
-                                                candidates.index(c)))
+            alive = candidates
+            if self.settings.workers > 1:
+                makespans = self._parallel_makespans(engine, i, values, candidates)
+            else:
+                makespans = [self._mean_makespan(engine, i, values, c) for c in candidates]
+        choice = min(alive, key=lambda c: (makespans[candidates.index(c)],
+                                           candidates.index(c)))
         decision = Decision(site.time_s, i, candidates, makespans, order[0], choice,
-                            time.perf_counter() - start)
+                            time.perf_counter() - start, seen)
         self.decisions.append(decision)
         if self.on_decision is not None:
             self.on_decision(engine, i, values, decision)
@@ -218,6 +243,25 @@ class LookaheadEvaluator(Evaluator):
             return [None]
         first = len(self.decisions) * k
         return list(range(first, first + k))
+
+    def _race(self, engine, i: int, values: dict[int, float],
+              candidates: list[int]) -> tuple[list[float], list[int], list[int]]:
+        """Racing over ``candidates`` (module doc): each candidate's mean makespan over the
+        futures it met, how many it met, and the last round's survivors."""
+        futures = self.scenarios()  # the decision's futures, a prefix of them per round
+        met: dict[int, list[float]] = {c: [] for c in candidates}
+        alive, k = list(candidates), self.settings.race
+        while True:
+            k = min(k, len(futures))
+            for c in alive:
+                met[c] += [self.branch_makespan(engine, i, values, c, s)
+                           for s in futures[len(met[c]):k]]
+            alive = [c for c in alive if not clearly_behind(met[c], alive, met)]
+            if len(alive) == 1 or k == len(futures):
+                break
+            k *= 2
+        return ([sum(met[c]) / len(met[c]) for c in candidates],
+                [len(met[c]) for c in candidates], alive)
 
     def _mean_makespan(self, engine, i: int, values: dict[int, float], target: int) -> float:
         return sum(self.branch_makespan(engine, i, values, target, s)
@@ -285,7 +329,25 @@ class LookaheadEvaluator(Evaluator):
                 "wall_s": round(math.fsum(x.wall_s for x in d), 2),
                 "candidates": self.settings.candidates,
                 "futures": "expected" if self.settings.expected_paces else self.settings.futures,
-                "thinks_on": self.settings.think_on}
+                "thinks_on": self.settings.think_on, "race": self.settings.race,
+                "branches": sum(sum(x.futures_seen) if x.futures_seen is not None
+                                else len(x.candidates) * max(1, self.settings.futures)
+                                for x in d)}
+
+
+def clearly_behind(mine: list[float], alive: list[int], met: dict[int, list[float]]) -> bool:
+    """Whether a candidate's makespans (``mine``, over the first futures) are clearly worse
+    than the best surviving candidate's on the same futures: the paired mean difference is
+    above Student's t 95 % interval (two-sided) around 0."""
+    from scipy.stats import t as student_t
+
+    n = len(mine)
+    best = min(alive, key=lambda c: sum(met[c][:n]) / n)
+    diffs = np.subtract(mine, met[best][:n])
+    if n < 2 or not diffs.any():
+        return False
+    half = student_t.ppf(0.975, n - 1) * diffs.std(ddof=1) / math.sqrt(n)
+    return bool(diffs.mean() > half)
 
 
 def run_branch(branch, low_level, base, i: int, values: dict[int, float], target: int,

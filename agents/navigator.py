@@ -79,12 +79,15 @@ WAY_CELLS = 400  # the most cells ``way`` traces
 
 class _Grid:
     """Free cells and their 8-connected edges for one crew radius, on the plane's grid
-    (``cmdp_pymunk.cases.reach.PlaneGrid``, the one the case check proves reachable)."""
+    (``cmdp_pymunk.cases.reach.PlaneGrid``, the one the case check proves reachable), with
+    the decks laid so far open floor."""
 
     def __init__(self, nav: _Plans, radius: float):
         self.radius = radius
-        self.blocked = nav.plane.blocked([c.rect for c in nav.site.components],
-                                         radius + nav.clearance_m)
+        laid = nav.site.laid
+        self.blocked = nav.plane.blocked(
+            [c.rect for c in nav.site.components if c.index not in laid],
+            radius + nav.clearance_m)
         self.src, self.dst, self.length = nav.plane.edges(~self.blocked)
         self.n = nav.nx * nav.ny
         self.graphs: dict = {}
@@ -172,13 +175,7 @@ class _Plans:
         self.half_w, self.half_h, self.nx, self.ny = plane.half_w, plane.half_h, plane.nx, \
             plane.ny
         self.cx, self.cy = plane.cx, plane.cy
-        self.grids: dict[float, _Grid] = {}
-        self.crew_grid = []
-        for crew in self.site.crews:
-            r = round(crew.spec.radius_m, 3)
-            if r not in self.grids:
-                self.grids[r] = _Grid(self, r)
-            self.crew_grid.append(self.grids[r])
+        self._make_grids()
         self.fields: dict = {}
         self.area_key = None
         n = len(self.site.crews)
@@ -189,6 +186,17 @@ class _Plans:
         self.escape: list[_Escape | None] = [None] * n
         self.rungs = {"back_off": 0, "detour": 0, "give_up": 0}  # how often each fired
         self.plans = 0
+
+    def _make_grids(self) -> None:
+        """A grid per crew radius on the floor open now (the decks laid so far)."""
+        self.laid = self.site.laid
+        self.grids: dict[float, _Grid] = {}
+        self.crew_grid = []
+        for crew in self.site.crews:
+            r = round(crew.spec.radius_m, 3)
+            if r not in self.grids:
+                self.grids[r] = _Grid(self, r)
+            self.crew_grid.append(self.grids[r])
 
     def _cost(self) -> np.ndarray:
         cost = np.ones((self.ny, self.nx))
@@ -241,6 +249,9 @@ class _Plans:
 
     def actions(self) -> list:
         """Every crew's action, by crew index."""
+        if self.site.laid != self.laid:  # a deck was laid: plan over it from now on
+            self._make_grids()
+            self.area_key = None
         key = tuple(sorted(self.site.active_areas))
         if key != self.area_key:  # task areas appeared or vanished: re-plan everything
             self.area_key = key

@@ -61,9 +61,10 @@ def make_evaluator(spec: str):
 
 
 def make_lookahead(options: str):
-    """``lookahead:candidates=K+futures=F+base=SPEC+floor=event`` (each optional; ``+``
-    because ``--strategies`` separates strategies with commas) as an evaluator; ``floor=event``
-    branches on event floors built from the floor's state (think there, act on the floor)."""
+    """``lookahead:candidates=K+futures=F+race=R+base=SPEC+floor=event`` (each optional;
+    ``+`` because ``--strategies`` separates strategies with commas) as an evaluator;
+    ``floor=event`` branches on event floors built from the floor's state (think there, act on
+    the floor); ``race=R`` sequential halving from H futures a candidate up to F."""
     from .lookahead import LookaheadEvaluator, LookaheadSettings
 
     settings, base = {}, "priority"
@@ -73,14 +74,14 @@ def make_lookahead(options: str):
             base = value
         elif key == "futures" and value == "expected":
             settings["expected_paces"] = True
-        elif key in ("candidates", "futures", "workers") and sep and value.isdigit():
+        elif key in ("candidates", "futures", "workers", "race") and sep and value.isdigit():
             settings[key] = int(value)
         elif key == "floor" and value in ("same", "event"):
             settings["think_on"] = value
         else:
             raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
-                             f"candidates=INT, futures=INT or expected, workers=INT, base=SPEC, "
-                             f"floor=same or event (joined by +); e.g. "
+                             f"candidates=INT, futures=INT or expected, workers=INT, "
+                             f"race=INT, base=SPEC, floor=same or event (joined by +); e.g. "
                              f"lookahead:candidates=3+futures=1+base=priority")
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "

@@ -21,7 +21,7 @@ import numpy as np
 from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
 from cmdp_pymunk.state import ScopeKind
 
-from .features import FEATURE_NAMES, FloorFacts, candidate_features
+from .features import ALL_FEATURES, FEATURE_NAMES, FloorFacts, candidate_features
 from .lookahead import promote, ranked
 
 
@@ -29,16 +29,25 @@ class StudentEvaluator(Evaluator):
     """Eq. 9 plus a learned residual over its top candidates (see the module doc).
 
     Args:
-        weights: crew type -> one weight per ``FEATURE_NAMES`` (a missing type: zeros).
+        weights: crew type -> one weight per feature in ``features`` (a missing type: zeros).
         candidates: how many of Eq. 9's best targets it may re-rank.
+        features: the features the weights are for, each once, from
+            ``agents.features.ALL_FEATURES`` (default ``FEATURE_NAMES``, the first eleven).
     """
 
-    def __init__(self, weights: dict[str, list[float]] | None = None, candidates: int = 3):
+    def __init__(self, weights: dict[str, list[float]] | None = None, candidates: int = 3,
+                 features: tuple[str, ...] = FEATURE_NAMES):
+        features = tuple(features)
+        unknown = [n for n in features if n not in ALL_FEATURES]
+        if unknown or len(set(features)) != len(features) or not features:
+            raise ValueError(f"student features {list(features)}: each once, from "
+                             f"{', '.join(ALL_FEATURES)}")
+        self.features = features
         self.weights = {k: np.asarray(v, dtype=np.float64) for k, v in (weights or {}).items()}
         for crew_type, w in self.weights.items():
-            if w.shape != (len(FEATURE_NAMES),):
+            if w.shape != (len(features),):
                 raise ValueError(f"student weights for {crew_type!r}: {w.shape[0]} numbers, "
-                                 f"expected {len(FEATURE_NAMES)} ({', '.join(FEATURE_NAMES)})")
+                                 f"expected {len(features)} ({', '.join(features)})")
         self.candidates = candidates
         self.base = PriorityEvaluator()
         self._facts: dict = {}
@@ -76,7 +85,7 @@ class StudentEvaluator(Evaluator):
         if crew.scope_kind != ScopeKind.TASKS or len(top) < 2 or w is None or not w.any():
             return values
         phi = candidate_features(self.facts(site), crew, site, position, top, priorities,
-                                 engine.positions)
+                                 engine.positions, self.features)
         scores = np.array([priorities[t] for t in top]) + phi @ w
         choice = top[int(np.argmax(scores))]  # ties: Eq. 9's order
         if choice == order[0]:
@@ -88,7 +97,7 @@ class StudentEvaluator(Evaluator):
 
     def save(self, path: Path, meta: dict) -> None:
         """Weights and how they were made, as JSON (written whole, then moved into place)."""
-        data = {"kind": "cmdp-student", "features": list(FEATURE_NAMES),
+        data = {"kind": "cmdp-student", "features": list(self.features),
                 "candidates": self.candidates,
                 "weights": {k: [round(float(x), 6) for x in v] for k, v in self.weights.items()},
                 **meta}
@@ -104,8 +113,10 @@ class StudentEvaluator(Evaluator):
         except (OSError, json.JSONDecodeError) as err:
             raise ValueError(f"--evaluator student:{path}: cannot read it ({err}); give a file "
                              f"written by training.research.distill") from err
-        if data.get("kind") != "cmdp-student" or data.get("features") != list(FEATURE_NAMES):
+        features = data.get("features")
+        if data.get("kind") != "cmdp-student" or not isinstance(features, list) or \
+                not set(features) <= set(ALL_FEATURES):
             raise ValueError(f"--evaluator student:{path}: not a student file for these features "
-                             f"({', '.join(FEATURE_NAMES)}); refit it with "
-                             "training.research.distill")
-        return cls(data["weights"], data["candidates"])
+                             f"(any of {', '.join(ALL_FEATURES)}); refit it with "
+                             "training.research.distill or cmdp-search-rule")
+        return cls(data["weights"], data["candidates"], tuple(features))

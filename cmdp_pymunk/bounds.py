@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 
 from scipy import integrate, stats
 
@@ -52,6 +53,7 @@ def expected_duration_s(case: Case, task) -> float:
     return seconds + (case.crane.assist_time_s if tt.needs_crane else 0.0)
 
 
+@lru_cache(maxsize=1024)  # a handful of crew types a case, asked once per task
 def clipped_normal_mean(mean: float, sd: float, floor: float) -> float:
     """E[max(X, floor)] for X ~ N(mean, sd), in closed form: floor * Phi(a) + mean * (1 -
     Phi(a)) + sd * phi(a) with a = (floor - mean) / sd. A duration crew's expected duration:
@@ -62,6 +64,7 @@ def clipped_normal_mean(mean: float, sd: float, floor: float) -> float:
     return float(floor * stats.norm.cdf(a) + mean * stats.norm.sf(a) + sd * stats.norm.pdf(a))
 
 
+@lru_cache(maxsize=1024)  # a numerical integral: every task of a crew type asks the same
 def clipped_normal_inverse_mean(mean: float, sd: float, floor: float) -> float:
     """E[1 / max(X, floor)] for X ~ N(mean, sd), by numerical integration: Phi(a) / floor (the
     clipped mass) + the integral of pdf(x) / x from ``floor`` up. An efficiency crew's time per

@@ -16,6 +16,9 @@ Where Table 1 is silent, this reading is used (docs/case-study.md lists them):
   set (a target vanished or appeared); a crew idle for want of targets waits for such a change.
 - A deregistered crew that reaches the outlet leaves the plane (``leave_through_outlet``).
 - A crew away from the plane (an absence, ``disruptions``) tries no row until it is back.
+- c10 offers a crew only the queued tasks whose work points it reaches now: on a floor with
+  decks (``Component.deck``, walked on once laid) a task behind decks not yet laid waits as
+  for a predecessor (``Site.reachable``); c9 lays the deck its task lays (``Site.lay``).
 """
 
 from __future__ import annotations
@@ -307,6 +310,9 @@ def complete_task(crew: CrewState, ctx: Context) -> None:
     task.progress = task.work
     precedence.finish(ctx.site, task)
     ctx.world.remove_task_area(task.index)
+    deck = ctx.site.lay(task)
+    if deck >= 0:  # a deck laid: crews walk over it from now on
+        ctx.world.lay_deck(deck)
     crew.task = -1
     crew.clear_scope()
     ctx.log.add(ctx.site.time_s, "task_finish", crew.id, task.id)
@@ -340,8 +346,12 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
         set_storage_scope(crew, site)
         crew.idle_cause = IdleCause.NONE
         return
-    # each queued task's space conflicts looked at once (the scope, then the idle cause)
+    # each queued task's space conflicts looked at once (the scope, then the idle cause); a
+    # task whose work point the crew cannot reach yet (behind decks not laid) waits as for a
+    # predecessor, or the crew would walk for it forever
     queued = [t for t in remaining if t.pool == QUEUE]
+    if site.reach is not None:
+        queued = [t for t in queued if site.reachable(crew, t)]
     executable = [t for t in queued if site.executable(t)]
     scope = {t.component: t.index for t in executable}
     if scope.keys() != crew.scope.keys() or crew.scope_kind != TASKS:

@@ -64,6 +64,10 @@ class Physics(Protocol):
     def remove_task_area(self, task: int) -> None:
         """a^c9: the task area is deregistered."""
 
+    def lay_deck(self, component: int) -> None:
+        """A deck component (``cases.model.Component.deck``) is laid: from now on crews walk
+        over it, it no longer blocks them."""
+
     def remove_crew(self, i: int) -> None:
         """Crew i leaves the plane (the outlet, a disruption); its pose is kept."""
 

@@ -15,6 +15,7 @@ from enum import IntEnum
 import numpy as np
 
 from .cases.model import Case, CrewType
+from .cases.reach import Reach, laying_tasks
 from .precedence import ON, QUEUE, Pool, initial_pools
 
 Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
@@ -284,6 +285,14 @@ class Site:
             ct: tuple(t.index for t in self.tasks if t.crew_type == ct) for ct in case.crew_types}
         self.active_areas: list[int] = []  # tasks whose areas are on the plane (pool ON)
         self.tasks_ended = 0
+        # Decks (``Component.deck``): walked on once laid. Which task lays which deck (task
+        # index -> component index), the decks laid so far, and who reaches what over them;
+        # a floor without decks has none of it and runs as before.
+        self.laying: dict[int, int] = {task_index[t]: comp_index[c]
+                                       for t, c in laying_tasks(case).items()}
+        self.laid: frozenset[int] = frozenset()
+        self.reach = Reach.of(case) if self.laying else None
+        self.starts = [(c.start_x_m, c.start_y_m) for c in case.crews]
 
         self.disrupted = None  # disruptions.Now during the coming second; None: no disruptions
         self.reset_pools()
@@ -299,6 +308,22 @@ class Site:
             if tasks[o].pool == ON:
                 return False
         return True
+
+    def reachable(self, crew: CrewState, task: TaskState) -> bool:
+        """Whether the crew reaches the task's work point now, from its start over open floor
+        and the decks laid so far (open floor only grows, so wherever the crew stands lies in
+        its start's region); always on a floor without decks (the case check proved it)."""
+        if self.reach is None:
+            return True
+        return self.reach.reaches(crew.spec.radius_m, self.starts[crew.index], task.index,
+                                  self.laid)
+
+    def lay(self, task: TaskState) -> int:
+        """The deck that ``task`` lays, now laid (walked on from here on), or -1."""
+        deck = self.laying.get(task.index, -1)
+        if deck >= 0:
+            self.laid = self.laid | {deck}
+        return deck
 
     def in_congestion_area(self, x: float, y: float) -> bool:
         """Inside an active task area or a storage area: where an idle crew is in the way."""

@@ -140,3 +140,12 @@ def calendar_summary(calendar: Calendar, makespan_s: float | None,
         "stopped": iso(calendar_datetime(calendar, simulated_s)) if simulated_s is not None
         else None,
     }
+
+
+def finish_dates(calendar: Calendar, makespans_s: dict[str, float | None]) -> dict:
+    """Planner's dates of several makespans at once (``{"p80": 33000.0, ...}`` -> ``{"p80":
+    "2026-01-21T11:10:00", ...}``, None kept), with the calendar's second 0 and its working
+    time in words: ``makespans.json``'s and ``cmdp-evaluate``'s ``calendar`` entries."""
+    return {"second_0": iso(first_working_moment(calendar)), "working_time": describe(calendar),
+            **{k: iso(calendar_datetime(calendar, s)) if s is not None else None
+               for k, s in makespans_s.items()}}

@@ -138,9 +138,13 @@ class World:
         for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
             self._add_static(_tag(pymunk.Segment(static, a, b, WALL_RADIUS_M), WALL),
                              CATEGORY[WALL])
+        self.component_shapes: dict[int, pymunk.Shape] = {}  # by component index
         for comp in site.components:
-            self._add_static(_tag(_box(static, comp.rect), COMPONENT, target=comp.index),
-                             CATEGORY[COMPONENT])
+            if comp.index in site.laid:  # a deck laid (a rebuild): walked on, not an obstacle
+                continue
+            shape = _tag(_box(static, comp.rect), COMPONENT, target=comp.index)
+            self._add_static(shape, CATEGORY[COMPONENT])
+            self.component_shapes[comp.index] = shape
         self.storage_rects: dict[int, Rect] = {}  # by target index
         for st in site.storages:
             self._add_static(_tag(_box(static, st.rect), STORAGE, target=st.target),
@@ -229,6 +233,14 @@ class World:
         self.space.remove(shape)
         self.motion_version += 1
 
+    def lay_deck(self, component: int) -> None:
+        """A deck is laid: its box leaves the space, so crews walk over it (and rays no longer
+        see it: a laid deck's later tasks are found by the navigator, which reads the state)."""
+        shape = self.component_shapes.pop(component)
+        self.rays.unregister(shape)
+        self.space.remove(shape)
+        self.motion_version += 1
+
     def remove_crew(self, i: int) -> None:
         """A crew that went through the outlet leaves the plane."""
         body = self.bodies[i]
@@ -269,9 +281,10 @@ class World:
                 "at_rest": self.at_rest, "motion_version": self.motion_version}
 
     def __setstate__(self, state: dict) -> None:
-        """Rebuild the space from ``__getstate__``'s data: walls, components, storages, the
-        outlet and crews as at the start, then the task areas on the plane in the order they
-        appeared, the crews' poses and velocities, and what the counters held."""
+        """Rebuild the space from ``__getstate__``'s data: walls, components (but the decks
+        laid, which the site holds), storages, the outlet and crews as at the start, then the
+        task areas on the plane in the order they appeared, the crews' poses and velocities,
+        and what the counters held."""
         self.__init__(state["case"], state["site"], state["public_rays"])
         for i, pose in enumerate(state["bodies"]):
             if pose is None:

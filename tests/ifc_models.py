@@ -20,6 +20,19 @@ storey's level 0). Slabs 3 x 1.2 m, three to a row with joints of 0, 20 and 80 m
 crossing them; columns 0.4 x 0.4 m at the slabs' corners (z -3.5..0); a wall of the storey
 below under the edge y = 0 (z -3..0), all assigned to Level 1; and a wall standing on the
 floor (z 0..3) 3 m beside the deck.
+
+``wide_slab_deck(schema)``: storey "Level 1" as a wide-slab floor from a precast detailing
+tool: 5 x 5 ``IfcSlab`` "W-rc" (row r from the bottom, column c from the left), 4 x 2.4 m,
+70 mm thick (z -0.07..0), each with a placement and its body on an aggregated
+``IfcBuildingElementProxy``, lengths in millimetres; side by side with joints of 0, 20, 40, 60
+and 80 mm between the slabs of rows 1 to 5 and 50 mm between the rows: one deck, no lane
+through it. The model at x 300..320.32, y 200..212.2.
+
+``l_storey(schema)``: storey "Level 1" in an L of hollow-core slabs (``IfcSlab``, 1.2 m wide,
+6 m long along y, 200 mm thick, z 0..0.2, joints of 20 mm): eight slabs "H-1".."H-8" along x
+from x 0 (the L's foot, y 0..6) and four "H-9".."H-12" from x 0 on them (its leg, y 6.02 ..
+12.02); beams 0.4 m wide under the slabs' ends (z -0.5..0) at y 0 and 6.01 (the foot's
+width) and 12.02 (the leg's), columns 0.4 x 0.4 m (z -3..0) at the L's six corners.
 """
 
 from __future__ import annotations
@@ -217,6 +230,54 @@ def slabs_on_beams(schema: str = "IFC4"):
     f, body, storeys = new_model(schema)
     made = {}
     for (ifc_class, name), (x0, y0, x1, y1, z, depth) in BEARING.items():
+        made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
+                                 box((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0), z=z,
+                                 depth=depth)
+    return f, made
+
+
+# the wide-slab deck: slab "W-rc" -> its lower left corner (metres)
+WIDE_SLAB_M = (4.0, 2.4)
+WIDE_JOINTS_M = (0.0, 0.02, 0.04, 0.06, 0.08)  # between the slabs of rows 1..5
+WIDE_ROW_JOINT_M = 0.05
+WIDE = {f"W-{r + 1}{c + 1}": (300.0 + c * (WIDE_SLAB_M[0] + joint),
+                              200.0 + r * (WIDE_SLAB_M[1] + WIDE_ROW_JOINT_M))
+        for r, joint in enumerate(WIDE_JOINTS_M) for c in range(5)}
+
+
+def wide_slab_deck(schema: str = "IFC4"):
+    """The 5 x 5 wide-slab deck (module doc); returns (file, {name: slab})."""
+    f, body, storeys = new_model(schema)
+    w, h = WIDE_SLAB_M
+    slabs = {}
+    for name, (x0, y0) in WIDE.items():
+        slabs[name], _ = add_assembled(f, body, storeys["Level 1"], "IfcSlab", name,
+                                       box(x0 + w / 2, y0 + h / 2, w, h), z=0.0, depth=0.07)
+    return f, slabs
+
+
+# the L: (IFC class, name) -> (x0, y0, x1, y1, z bottom, depth), metres
+HOLLOW_CORE_JOINT_M = 0.02
+L_STOREY = {
+    **{("IfcSlab", f"H-{k + 1}"): (x0, 0.0, x0 + 1.2, 6.0, 0.0, 0.2)
+       for k, x0 in enumerate(1.22 * n for n in range(8))},
+    **{("IfcSlab", f"H-{k + 9}"): (x0, 6.02, x0 + 1.2, 12.02, 0.0, 0.2)
+       for k, x0 in enumerate(1.22 * n for n in range(4))},
+    ("IfcBeam", "B-1"): (0.0, -0.2, 9.74, 0.2, -0.5, 0.5),
+    ("IfcBeam", "B-2"): (0.0, 5.81, 9.74, 6.21, -0.5, 0.5),
+    ("IfcBeam", "B-3"): (0.0, 11.82, 4.86, 12.22, -0.5, 0.5),
+    **{("IfcColumn", f"C-{k + 1}"): (x - 0.2, y - 0.2, x + 0.2, y + 0.2, -3.0, 3.0)
+       for k, (x, y) in enumerate(((0.0, 0.0), (9.74, 0.0), (9.74, 6.01), (4.86, 6.01),
+                                   (4.86, 12.02), (0.0, 12.02)))},
+}
+
+
+def l_storey(schema: str = "IFC4"):
+    """The L-shaped storey of hollow-core slabs (module doc); returns (file, {name:
+    element})."""
+    f, body, storeys = new_model(schema)
+    made = {}
+    for (ifc_class, name), (x0, y0, x1, y1, z, depth) in L_STOREY.items():
         made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
                                  box((x0 + x1) / 2, (y0 + y1) / 2, x1 - x0, y1 - y0), z=z,
                                  depth=depth)

@@ -145,10 +145,15 @@ def hand_percentile(values: list[float], q: float) -> float:
 def test_histogram_and_s_curve_inputs_match_the_episodes(tmp_path):
     """The makespan histogram's P50/P80/P90 (summary.json) are the percentiles of the
     episodes' makespans, worked out here by hand; the S-curve's input, each episode's task
-    end times, ends at its makespan and counts its tasks."""
+    end times, ends at its makespan and counts its tasks. With a calendar starting Friday
+    2026-01-09 15:30 (08:00-16:00 Mon-Fri, the 12th a holiday) each finish and each
+    percentile gets its date: by hand, second s > 1800 is Tue 13th 08:00 + (s - 1800)."""
+    import datetime as dt
+
     out = tmp_path / "cmp"
     assert evaluate.main(["--case", TINY, "--seeds", "0-2", "--strategies", "priority",
-                          "--workers", "1", "--out", str(out), "--no-progress"]) == 0
+                          "--workers", "1", "--out", str(out), "--no-progress",
+                          "--start", "2026-01-09T15:30", "--holidays", "2026-01-12"]) == 0
     for name in ("makespan_histogram.png", "s_curve.png"):
         assert (out / name).stat().st_size > 1000, name
     rows = evaluate.read_log(out / "episodes.jsonl")
@@ -161,6 +166,19 @@ def test_histogram_and_s_curve_inputs_match_the_episodes(tmp_path):
     assert entry["makespan_p50_s"] == pytest.approx(b) == hand_percentile(makespans, 50)
     assert entry["makespan_p80_s"] == pytest.approx(b + 0.6 * (c - b))
     assert entry["makespan_p90_s"] == pytest.approx(b + 0.8 * (c - b))
+
+    def by_hand(s: float) -> str:
+        assert 1800 < s <= 1800 + 28800  # the tiny floor ends on Tuesday
+        at = dt.datetime(2026, 1, 13, 8) + dt.timedelta(seconds=s - 1800)
+        return at.replace(microsecond=0).isoformat()
+
+    assert [entry[f"finish_{k}"] for k in ("mean", "p50", "p80", "p90")] == [by_hand(
+        entry[f"makespan_{k}_s"]) for k in ("mean", "p50", "p80", "p90")]
+    finishes = {int(line.split(",")[2]): line.rsplit(",", 1)[1]
+                for line in (out / "episodes.csv").read_text().splitlines()[1:]}
+    assert finishes == {r["seed"]: by_hand(r["makespan_s"]) for r in rows}
+    assert f"| priority | scripted | {by_hand(entry['makespan_mean_s']).replace('T', ' ')}" in \
+        (out / "summary.md").read_text()
     n_tasks = len(cmdp_pymunk.load_case(TINY).tasks)
     for r in rows:
         ends = r["task_end_times_s"]

@@ -23,7 +23,8 @@ def test_promote_swaps_the_chosen_target_with_the_best():
 
 
 def test_one_candidate_is_the_base_rule_exactly(priority_floor):
-    lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=0))
+    # (racing settings too: with one candidate there is no race either)
+    lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=4, race=2))
     env = play_floor(lookahead)
     base = priority_floor
     assert env.engine.site.done and env.makespan_s == base.makespan_s
@@ -86,7 +87,7 @@ def test_lookahead_specs_and_their_errors():
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
     assert make_evaluator("lookahead").settings == LookaheadSettings()
     with pytest.raises(ValueError,
-                       match="candidates=INT, futures=INT or expected, workers=INT, base=SPEC"):
+                       match="candidates=INT, futures=INT or expected, workers=INT, race=INT, base=SPEC"):
         make_evaluator("lookahead:cands=2")
     expected = make_evaluator("lookahead:futures=expected")
     assert expected.settings == LookaheadSettings(futures=1, expected_paces=True)
@@ -145,3 +146,55 @@ def test_an_acting_policy_drives_the_floor_while_the_lookahead_labels(tiny_case)
     assert lookahead.decisions and all(len(d.makespans_s) == 2 for d in lookahead.decisions)
     with pytest.raises(ValueError, match="plain evaluator"):
         LookaheadEvaluator(acting=LookaheadEvaluator())
+
+
+def test_racing_drops_what_is_clearly_behind_and_keeps_the_futures_paired(tiny_case):
+    """Two candidates from 2 futures each up to 8: each round every survivor meets a prefix
+    of the decision's futures (paired); a candidate stops early only where its paired
+    difference to the other is clearly positive (recomputed here by hand), and the choice
+    met the most futures."""
+    import numpy as np
+    from scipy.stats import t as student_t
+
+    lookahead = Recording(settings=LookaheadSettings(candidates=2, futures=8, race=2))
+    made: list = []
+    original = LookaheadEvaluator.branch_makespan
+
+    def recorded(self, engine, i, values, target, scenario):
+        made.append((len(self.decisions), target, original(self, engine, i, values, target,
+                                                            scenario)))
+        return made[-1][2]
+
+    lookahead.branch_makespan = recorded.__get__(lookahead)
+    env = play_floor(lookahead, tiny_case)
+    assert env.engine.site.done and lookahead.decisions
+    for k, d in enumerate(lookahead.decisions):
+        seen = {c: [m for dk, t, m in made if dk == k and t == c] for c in d.candidates}
+        assert [len(seen[c]) for c in d.candidates] == d.futures_seen
+        assert set(d.futures_seen) <= {2, 4, 8}
+        assert len(seen[d.choice]) == max(d.futures_seen)
+        short = [c for c in d.candidates if len(seen[c]) < max(d.futures_seen)]
+        for c in short:  # stopped: clearly behind the choice on the futures both met
+            n = len(seen[c])
+            diffs = np.subtract(seen[c], seen[d.choice][:n])
+            assert diffs.mean() > student_t.ppf(0.975, n - 1) * diffs.std(ddof=1) / n ** 0.5
+        if len(set(d.futures_seen)) == 1 and d.futures_seen[0] < 8:  # stopped early: clear
+            n = d.futures_seen[0]
+            loser = next(c for c in d.candidates if c != d.choice)
+            assert np.mean(seen[loser]) > np.mean(seen[d.choice])
+    assert lookahead.summary()["branches"] == len(made)
+
+
+def test_racing_over_as_many_futures_as_it_starts_with_is_the_plain_lookahead(tiny_case):
+    plain = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=2))
+    racing = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=2, race=2))
+    a, b = play_floor(plain, tiny_case), play_floor(racing, tiny_case)
+    assert a.makespan_s == b.makespan_s and a.log.events == b.log.events
+    assert [d.makespans_s for d in plain.decisions] == [d.makespans_s for d in racing.decisions]
+    assert isinstance(make_evaluator("lookahead:candidates=3+futures=8+race=2"),
+                      LookaheadEvaluator)
+    with pytest.raises(ValueError, match="futures >= race"):
+        LookaheadSettings(futures=2, race=4)
+    with pytest.raises(ValueError, match="an interval needs two"):
+        LookaheadSettings(futures=8, race=1)
+

@@ -131,3 +131,22 @@ def test_cmdp_search_rule_names_a_bad_setting_and_writes_a_usable_rule(tmp_path,
     for name in ("rule.json", "history.csv", "checkpoint.pkl", "config.json"):
         assert (out / name).is_file(), name
     assert make_evaluator(f"student:{out / 'rule.json'}").candidates == 5
+
+
+def test_a_search_on_the_event_floor_is_selected_on_the_pymunk_floor(tmp_path):
+    """Generations on the event floor with a binding feature, the selection on the pymunk
+    floor: each seed's Eq. 9 baseline comes from the floor its seed runs on, and the rule
+    file names its features and floors."""
+    case = far_start_case()
+    config = RuleSearchConfig(features=["nearness", "unlocks_binding"], popsize=3,
+                              train_seeds=[0, 1], seeds_per_generation=1, select_seeds=[5],
+                              generations=1, fidelity="event")
+    state = search_rule(case, config, tmp_path, progress=False)
+    on = {f: EpisodeRunner(case, fidelity=f) for f in ("event", "pymunk")}
+    assert state.baseline[0] == on["event"].run("priority", "scripted", 0)["makespan_s"]
+    assert state.baseline[5] == on["pymunk"].run("priority", "scripted", 5)["makespan_s"]
+    rule = json.loads((tmp_path / "rule.json").read_text())
+    assert (rule["fidelity"], rule["select_fidelity"]) == ("event", "pymunk")
+    assert "unlocks_binding" in rule["features"] and len(rule["features"]) > len(FEATURE_NAMES)
+    with pytest.raises(ValueError, match="each once, from"):
+        RuleSearchConfig(features=["crane_queue"])

@@ -171,3 +171,39 @@ def test_a_case_with_a_calendar_round_trips_and_one_without_dumps_as_before(tiny
         "start": "2026-01-09T15:00:00", "working_hours": "08:00-16:00",
         "working_days": ["Mon", "Tue", "Wed", "Thu", "Fri"], "holidays": ["2026-01-12"]}
     assert case_from_dict(case.model_dump(mode="json")) == case
+
+
+def test_finish_dates_of_several_makespans_by_hand():
+    from cmdp_pymunk.workcalendar import finish_dates
+
+    # 3600 s ends Friday at 16:00; 3600 + 60 s is Tuesday 08:01 (Monday the 12th a holiday)
+    got = finish_dates(HOLIDAY, {"p50": 3600.0, "p80": 3660.0, "max": None})
+    assert got == {"second_0": "2026-01-09T15:00:00",
+                   "working_time": "08:00-16:00 Mon-Fri, 1 holiday",
+                   "p50": "2026-01-09T16:00:00", "p80": "2026-01-13T08:01:00", "max": None}
+
+
+def test_makespans_files_carry_the_finish_dates(tmp_path):
+    """``cmdp-simulate --episodes N``'s makespans.csv and makespans.json with a calendar: the
+    dates of three made-up floors (1800 s, 3660 s, unfinished) by hand."""
+    import json
+
+    from training.simulate import write_makespans
+
+    rows = [{"seed": s, "makespan_s": m, "makespan_over_lower_bound": None,
+             "tasks_finished": 3, "all_finished": m is not None, "reach_rate": 1.0,
+             "lower_bound": {"lower_bound_s": 1000.0}}
+            for s, m in ((0, 1800.0), (1, 3660.0), (2, None))]
+    stats = write_makespans(tmp_path, rows, HOLIDAY)
+    lines = (tmp_path / "makespans.csv").read_text().splitlines()
+    assert lines[0].endswith(",finish")
+    assert [line.rsplit(",", 1)[1] for line in lines[1:]] == \
+        ["2026-01-09T15:30:00", "2026-01-13T08:01:00", ""]
+    saved = json.loads((tmp_path / "makespans.json").read_text())
+    assert saved["calendar"] == stats["calendar"]
+    # mean of the two finished floors 2730 s: Friday 15:45:30; min/max their own dates
+    assert (saved["calendar"]["mean"], saved["calendar"]["min"], saved["calendar"]["max"]) == \
+        ("2026-01-09T15:45:30", "2026-01-09T15:30:00", "2026-01-13T08:01:00")
+    write_makespans(tmp_path, rows)  # without a calendar: no dates
+    assert json.loads((tmp_path / "makespans.json").read_text())["calendar"] is None
+    assert not (tmp_path / "makespans.csv").read_text().splitlines()[0].endswith(",finish")

@@ -124,3 +124,39 @@ def parse_search_args(prog: str, doc: str, default_config: Path, default_out: Pa
     a = p.parse_args(argv)
     return SearchArgs(a.config, tuple(a.set), a.workers, a.out, a.resume, not a.no_progress,
                       a.ray)
+
+
+# the calendar's entries and the options that override them (cmdp-simulate, cmdp-evaluate)
+CALENDAR_OPTIONS = {"start": "--start", "working_hours": "--working-hours",
+                    "working_days": "--working-days", "holidays": "--holidays"}
+
+
+def add_calendar_options(p: argparse.ArgumentParser, dated: str) -> None:
+    """``--calendar FILE`` and the options that override its entries; ``dated`` says which
+    outputs get dates."""
+    p.add_argument("--calendar", type=Path, default=None, metavar="FILE.toml",
+                   help="the working calendar: the [calendar] table of this file (a case file "
+                        "or one with only that table), instead of the case's")
+    p.add_argument("--start", default=None, metavar="ISO-DATETIME",
+                   help="the calendar's start, e.g. 2026-01-05T08:00 (with no calendar yet: "
+                        f"one with 08:00-16:00, Mon-Fri); dates in {dated}")
+    p.add_argument("--working-hours", default=None, metavar="HH:MM-HH:MM",
+                   help="the calendar's working hours, e.g. 07:00-15:30")
+    p.add_argument("--working-days", default=None, metavar="DAYS",
+                   help="the calendar's working days, e.g. Mon-Fri or Mon-Thu,Sat")
+    p.add_argument("--holidays", default=None, metavar="DATES",
+                   help="the calendar's holidays, e.g. 2026-01-12,2026-04-03")
+
+
+def calendar_of(case, args):
+    """The working calendar the options in ``args`` give (``calendar``, ``start``,
+    ``working_hours``, ``working_days``, ``holidays``): the case's ``[calendar]``, or
+    ``--calendar FILE``'s, with the other options replacing its entries; None without one.
+    ``CaseError`` (exit 2) naming the file or option, the entry and the fix."""
+    from cmdp_pymunk.cases.load import calendar_with, load_calendar
+
+    calendar = load_calendar(args.calendar) if args.calendar is not None else case.calendar
+    given = {field: getattr(args, field) for field in CALENDAR_OPTIONS}
+    if any(value is not None for value in given.values()):
+        calendar = calendar_with(calendar, given, "command line", CALENDAR_OPTIONS)
+    return calendar

@@ -73,7 +73,16 @@ from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
 from cmdp_pymunk.rollout import versions
-from training.cli import OneLineParser, add_ray_option, plain, positive_int, positive_seconds
+from cmdp_pymunk.workcalendar import calendar_summary
+from training.cli import (
+    OneLineParser,
+    add_calendar_options,
+    add_ray_option,
+    calendar_of,
+    plain,
+    positive_int,
+    positive_seconds,
+)
 from training.fidelity import Floor, add_fidelity_options, resolve_floor
 from training.runs.backends import BackendError, WorkerLost, open_backend
 from training.runs.paired import (
@@ -142,6 +151,12 @@ class EvaluateArgs:
     disruption_cost: bool = True  # a disrupted case's episodes also played without (doc)
     fidelity: str = "pymunk"  # the floor: the paper's, or the event floor (training/fidelity.py)
     calibration: Path | None = None  # the event floor's (None: the case's, if any)
+    # the working calendar that dates the finishes (None: the case's, or none)
+    calendar: Path | None = None
+    start: str | None = None
+    working_hours: str | None = None
+    working_days: str | None = None
+    holidays: str | None = None
 
     @property
     def solves_cpsat(self) -> bool:
@@ -205,6 +220,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "measuring it doubles the work). A case without disruptions is played "
                         "once either way")
     add_fidelity_options(p)
+    add_calendar_options(p, "episodes.csv, summary.md, summary.csv and summary.json (each "
+                         "finish, and the mean and P50/P80/P90 finishes per strategy)")
     p.add_argument("--no-progress", action="store_true", help="show no progress bar")
     a = p.parse_args(argv)
     if not a.strategies or not a.navigators:
@@ -215,7 +232,8 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
                         not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
-                        a.per_seed, not a.no_disruption_cost, a.fidelity, a.calibration)
+                        a.per_seed, not a.no_disruption_cost, a.fidelity, a.calibration,
+                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int,
@@ -371,6 +389,7 @@ def _main(args: EvaluateArgs) -> int:
 
     try:
         case = cmdp_pymunk.load_case(args.case)
+        calendar = calendar_of(case, args)  # dates the finishes; the episodes run in seconds
         floor = run_floor(case, args)  # before anything is built or run
         check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
                     args.deterministic)
@@ -454,13 +473,19 @@ def _main(args: EvaluateArgs) -> int:
                for e in summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)]
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS, *STRUCK_FIELDS, *COST_FIELDS,
               *SEED_BOUND_FIELDS, "fidelity"]
+    if calendar is not None:  # appended: older columns keep their places
+        rows, summary = date_finishes(calendar, rows, summary)
+        fields.append("finish")
     time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
     if floor.fidelity == "event":  # no event-floor table may pass for the pymunk floor's
         table = f"On the {floor.label()}, not the pymunk floor.\n\n" + table
+    if calendar is not None:
+        table += "\n" + finish_dates_table(calendar, summary)
     if time_use:
         table += "\n" + time_use_table(time_use)
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
+                "working_calendar": calendar_summary(calendar, None, None) if calendar else None,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
                 **floor.record(),
                 "lower_bound": lb.as_dict(), "cpsat": cpsat_dict, "episodes": len(rows),
@@ -495,6 +520,37 @@ def _main(args: EvaluateArgs) -> int:
     print(f"cmdp-evaluate: {ran} episodes in {wall:.0f} s "
           f"({ran / max(wall, 1e-9):.2f} episodes/s) -> {args.out}")
     return 1 if any(not r["finished"] for r in rows) else 0
+
+
+FINISHES = ("mean", "p50", "p80", "p90")  # the makespans each strategy's finish dates date
+
+
+def date_finishes(calendar, rows: list[dict], summary: list[dict]) -> tuple[list, list]:
+    """The rows with the calendar date of each finish (``finish``, empty for an unfinished
+    episode) and the summary entries with ``finish_mean``, ``finish_p50``, ``finish_p80``,
+    ``finish_p90``: simulated seconds as working time from the calendar's second 0."""
+    from cmdp_pymunk.workcalendar import calendar_datetime, finish_dates, iso
+
+    rows = [{**r, "finish": iso(calendar_datetime(calendar, r["makespan_s"]))
+             if r["finished"] else ""} for r in rows]
+    summary = [{**e, **{f"finish_{k}": v for k, v in finish_dates(calendar, {
+        "mean": e["makespan_mean_s"], **{k: e.get(f"makespan_{k}_s") for k in FINISHES[1:]}
+    }).items() if k in FINISHES}} for e in summary]
+    return rows, summary
+
+
+def finish_dates_table(calendar, summary: list[dict]) -> str:
+    """summary.md's finish dates: one row per strategy and low level."""
+    from cmdp_pymunk.workcalendar import describe, first_working_moment, iso
+
+    lines = [f"Finish dates: second 0 = {iso(first_working_moment(calendar))}, working time "
+             f"{describe(calendar)}.", "",
+             "| strategy | low level | mean finish | P50 | P80 | P90 |",
+             "|---|---|---|---|---|---|"]
+    lines += [f"| {e['strategy']} | {e['navigator']} | "
+              + " | ".join((e[f"finish_{k}"] or "-").replace("T", " ") for k in FINISHES) + " |"
+              for e in summary]
+    return "\n".join(lines) + "\n"
 
 
 def _resumable(case, args: EvaluateArgs) -> list[dict]:

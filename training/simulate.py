@@ -28,7 +28,9 @@ entries overridden by ``--start``, ``--working-hours``, ``--working-days``, ``--
 ``--start`` alone gives one with 08:00-16:00, Mon-Fri) turns simulated seconds into dates
 (``cmdp_pymunk.workcalendar``): simulated time is working time, second 0 the start or the next
 working moment. Then ``schedule.csv`` gets ``start`` and ``end`` dates, the Gantt charts a date
-axis, ``summary.json`` a ``calendar`` entry (the calendar, second 0, the finish date), the 4D
+axis, ``summary.json`` a ``calendar`` entry (the calendar, second 0, the finish date),
+``makespans.csv`` a ``finish`` date per seed and ``makespans.json`` the dates of the mean,
+P50/P80/P90, min and max (its ``calendar`` entry), the 4D
 export the calendar's dates, and ``case.json`` the calendar used. Without one nothing changes.
 
 The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/runner.py``): in this
@@ -88,7 +90,9 @@ from pathlib import Path
 # torch) lands inside main(), which turns it into one line and exit 130.
 from training.cli import (
     OneLineParser,
+    add_calendar_options,
     add_ray_option,
+    calendar_of,
     non_negative_int,
     plain,
     positive_int,
@@ -96,9 +100,6 @@ from training.cli import (
 )
 
 DEFAULT_IFC_START = "2026-01-05T08:00:00"  # second 0 of the 4D export without a calendar
-# the calendar's entries and the options that override them
-CALENDAR_OPTIONS = {"start": "--start", "working_hours": "--working-hours",
-                    "working_days": "--working-days", "holidays": "--holidays"}
 GIF_SECONDS = 30.0
 GIF_FPS = 10
 POSITION_LOG_EVERY_S = 5.0
@@ -191,19 +192,8 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                    metavar="ISO-DATETIME",
                    help="the date and time of simulated second 0 in the 4D schedule, elapsed "
                         f"time, without a working calendar (default {DEFAULT_IFC_START})")
-    p.add_argument("--calendar", type=Path, default=None, metavar="FILE.toml",
-                   help="the working calendar: the [calendar] table of this file (a case file "
-                        "or one with only that table), instead of the case's")
-    p.add_argument("--start", default=None, metavar="ISO-DATETIME",
-                   help="the calendar's start, e.g. 2026-01-05T08:00 (with no calendar yet: "
-                        "one with 08:00-16:00, Mon-Fri); dates in schedule.csv, the charts, "
-                        "summary.json and the 4D export")
-    p.add_argument("--working-hours", default=None, metavar="HH:MM-HH:MM",
-                   help="the calendar's working hours, e.g. 07:00-15:30")
-    p.add_argument("--working-days", default=None, metavar="DAYS",
-                   help="the calendar's working days, e.g. Mon-Fri or Mon-Thu,Sat")
-    p.add_argument("--holidays", default=None, metavar="DATES",
-                   help="the calendar's holidays, e.g. 2026-01-12,2026-04-03")
+    add_calendar_options(p, "schedule.csv, the charts, summary.json, makespans.json and the "
+                         "4D export")
     p.add_argument("--workers", type=positive_int, default=None,
                    help="worker processes for the episodes, or Ray actors with --ray (default: "
                         "this process; with --ray, every CPU of the Ray)")
@@ -229,12 +219,9 @@ def with_calendar(case, args: SimulateArgs):
     ``--calendar FILE``'s, with ``--start``, ``--working-hours``, ``--working-days`` and
     ``--holidays`` replacing its entries. ``CaseError`` (exit 2) naming the file or option,
     the entry and the fix."""
-    from cmdp_pymunk.cases.load import CaseError, calendar_with, load_calendar
+    from cmdp_pymunk.cases.load import CaseError
 
-    calendar = load_calendar(args.calendar) if args.calendar is not None else case.calendar
-    given = {field: getattr(args, field) for field in CALENDAR_OPTIONS}
-    if any(value is not None for value in given.values()):
-        calendar = calendar_with(calendar, given, "command line", CALENDAR_OPTIONS)
+    calendar = calendar_of(case, args)
     if calendar is not None and args.ifc_start is not None:
         raise CaseError("command line", [
             "--ifc-start: a working calendar gives the 4D export its dates, so --ifc-start "
@@ -611,7 +598,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         return 1
     progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
-        stats = write_makespans(args.out, rows)
+        stats = write_makespans(args.out, rows, case.calendar)
         if args.charts:
             from media.episodes import draw_episodes
 
@@ -762,18 +749,25 @@ def cost_text(data: dict) -> str:
             f"{seconds_and_hours(cost['undisrupted_makespan_s'])} on the same seed without them")
 
 
-def write_makespans(out: Path, rows: list[dict]) -> dict:
+def write_makespans(out: Path, rows: list[dict], calendar=None) -> dict:
+    """``makespans.csv`` (a row per seed) and ``makespans.json`` (``makespan_stats``, the
+    disruptions and their cost); with a working calendar, the finish dates too: a ``finish``
+    column and a ``calendar`` entry dating the mean, P50/P80/P90, min and max."""
     from cmdp_pymunk.events import write_atomic
     from cmdp_pymunk.rollout import makespan_stats, seconds_and_hours
+    from cmdp_pymunk.workcalendar import calendar_datetime, finish_dates, iso
 
     costs = [r.get("disruption_cost") for r in rows]
     measured = any(c is not None for c in costs)
     lines = ["seed,makespan_s,makespan_over_lower_bound,tasks_finished,all_finished,reach_rate"
-             + (",undisrupted_makespan_s,disruption_delay_s" if measured else "")]
+             + (",undisrupted_makespan_s,disruption_delay_s" if measured else "")
+             + (",finish" if calendar is not None else "")]
     lines += [f"{r['seed']},{r['makespan_s'] or ''},{r['makespan_over_lower_bound'] or ''},"
               f"{r['tasks_finished']},{r['all_finished']},{r['reach_rate']:.4f}"
               + (f",{_blank(c and c['undisrupted_makespan_s'])},{_blank(c and c['delay_s'])}"
                  if measured else "")
+              + ("," + (iso(calendar_datetime(calendar, r["makespan_s"])) if r["makespan_s"]
+                        else "") if calendar is not None else "")
               for r, c in zip(rows, costs, strict=True)]
     write_atomic(out / "makespans.csv", "\n".join(lines) + "\n")
     # the floor the episodes ran on first, so that no event-floor result passes for pymunk's
@@ -781,6 +775,8 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
              "calibration": rows[0].get("calibration"), **makespan_stats(rows)}
     stats["disruptions"] = mean_struck([r.get("disruptions") for r in rows])
     stats["disruption_cost"] = mean_cost(rows) if measured else None
+    stats["calendar"] = finish_dates(calendar, {k: stats[f"{k}_s"] for k in (
+        "mean", "p50", "p80", "p90", "min", "max")}) if calendar is not None else None
     write_json(out / "makespans.json", stats)
     if stats["finished"]:
         floor = " on the event floor" if stats["fidelity"] == "event" else ""
@@ -794,6 +790,10 @@ def write_makespans(out: Path, rows: list[dict]) -> dict:
               + "); "
               f"P50 {stats['p50_s']:.0f} s, P80 {stats['p80_s']:.0f} s, "
               f"P90 {stats['p90_s']:.0f} s")
+    if stats["calendar"] is not None and stats["finished"]:
+        dates = stats["calendar"]
+        print(f"cmdp-simulate: finish dates from {dates['second_0']} ({dates['working_time']}): "
+              f"P50 {dates['p50']}, P80 {dates['p80']}, P90 {dates['p90']}")
     if stats["disruptions"] is not None:
         print(f"cmdp-simulate: {mean_cost_text(stats)}")
     if stats["percentiles_note"]:

@@ -74,7 +74,10 @@ DEFAULT_OVERLAY: dict = {
                # elements of these classes whose body lies wholly below the storey's level
                # carry the floor (beams and columns under the slabs, the walls of the storey
                # below): supports, not obstacles on the work plane (:func:`split_supports`)
-               "supports": ["IfcBeam", "IfcColumn", "IfcWall", "IfcMember"]},
+               "supports": ["IfcBeam", "IfcColumn", "IfcWall", "IfcMember"],
+               # slabs side by side with joints this narrow form a deck, walked on once
+               # laid (:func:`deck_slabs`)
+               "deck_joint_max_m": 0.1},
     "crews": {"JCC": 1, "HIC": 1, "GC": 1, "RC": 2, "FC": 2},
     "crane": {"lift_time_s": 240.0, "assist_time_s": 180.0},
     # x_frac: where along the edge, -1 (left wall) to 1 (right wall)
@@ -90,7 +93,8 @@ DEFAULT_OVERLAY: dict = {
 _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
 _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
-                 "import": ("min_fill", "neighbour_gap_m", "check_storey", "supports"),
+                 "import": ("min_fill", "neighbour_gap_m", "check_storey", "supports",
+                            "deck_joint_max_m"),
                  "crane": ("lift_time_s", "assist_time_s")}
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
                  "edge", "x_frac")
@@ -727,6 +731,22 @@ def split_supports(elements: Sequence[Element], storey: StoreyRange | None,
             [e for e, c in zip(elements, carries, strict=True) if c])
 
 
+def deck_slabs(elements: Sequence[Element], joint_max_m: float) -> set[int]:
+    """The indices of the slabs (``IfcSlab`` and its subclasses) that lie side by side with
+    another slab (``Rect.side_gap``) with a joint of at most ``joint_max_m`` between them:
+    a wide-slab or hollow-core deck, which crews walk on once laid (``Component.deck``).
+    Slabs standing apart (cast-in-place joints between them, as on the built-in floor) are
+    none. E.g. two 3 x 1.2 m slabs 80 mm apart along x, joint_max_m 0.1: both."""
+    slabs = [k for k, e in enumerate(elements) if "IfcSlab" in e.classes and e.rect is not None]
+    out = set()
+    for n, a in enumerate(slabs):
+        for b in slabs[n + 1:]:
+            gap = elements[a].rect.side_gap(elements[b].rect)
+            if gap is not None and gap <= joint_max_m + GEOMETRY_TOLERANCE_M:
+                out.update((a, b))
+    return out
+
+
 def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSchedule | None,
                name: str, description: str, ids: Sequence[str], source: str,
                storey: StoreyRange | None = None) -> tuple[dict, list[str], str]:
@@ -801,7 +821,16 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     widest = max(2 * math.sqrt(crew_types[ct]["occupation_area_m2"] / math.pi)
                  for ct in overlay.data["crews"] if overlay.data["crews"][ct] > 0) \
         if any(overlay.data["crews"].values()) else 0.0
+    decks = deck_slabs(elements, float(overlay.data["import"]["deck_joint_max_m"]))
+    for k in decks:
+        components[k]["deck"] = True
+    if decks:
+        notes.append(f"{len(decks)} IfcSlab side by side with joints of at most "
+                     f"{overlay.data['import']['deck_joint_max_m']:g} m ([import] "
+                     "deck_joint_max_m) form decks: obstacles until installed, walked on after")
     for i, j, gap in narrow_lanes(rects, widest):
+        if i in decks and j in decks:  # a joint in a deck: walked over once both are laid
+            continue
         notes.append(f"the lane between {elements[i].label} and {elements[j].label} is "
                      f"{gap:.2f} m wide, narrower than the widest crew ({widest:.2f} m): no "
                      "crew passes there")

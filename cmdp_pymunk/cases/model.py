@@ -203,6 +203,11 @@ class Component(_Model):
 
     ``ifc_guid``: the GlobalId of the IFC element it was imported from (``cmdp-import-ifc``);
     the 4D export (``cmdp-simulate --ifc``) assigns the component's tasks to that element.
+
+    ``deck``: walked on once laid (a slab of a wide-slab or hollow-core deck). Until it is laid
+    it is an obstacle like any component (the void between its bearings); once its laying task
+    has ended (``cases.reach.laying_tasks``: its first task whose type needs the crane, the
+    hoisting and installation, else its last task) crews walk over it.
     """
 
     id: str
@@ -212,6 +217,16 @@ class Component(_Model):
     width_m: Positive
     height_m: Positive
     ifc_guid: str | None = None
+    deck: Flag = False
+
+    @model_serializer(mode="wrap")
+    def _without_deck_false(self, handler):
+        # A component that is no deck dumps as before decks existed (case.json, run records,
+        # the event floor's calibration fingerprint).
+        data = handler(self)
+        if isinstance(data, dict) and not data.get("deck", True):
+            data.pop("deck")
+        return data
 
 
 class Storage(_Model):

@@ -95,6 +95,10 @@ class EventPlane:
     def remove_task_area(self, task: int) -> None:
         self.motion_version += 1
 
+    def lay_deck(self, component: int) -> None:
+        """Walks read the laid decks off the site (``walks.WalkPlanner``)."""
+        self.motion_version += 1
+
     def remove_crew(self, i: int) -> None:
         """Points leave nothing behind."""
 

@@ -12,7 +12,9 @@ arrival (turning toward the target and docking at it: ``calibration``).
 
 Paths to one goal from every cell are one multi-source Dijkstra (``scipy``), kept per crew
 radius and goal for the life of the planner: a floor and its clones and later episodes of the
-same case share them (``WalkPlanner.__deepcopy__``).
+same case share them (``WalkPlanner.__deepcopy__``). On a floor with decks (``Component.deck``)
+a laid deck is open floor: the free cells, fields and paths are kept per set of laid decks
+(``Site.laid``; the latest ``MAX_DECK_LAYERS`` sets of them), one set on a floor without.
 """
 
 from __future__ import annotations
@@ -143,6 +145,20 @@ class _Radius:
         self.nearest_free = (jj * plane.nx + ii).ravel()
 
 
+class _Layer:
+    """What the planner keeps for one set of laid decks (on a floor without decks, the only
+    one): free cells per radius, fields per (radius, goal), paths per (radius, goal, cell)."""
+
+    def __init__(self, components: list[Rect]):
+        self.components = components
+        self.radii: dict[float, _Radius] = {}
+        self.fields: dict = {}  # (radius, goal) -> predecessor list toward the goal
+        self.paths: dict = {}  # (radius, goal, start cell) -> points and step lengths
+
+
+MAX_DECK_LAYERS = 16  # sets of laid decks kept (a deck floor meets one per deck laid)
+
+
 class WalkPlanner:
     """Shortest walks on one case's plane (see the module doc)."""
 
@@ -152,9 +168,7 @@ class WalkPlanner:
         self.xs = self.plane.cx.ravel()
         self.ys = self.plane.cy.ravel()
         self._components = [c.rect for c in site.components]
-        self._radii: dict[float, _Radius] = {}
-        self._fields: dict = {}  # (radius, goal) -> predecessor list toward the goal
-        self._paths: dict = {}  # (radius, goal, start cell) -> points and step lengths
+        self._layers: dict[frozenset, _Layer] = {}
         self.lateral_m_s = case.simulation.lateral_velocity_m_s
         self.outlet = (case.plane.outlet_x_m, case.plane.outlet_y_m,
                        case.plane.outlet_radius_m)
@@ -162,11 +176,21 @@ class WalkPlanner:
     def __deepcopy__(self, memo):
         return self  # shared: paths depend on the case alone
 
-    def _radius(self, radius: float) -> _Radius:
+    def _layer(self, laid: frozenset) -> _Layer:
+        """The layer of the decks ``laid`` (component indices), made on first use."""
+        layer = self._layers.get(laid)
+        if layer is None:
+            if len(self._layers) >= MAX_DECK_LAYERS:  # forget the oldest set of laid decks
+                del self._layers[next(k for k in self._layers if k)]
+            layer = self._layers[laid] = _Layer(
+                [r for k, r in enumerate(self._components) if k not in laid])
+        return layer
+
+    def _radius(self, radius: float, layer: _Layer) -> _Radius:
         key = round(radius, 3)
-        if key not in self._radii:
-            self._radii[key] = _Radius(self.plane, self._components, radius)
-        return self._radii[key]
+        if key not in layer.radii:
+            layer.radii[key] = _Radius(self.plane, layer.components, radius)
+        return layer.radii[key]
 
     def _goal_mask(self, goal: tuple) -> np.ndarray:
         kind = goal[0]
@@ -178,18 +202,18 @@ class WalkPlanner:
         # a task area can be thinner than a crew is wide: its band, as the navigator plans
         return self.plane.rect_mask(goal[1], -APPROACH_BAND_M)
 
-    def _predecessors(self, radius: float, goal: tuple) -> list | None:
+    def _predecessors(self, radius: float, goal: tuple, layer: _Layer) -> list | None:
         key = (round(radius, 3), goal)
-        if key not in self._fields:
-            grid = self._radius(radius)
+        if key not in layer.fields:
+            grid = self._radius(radius, layer)
             goals = np.flatnonzero((self._goal_mask(goal) & ~grid.blocked).ravel())
             if goals.size == 0:
-                self._fields[key] = None
+                layer.fields[key] = None
             else:
                 _, pred, _ = dijkstra(grid.graph, directed=False, indices=goals,
                                    min_only=True, return_predecessors=True)
-                self._fields[key] = pred.tolist()
-        return self._fields[key]
+                layer.fields[key] = pred.tolist()
+        return layer.fields[key]
 
     def walk(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
              now_s: float, walk_factor: float, dock_s: float = 0.0) -> Walk:
@@ -217,16 +241,17 @@ class WalkPlanner:
     def path(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
              task: int) -> _Path:
         """The kept path from the free cell nearest ``start`` to ``target`` (``task`` behind
-        it, or -1) for the crew's radius."""
+        it, or -1) for the crew's radius, over the decks laid now."""
         goal, region = self._goal_of(site, target, task)
         radius = crew.spec.radius_m
         plane = self.plane
+        layer = self._layer(site.laid)
         i, j = plane.cell(*start)
-        cell = self._radius(radius).nearest_free[j * plane.nx + i]
+        cell = self._radius(radius, layer).nearest_free[j * plane.nx + i]
         key = (round(radius, 3), goal, cell)
-        path = self._paths.get(key)
+        path = layer.paths.get(key)
         if path is None:
-            path = self._paths[key] = self._path(radius, goal, region, cell)
+            path = layer.paths[key] = self._path(radius, goal, region, cell, layer)
         return path
 
     def _congestion(self, site: Site, path: _Path, start: tuple[float, float]) -> np.ndarray:
@@ -246,10 +271,11 @@ class WalkPlanner:
                 out[0] = index
         return out
 
-    def _path(self, radius: float, goal: tuple, region: tuple, cell: int) -> _Path:
+    def _path(self, radius: float, goal: tuple, region: tuple, cell: int,
+              layer: _Layer) -> _Path:
         """The path's points from a free cell to the goal and into its reach region, and
         the length of each step between them (kept per radius, goal and start cell)."""
-        pred = self._predecessors(radius, goal)
+        pred = self._predecessors(radius, goal, layer)
         cells = [cell]
         if pred is not None:
             while True:

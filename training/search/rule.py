@@ -24,6 +24,11 @@ better). Its paired difference and 95 % interval go into the result file; picked
 on the same seeds, it is optimistic, so a strategy comparison reports the rule on other seeds
 again (``cmdp-evaluate --seeds 100-139``).
 
+The generations may run on the event floor (``fidelity = "event"``, the case's calibration
+beside it or ``calibration``): about 50 x cheaper, so hundreds of seeds a generation fit two
+cores. The selection runs on ``select_fidelity``, the pymunk floor by default: the event floor
+proposes, the paper's floor decides (each seed's Eq. 9 baseline on the floor its seed runs on).
+
 A checkpoint after every generation holds the CMA-ES state (pickled whole, with its random
 generator), so ``--resume`` continues exactly as the uninterrupted run.
 """
@@ -33,12 +38,12 @@ from __future__ import annotations
 import pickle
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, model_validator
 
-from agents.features import FEATURE_NAMES
+from agents.features import ALL_FEATURES, FEATURE_NAMES
 from agents.student import StudentEvaluator
 from cmdp_pymunk.events import write_atomic
 
@@ -73,13 +78,16 @@ class RuleSearchConfig(BaseModel):
     navigator: str = "scripted"
     stall_s: Positive = 3600.0
     max_time_s: Positive | None = None  # None: the case's
+    fidelity: Literal["pymunk", "event"] = "pymunk"  # the floor the generations run on
+    select_fidelity: Literal["pymunk", "event"] = "pymunk"  # and the selection (module doc)
+    calibration: str | None = None  # the event floor's file; None: the case's, beside it
 
     @field_validator("features")
     @classmethod
     def _known_features(cls, names: list[str]) -> list[str]:
-        unknown = [n for n in names if n not in FEATURE_NAMES]
+        unknown = [n for n in names if n not in ALL_FEATURES]
         if unknown or len(set(names)) != len(names):
-            raise ValueError(f"features {names}: each once, from {', '.join(FEATURE_NAMES)}")
+            raise ValueError(f"features {names}: each once, from {', '.join(ALL_FEATURES)}")
         return names
 
     @model_validator(mode="after")
@@ -103,12 +111,20 @@ def generation_seeds(config: RuleSearchConfig, generation: int) -> list[int]:
     return sorted(int(s) for s in rng.choice(pool, config.seeds_per_generation, replace=False))
 
 
+def student_features(config: RuleSearchConfig) -> tuple[str, ...]:
+    """The student's features: ``FEATURE_NAMES`` when the search names only those (the files
+    of the first searches), else ``ALL_FEATURES``."""
+    return FEATURE_NAMES if set(config.features) <= set(FEATURE_NAMES) else ALL_FEATURES
+
+
 def rule_weights(config: RuleSearchConfig, x, crew_types) -> dict[str, list[float]]:
     """The search vector ``x`` (one weight per searched feature) as the student's weights:
-    the same full-length vector (zeros for the features not searched) for every crew type."""
-    full = np.zeros(len(FEATURE_NAMES))
+    the same full-length vector over ``student_features`` (zeros for the features not
+    searched) for every crew type."""
+    names = student_features(config)
+    full = np.zeros(len(names))
     for name, value in zip(config.features, x, strict=True):
-        full[FEATURE_NAMES.index(name)] = float(value)
+        full[names.index(name)] = float(value)
     return {t: full.tolist() for t in crew_types}
 
 
@@ -123,8 +139,10 @@ def paired_fitness(makespans: list[float | None], baseline: list[float | None],
                                                                  strict=True)]))
 
 
-def _rule_job(runner: EpisodeRunner, weights, candidates: int, seed: int, navigator: str):
-    evaluator = "priority" if weights is None else StudentEvaluator(weights, candidates)
+def _rule_job(runner: EpisodeRunner, weights, candidates: int, seed: int, navigator: str,
+              features: tuple[str, ...] = FEATURE_NAMES):
+    evaluator = "priority" if weights is None else StudentEvaluator(weights, candidates,
+                                                                    features)
     row = runner.run(evaluator, navigator, seed)
     return {"seed": seed, "makespan_s": row["makespan_s"] if row["finished"] else None,
             "finished": row["finished"]}
@@ -191,10 +209,15 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
             * len(config.select_seeds))
     bar = search.progress_bar(total_episodes(config, popsize), done, "floor", "rule search",
                               progress)
-    runner_args = (case, config.stall_s, config.max_time_s)
+    names = student_features(config)
+    floors = {f: (case, config.stall_s, config.max_time_s, False, None, f,
+                  search_calibration(case, config) if f == "event" else None)
+              for f in {config.fidelity, config.select_fidelity}}
+    same = config.fidelity == config.select_fidelity
 
-    with search.episodes(_rule_job, runner_args, workers, ray, bar, state) as play:
-        need = [s for s in sorted(set(config.train_seeds) | set(config.select_seeds))
+    with search.episodes(_rule_job, floors[config.fidelity], workers, ray, bar, state) as play:
+        need = [s for s in sorted(set(config.train_seeds)
+                                  | (set(config.select_seeds) if same else set()))
                 if s not in state.baseline]
         for row in play([(None, config.candidates, s, config.navigator) for s in need]):
             state.baseline[row["seed"]] = row["makespan_s"]
@@ -202,7 +225,7 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
             seeds = generation_seeds(config, state.generation)
             xs = state.es.ask()
             jobs = [(rule_weights(config, x, crew_types), config.candidates, s,
-                     config.navigator) for x in xs for s in seeds]
+                     config.navigator, names) for x in xs for s in seeds]
             rows = play(jobs)
             n = len(seeds)
             base = [state.baseline[s] for s in seeds]
@@ -216,12 +239,17 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
                               "mean_x": [float(v) for v in state.es.mean]})
             bar.set_postfix_str(f"gen {state.generation}, best {min(fits):+.0f} s", refresh=True)
             _record(state, out, config, crew_types, popsize)
+    with search.episodes(_rule_job, floors[config.select_fidelity], workers, ray, bar,
+                         state) as play:
+        need = [s for s in config.select_seeds if s not in state.baseline]
+        for row in play([(None, config.candidates, s, config.navigator) for s in need]):
+            state.baseline[row["seed"]] = row["makespan_s"]
         means = {row["generation"]: row["mean_x"] for row in state.log}
         for g in generations_checked(config):
             if g in state.checked:
                 continue
             weights = rule_weights(config, means[g], crew_types)
-            rows = play([(weights, config.candidates, s, config.navigator)
+            rows = play([(weights, config.candidates, s, config.navigator, names)
                          for s in config.select_seeds])
             state.checked[g] = selection_result(rows, state.baseline, limit)
             write_atomic(out / search.CHECKPOINT, pickle.dumps(state))
@@ -231,6 +259,14 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
             _record(state, out, config, crew_types, popsize)
     bar.close()
     return state
+
+
+def search_calibration(case, config: RuleSearchConfig):
+    """The event floor's calibration: ``config.calibration``'s file, or the case's beside it
+    (the built-in case's for no case file); a file fitted on another floor is refused."""
+    from cmdp_pymunk.eventfloor import calibration_for
+
+    return calibration_for(case, config.case, config.calibration)
 
 
 def choose(state: SearchState, config: RuleSearchConfig) -> dict:
@@ -273,12 +309,14 @@ def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
         [f"{r['generation']},{r['episodes']},{r['best']:.1f},{r['mean']:.1f},{r['sigma']:.4f},"
          + ",".join(f"{v:.4f}" for v in r["mean_x"]) for r in state.log])
     x = state.selection["weights"] if state.selection else state.es.mean
-    rule = StudentEvaluator(rule_weights(config, x, crew_types), config.candidates)
+    rule = StudentEvaluator(rule_weights(config, x, crew_types), config.candidates,
+                            student_features(config))
     rule.save(out / "rule.json", {
         "made_by": "training.search.rule (CMA-ES, paired makespan against Eq. 9)",
         "searched": dict(zip(config.features, (round(float(v), 6) for v in x), strict=True)),
         "generation": state.selection["generation"] if state.selection else state.generation,
         "generations_run": state.generation, "popsize": popsize,
         "train_seeds": config.train_seeds, "seeds_per_generation": config.seeds_per_generation,
+        "fidelity": config.fidelity, "select_fidelity": config.select_fidelity,
         "selection": state.selection})
     write_atomic(out / search.CHECKPOINT, pickle.dumps(state))
