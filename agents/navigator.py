@@ -123,6 +123,7 @@ class _Escape:
     way: np.ndarray | None = None  # a detour the crew keeps to (rung 3), else its own field
     spots: list = dataclasses.field(default_factory=list)  # where it got stuck: avoided by detours
     retreat: tuple | None = None  # (field, until_s, fresh afterwards) of a back-off
+    last_s: float = -math.inf  # when it was last asked for an action
 
 
 class Navigator:
@@ -373,6 +374,12 @@ class _Plans:
         esc = self.escape[crew.index]
         if esc is None or esc.target != target:
             esc = self.escape[crew.index] = _Escape(target, self._value(own, x, y), now, own)
+        if now - esc.last_s > 1.5 or self._value(own, x, y) == 0.0:
+            # Not stuck: asked for no action for a while (the floor jumped idle time, which it
+            # does only while no crew walks), or at its goal (waiting to start, or closing in
+            # on the component: the first rule's business).
+            esc.since_s, esc.rung = now, 0
+        esc.last_s = now
         if esc.retreat is not None:
             point = self._retreating(crew, esc, x, y, now)
             if point is not None:
