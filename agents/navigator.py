@@ -35,8 +35,11 @@ each rung firing only when the one below has had its chance:
    drawn from the crew's index and the time (the same floor gives the same schedule), for up
    to ``LONG_BACK_OFF_S`` s, then plan afresh.
 
-Rungs 2-4 fire only where rung 1 has failed for minutes, which no crew of the golden schedules
-(``tests/test_golden.py``) ever does: those schedules are unchanged. The stall guard
+The clock restarts where a crew is not stuck: at its goal (waiting there to start, or closing
+in on the component), and after a gap in its decisions (the floor jumps idle time only while
+no crew walks). Rungs 2-4 fire only where rung 1 has failed for minutes, which no crew of the
+golden schedules (``tests/test_golden.py``) ever does (the longest spell without progress on
+the built-in floor's seeds 0-4 is 95 s): those schedules are unchanged. The stall guard
 (``Engine.stall_s``) stays the last resort; ``way(engine, i)`` gives the cells a crew means
 to walk, for the stall report's picture.
 """
