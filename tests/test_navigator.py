@@ -145,3 +145,27 @@ def test_way_walks_down_the_field_to_the_target(tiny_env):
             assert math.dist(path[-1], (tx, ty)) < math.dist(path[0], (tx, ty))
         else:
             assert path == []
+
+
+def test_the_ladder_clock_restarts_at_the_goal_and_after_a_gap(tiny_env):
+    """A crew waiting at its goal (cost-to-go 0) or not asked for an action for a while (an
+    idle jump) is not stuck: the imported slabs-on-beams floor had backed off a hoisting crew
+    waiting at its slab."""
+    from agents.navigator import BACK_OFF_AFTER_S, _Escape
+
+    engine = tiny_env.engine
+    plans = Navigator().plans(engine)
+    crew = engine.site.crews[0]
+    x, y, _ = engine.pose(0)
+    now = engine.site.time_s
+    away = np.full((plans.ny, plans.nx), 20.0)
+    at_goal = np.zeros((plans.ny, plans.nx))
+    for field, last_s in ((at_goal, now - 1.0), (away, now - 60.0)):
+        esc = plans.escape[0] = _Escape(0, 20.0, now - 10 * BACK_OFF_AFTER_S, away,
+                                        last_s=last_s)
+        assert plans._escalate(crew, 0, field, x, y) is None
+        assert esc.since_s == now and esc.rung == 0 and esc.retreat is None
+    # asked every second, far from the goal, no progress for long: it backs off
+    esc = plans.escape[0] = _Escape(0, 20.0, now - BACK_OFF_AFTER_S, away, last_s=now - 1.0)
+    plans._escalate(crew, 0, away, x, y)
+    assert esc.rung == 1 and esc.spots == [(x, y)]
