@@ -55,7 +55,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from cmdp_pymunk.cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, NEIGHBOURS, PlaneGrid
 from cmdp_pymunk.move import STAND_STILL
-from cmdp_pymunk.state import CrewStatus, ScopeKind
+from cmdp_pymunk.state import CrewStatus, ScopeKind, inside
 
 from .steering import best_target
 
@@ -76,6 +76,9 @@ STUCK_SPOT_M = 1.0  # beyond the crew's radius: how much of a stuck place a deto
 GIVE_UP_AFTER_S = 600.0
 LONG_BACK_OFF_S = 90.0
 LONG_BACK_OFF_M = (4.0, 12.0)
+MAKE_WAY_GAP_M = 1.5  # a parked crew this close (edge to edge) to a stuck one is asked aside
+MAKE_WAY_M = (3.0, 8.0)
+MAKE_WAY_S = 90.0
 OBSTACLE_COST = 1e4  # passable at a price: a detour is never trapped by what it avoids
 WAY_CELLS = 400  # the most cells ``way`` traces
 
@@ -188,7 +191,8 @@ class _Plans:
         self.detour = [None] * n  # (field, target, steps left)
         self.goal = [None] * n
         self.escape: list[_Escape | None] = [None] * n
-        self.rungs = {"back_off": 0, "detour": 0, "give_up": 0}  # how often each fired
+        self.aside: dict[int, tuple[np.ndarray, float]] = {}  # parked crews making way
+        self.rungs = {"back_off": 0, "make_way": 0, "detour": 0, "give_up": 0}  # fired
         self.plans = 0
 
     def _make_grids(self) -> None:
@@ -377,10 +381,10 @@ class _Plans:
         esc = self.escape[crew.index]
         if esc is None or esc.target != target:
             esc = self.escape[crew.index] = _Escape(target, self._value(own, x, y), now, own)
-        if now - esc.last_s > 1.5 or self._value(own, x, y) == 0.0:
+        if now - esc.last_s > 1.5 or self._reached(crew, target, x, y):
             # Not stuck: asked for no action for a while (the floor jumped idle time, which it
-            # does only while no crew walks), or at its goal (waiting to start, or closing in
-            # on the component: the first rule's business).
+            # does only while no crew walks), or where it reaches its target (waiting there
+            # to start).
             esc.since_s, esc.rung = now, 0
         esc.last_s = now
         if esc.retreat is not None:
@@ -389,6 +393,9 @@ class _Plans:
                 return point
         followed = esc.way if esc.way is not None else own
         here = self._value(followed, x, y)
+        if here == 0.0 and target < len(self.site.components):
+            # in the approach band: what is left is closing in on the task area
+            here = _distance_to_rect(self.site.tasks[crew.scope[target]].area, x, y)
         if followed is not esc.seen:  # a new field (areas changed, a detour): measured afresh
             esc.seen, esc.best = followed, here
         if here < esc.best - LADDER_PROGRESS_M:
@@ -402,7 +409,7 @@ class _Plans:
             self._give_up_this_way(crew, esc, x, y, now)
         if esc.retreat is not None:
             return self._carrot(esc.retreat[0], x, y, lowest=True)
-        if esc.way is not None and here > 0.0:  # (inf: pressed into a blocked cell)
+        if esc.way is not None and self._value(esc.way, x, y) > 0.0:  # inf: in a blocked cell
             return self._carrot(esc.way, x, y, lowest=True)
         return None
 
@@ -426,6 +433,7 @@ class _Plans:
         remembers where it was stuck."""
         esc.spots.append((x, y))
         esc.rung = 1
+        self._ask_aside(crew, esc.target, x, y, now)
         cells = self._retreat_cells(crew, x, y, *BACK_OFF_M)
         if cells.size:
             rows_cols = np.unravel_index(cells, (self.ny, self.nx))
@@ -447,6 +455,8 @@ class _Plans:
         for sx, sy in esc.spots:
             avoid |= np.hypot(self.cx - sx, self.cy - sy) < r + STUCK_SPOT_M
         avoid |= self._standing_crews(crew)
+        x, y = esc.spots[-1]
+        self._ask_aside(crew, target, x, y, self.site.time_s)
         way = self._field(crew, target, extra_blocked=avoid)
         if way is not None:
             esc.way, esc.seen = way, None
@@ -465,6 +475,43 @@ class _Plans:
         goal = cells[(crew.index * 7919 + int(now)) % cells.size]
         esc.retreat = (self._field_to(crew, goal), now + LONG_BACK_OFF_S, True)
         self.rungs["give_up"] += 1
+
+    def _ask_aside(self, crew, target: int, x: float, y: float, now: float) -> None:
+        """Ask the parked crews next to a stuck one to step aside, each to a free cell a few
+        metres off, as far as it finds from the stuck crew and its target. Why: a crew
+        parked with nothing to do stands still for good (it may wait for the very task the
+        stuck crew is walking to: a deadlock on the imported L-shaped storey), and no way
+        round it may exist. ``Engine.make_way`` lets it move for ``MAKE_WAY_S`` s."""
+        tx, ty = self.site.target_xy[target]
+        for other in self.site.crews:
+            if other is crew or not _parked(other) or other.index in self.aside:
+                continue
+            ox, oy, _ = self.engine.pose(other.index)
+            if math.hypot(ox - x, oy - y) - other.spec.radius_m - crew.spec.radius_m > \
+                    MAKE_WAY_GAP_M:
+                continue
+            cells = self._retreat_cells(other, ox, oy, *MAKE_WAY_M)
+            if cells.size == 0:
+                continue
+            cx, cy = self.cx.ravel()[cells], self.cy.ravel()[cells]
+            room = np.minimum(np.hypot(cx - x, cy - y), np.hypot(cx - tx, cy - ty))
+            goal = cells[np.argmax(room)]
+            until_s = now + MAKE_WAY_S
+            self.aside[other.index] = (self._field_to(other, goal), until_s)
+            self.engine.make_way(other.index, until_s)
+            self.rungs["make_way"] += 1
+
+    def _reached(self, crew, target: int, x: float, y: float) -> bool:
+        """Whether the crew stands where it reaches ``target`` (``decide.reached_target``'s
+        regions: a task area, a storage, the outlet's circle)."""
+        site = self.site
+        n_comp = len(site.components)
+        if target < n_comp:
+            return inside(x, y, site.tasks[crew.scope[target]].area)
+        if target < site.outlet_target:
+            return inside(x, y, site.storages[target - n_comp].rect)
+        plane = self.engine.case.plane
+        return math.hypot(x - plane.outlet_x_m, y - plane.outlet_y_m) <= plane.outlet_radius_m
 
     def _retreat_cells(self, crew, x: float, y: float, near_m: float, far_m: float):
         """Flat indices of free cells between ``near_m`` and ``far_m`` from the crew that it
@@ -551,8 +598,18 @@ class _Plans:
         return out
 
     def _idle(self, crew, pose, x, y):
-        """No target: stand aside, out of active task areas and storages."""
+        """No target: stand aside, out of active task areas and storages (and, asked to
+        make way for a stuck crew, walk to the cell it was given)."""
         site = self.site
+        aside = self.aside.get(crew.index)
+        if aside is not None:
+            field, until_s = aside
+            if site.time_s < until_s:
+                if self._value(field, x, y) <= 0.0:
+                    return STAND_STILL
+                carrot = self._carrot(field, x, y, lowest=True)
+                return STAND_STILL if carrot is None else self._drive(crew, pose, x, y, *carrot)
+            del self.aside[crew.index]
         if not site.in_congestion_area(x, y):  # the same test as the env's parking
             return STAND_STILL
         key = ("clear", self.crew_grid[crew.index].radius)
@@ -611,6 +668,17 @@ class _Plans:
         if forward > 0 and abs(error) > math.radians(5):
             lateral = 2 if error > 0 else 0
         return (forward, lateral, turn)
+
+
+def _parked(crew) -> bool:
+    """A crew standing with nothing to do (reaching, no target): it will not move by itself."""
+    return crew.status == CrewStatus.REACHING and crew.moving and best_target(crew) < 0
+
+
+def _distance_to_rect(rect, x: float, y: float) -> float:
+    """From (x, y) to the rectangle (x0, y0, x1, y1); 0 inside."""
+    x0, y0, x1, y1 = rect
+    return math.hypot(max(x0 - x, 0.0, x - x1), max(y0 - y, 0.0, y - y1))
 
 
 def _wrap(a: float) -> float:

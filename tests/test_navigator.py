@@ -47,12 +47,14 @@ def test_seed_102_finishes_with_priority_and_scripted_navigator(tmp_path):
                           "--no-progress"]) == 0
 
 
-def lane_floor():
+def lane_floor(way_round: bool = True):
     """A floor built to wedge a crew: a wall splits a 24 x 30 m plane, with a 1.8 m lane near
     the bottom and a 3 m gap at the top. X-1 (0.3 m/s) walks from the left to R on the right;
     Y-1 stands parked in the lane (its task waits for X-1's). Re-planning round Y-1 for 40
     steps (12 m) walks X-1 up the wall, and then its own field, shorter through the lane,
-    leads it back: it paces between the two for ever. The way round the top is about 50 m."""
+    leads it back: it paces between the two for ever. The way round the top is about 50 m.
+    Without ``way_round`` the wall closes the top too: the lane is the only way, and Y-1
+    waits there for the task X-1 cannot reach (a deadlock but for Y-1 making way)."""
     from conftest import tiny_dict
 
     from cmdp_pymunk.cases.load import case_from_dict
@@ -70,8 +72,8 @@ def lane_floor():
     d["components"] = [
         {"id": "W1", "kind": "precast", "x_m": 0.0, "y_m": -12.95, "width_m": 1.0,
          "height_m": 4.1},
-        {"id": "W2", "kind": "precast", "x_m": 0.0, "y_m": 1.45, "width_m": 1.0,
-         "height_m": 21.1},
+        {"id": "W2", "kind": "precast", "x_m": 0.0, "y_m": 1.45 if way_round else 2.95,
+         "width_m": 1.0, "height_m": 21.1 if way_round else 24.1},
         {"id": "R", "kind": "precast", "x_m": 7.0, "y_m": -10.0, "width_m": 1.0,
          "height_m": 1.0}]
     d["tasks"] = [{"id": "X-R", "type": "X", "component": "R"},
@@ -80,11 +82,12 @@ def lane_floor():
     return case_from_dict(d, "lane.toml")
 
 
-def play_lane(stall_s: float = 1200.0):
+def play_lane(stall_s: float = 1200.0, way_round: bool = True):
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.rollout import run_episode
 
-    engine = Engine(lane_floor(), evaluator="priority", park_idle=True, max_time_s=5000.0)
+    engine = Engine(lane_floor(way_round), evaluator="priority", park_idle=True,
+                    max_time_s=5000.0)
     navigator = Navigator()
     episode = run_episode(engine, navigator, 0, stall_s, progress=False)
     return engine, navigator, episode
@@ -108,6 +111,16 @@ def test_without_the_ladder_the_crew_paces_until_the_stall_guard(monkeypatch):
     engine, navigator, episode = play_lane(stall_s=900.0)
     assert episode.stalled is not None and not engine.site.done
     assert engine.site.crews[0].status == 0  # X-1 still reaching
+
+
+def test_a_parked_crew_in_the_only_lane_is_asked_to_make_way():
+    """The lane is the only way and Y-1, parked in it, waits for X-1's task: the imported
+    L-shaped storey's deadlock (nearest, seed 1: a parked GC-1 at the corner that JCC-1 and
+    HIC-1 had to pass, stalled at 16,747 s). Backing off, X-1 asks Y-1 aside
+    (``Engine.make_way``), and both tasks end."""
+    engine, navigator, episode = play_lane(way_round=False)
+    assert episode.stalled is None and engine.site.done
+    assert navigator.plans(engine).rungs["make_way"] >= 1
 
 
 def test_giving_up_walks_to_a_free_cell_drawn_from_crew_and_time(tiny_env):
@@ -147,25 +160,43 @@ def test_way_walks_down_the_field_to_the_target(tiny_env):
             assert path == []
 
 
-def test_the_ladder_clock_restarts_at_the_goal_and_after_a_gap(tiny_env):
-    """A crew waiting at its goal (cost-to-go 0) or not asked for an action for a while (an
-    idle jump) is not stuck: the imported slabs-on-beams floor had backed off a hoisting crew
-    waiting at its slab."""
+def test_the_ladder_clock_restarts_where_the_crew_reaches_and_after_a_gap(tiny_env,
+                                                                          monkeypatch):
+    """A crew waiting where it reaches its target, or not asked for an action for a while (an
+    idle jump), is not stuck: the imported slabs-on-beams floor had backed off a hoisting crew
+    waiting at its slab. One in the approach band but outside the task area is: there
+    progress is closing in on the area."""
     from agents.navigator import BACK_OFF_AFTER_S, _Escape
 
     engine = tiny_env.engine
     plans = Navigator().plans(engine)
-    crew = engine.site.crews[0]
+    crew = engine.site.crews[0]  # X-1, heading for A (component 0)
     x, y, _ = engine.pose(0)
     now = engine.site.time_s
     away = np.full((plans.ny, plans.nx), 20.0)
-    at_goal = np.zeros((plans.ny, plans.nx))
-    for field, last_s in ((at_goal, now - 1.0), (away, now - 60.0)):
+    band = np.zeros((plans.ny, plans.nx))  # its own field says: in the approach band
+    for reached, last_s in ((True, now - 1.0), (False, now - 60.0)):
+        monkeypatch.setattr(plans, "_reached", lambda *args, r=reached: r)
         esc = plans.escape[0] = _Escape(0, 20.0, now - 10 * BACK_OFF_AFTER_S, away,
                                         last_s=last_s)
-        assert plans._escalate(crew, 0, field, x, y) is None
+        assert plans._escalate(crew, 0, band, x, y) is None
         assert esc.since_s == now and esc.rung == 0 and esc.retreat is None
-    # asked every second, far from the goal, no progress for long: it backs off
+    # asked every second, in the band but not in the area, no progress for long: it backs off
     esc = plans.escape[0] = _Escape(0, 20.0, now - BACK_OFF_AFTER_S, away, last_s=now - 1.0)
-    plans._escalate(crew, 0, away, x, y)
+    plans._escalate(crew, 0, band, x, y)
     assert esc.rung == 1 and esc.spots == [(x, y)]
+
+
+def test_reached_is_the_decision_tables_region(tiny_env):
+    """``_reached``: inside the task area of a component target (A at (-3, 0), 2 x 2 m,
+    cleaning area distance 1 m: x -5..-1, y -2..2), a storage's rectangle (S: x 4.5..7.5,
+    y 3.5..5.5), the outlet's circle ((-9, -4), 1 m)."""
+    engine = tiny_env.engine
+    plans = Navigator().plans(engine)
+    crew = engine.site.crews[0]
+    crew.scope = {0: 0}  # A -> X-A
+    assert plans._reached(crew, 0, -4.9, 1.9) and not plans._reached(crew, 0, -5.1, 0.0)
+    storage = len(engine.site.components)
+    assert plans._reached(crew, storage, 7.4, 3.6) and not plans._reached(crew, storage, 4.4, 4)
+    outlet = engine.site.outlet_target
+    assert plans._reached(crew, outlet, -9.0, -3.1) and not plans._reached(crew, outlet, -9, -2.9)
