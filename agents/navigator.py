@@ -19,24 +19,28 @@ offsets; swerve from crews ahead (keeping right). A crew without a target stands
 it stands in an active task area or a storage, which it leaves.
 
 When it makes no progress (issue 31: "a navigator that cannot get stuck for an hour").
-Progress is a drop in the crew's cost-to-go to its target (on the field it follows), not raw
-displacement, so pacing back and forth at a blocked lane counts as none. An escalation ladder,
+Progress is a drop in the crew's cost-to-go to its target (on the field it follows; in the
+approach band, its distance to the task area), not raw displacement, so pacing back and forth
+at a blocked lane counts as none. An escalation ladder,
 each rung firing only when the one below has had its chance:
 
 1. after ``STUCK_STEPS`` steps without progress: re-plan around the other crews' current
    positions for ``DETOUR_STEPS`` steps (the first rule, which the golden schedules were
    recorded with; it repeats);
 2. after ``BACK_OFF_AFTER_S`` s: back off, a few metres away from the crews around it, for
-   ``BACK_OFF_S`` s, then try again;
+   ``BACK_OFF_S`` s, then try again; and ask the parked crews next to it (no target, standing
+   for good: perhaps waiting for the very task it walks to) to make way, each to a free cell
+   a few metres off (``Engine.make_way`` lets a parked crew move for ``MAKE_WAY_S`` s);
 3. after ``DETOUR_AFTER_S`` s: take a detour that prices the places it got stuck at and the
    crews standing still (working, waiting or without a target) as obstacles, and keep to it
    until it reaches or gets stuck on it too (then the ladder starts again on the detour);
+   parked crews next to it are asked aside again;
 4. after ``GIVE_UP_AFTER_S`` s: give up on this way: walk to a free cell some metres away,
    drawn from the crew's index and the time (the same floor gives the same schedule), for up
    to ``LONG_BACK_OFF_S`` s, then plan afresh.
 
-The clock restarts where a crew is not stuck: at its goal (waiting there to start, or closing
-in on the component), and after a gap in its decisions (the floor jumps idle time only while
+The clock restarts where a crew is not stuck: where it reaches its target (waiting there to
+start), and after a gap in its decisions (the floor jumps idle time only while
 no crew walks). Rungs 2-4 fire only where rung 1 has failed for minutes, which no crew of the
 golden schedules (``tests/test_golden.py``) ever does (the longest spell without progress on
 the built-in floor's seeds 0-4 is 95 s): those schedules are unchanged. The stall guard
