@@ -488,7 +488,8 @@ class _Plans:
         round it may exist. ``Engine.make_way`` lets it move for ``MAKE_WAY_S`` s."""
         tx, ty = self.site.target_xy[target]
         for other in self.site.crews:
-            if other is crew or not _parked(other) or other.index in self.aside:
+            if other is crew or not _parked(other) or \
+                    self.aside.get(other.index, (None, -math.inf))[1] > now:  # already asked
                 continue
             ox, oy, _ = self.engine.pose(other.index)
             if math.hypot(ox - x, oy - y) - other.spec.radius_m - crew.spec.radius_m > \
