@@ -15,14 +15,42 @@ entering them is penalised, Eq. 6). Fields are cached per target and re-planned 
 areas appear or vanish. A crew follows the field's steepest descent a few cells ahead.
 
 How it moves: turn toward that point, walk when roughly facing it, side-step for small
-offsets; swerve from crews ahead (keeping right); a crew that makes no progress for a while
-re-plans around the other crews' current positions, and if that fails too, backs off sideways.
-A crew without a target stands still, unless it stands in an active task area or a storage,
-which it leaves.
+offsets; swerve from crews ahead (keeping right). A crew without a target stands still, unless
+it stands in an active task area or a storage, which it leaves.
+
+When it makes no progress (issue 31: "a navigator that cannot get stuck for an hour").
+Progress is a drop in the crew's cost-to-go to its target (on the field it follows; in the
+approach band, its distance to the task area), not raw displacement, so pacing back and forth
+at a blocked lane counts as none. An escalation ladder,
+each rung firing only when the one below has had its chance:
+
+1. after ``STUCK_STEPS`` steps without progress: re-plan around the other crews' current
+   positions for ``DETOUR_STEPS`` steps (the first rule, which the golden schedules were
+   recorded with; it repeats);
+2. after ``BACK_OFF_AFTER_S`` s: back off, a few metres away from the crews around it, for
+   ``BACK_OFF_S`` s, then try again; and ask the parked crews next to it (no target, standing
+   for good: perhaps waiting for the very task it walks to) to make way, each to a free cell
+   a few metres off (``Engine.make_way`` lets a parked crew move for ``MAKE_WAY_S`` s);
+3. after ``DETOUR_AFTER_S`` s: take a detour that prices the places it got stuck at and the
+   crews standing still (working, waiting or without a target) as obstacles, and keep to it
+   until it reaches or gets stuck on it too (then the ladder starts again on the detour);
+   parked crews next to it are asked aside again;
+4. after ``GIVE_UP_AFTER_S`` s: give up on this way: walk to a free cell some metres away,
+   drawn from the crew's index and the time (the same floor gives the same schedule), for up
+   to ``LONG_BACK_OFF_S`` s, then plan afresh.
+
+The clock restarts where a crew is not stuck: where it reaches its target (waiting there to
+start), and after a gap in its decisions (the floor jumps idle time only while
+no crew walks). Rungs 2-4 fire only where rung 1 has failed for minutes, which no crew of the
+golden schedules (``tests/test_golden.py``) ever does (the longest spell without progress on
+the built-in floor's seeds 0-4 is 95 s): those schedules are unchanged. The stall guard
+(``Engine.stall_s``) stays the last resort; ``way(engine, i)`` gives the cells a crew means
+to walk, for the stall report's picture.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -31,7 +59,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from cmdp_pymunk.cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, NEIGHBOURS, PlaneGrid
 from cmdp_pymunk.move import STAND_STILL
-from cmdp_pymunk.state import CrewStatus, ScopeKind
+from cmdp_pymunk.state import CrewStatus, ScopeKind, inside
 
 from .steering import best_target
 
@@ -41,6 +69,22 @@ LOOKAHEAD_CELLS = 4
 STUCK_STEPS = 12  # no progress for this many steps: re-plan around the crews
 STUCK_PROGRESS_M = 0.3
 DETOUR_STEPS = 40
+# The escalation ladder (module doc): seconds without progress before each rung. The golden
+# floors' longest spell without progress is far below BACK_OFF_AFTER_S (see its test).
+LADDER_PROGRESS_M = 0.5  # a drop in cost-to-go this large (m of open floor) is progress
+BACK_OFF_AFTER_S = 120.0
+BACK_OFF_S = 12.0
+BACK_OFF_M = (1.5, 4.0)  # how far a back-off goes: out of the jam, not out of the way
+DETOUR_AFTER_S = 240.0
+STUCK_SPOT_M = 1.0  # beyond the crew's radius: how much of a stuck place a detour avoids
+GIVE_UP_AFTER_S = 600.0
+LONG_BACK_OFF_S = 90.0
+LONG_BACK_OFF_M = (4.0, 12.0)
+MAKE_WAY_GAP_M = 1.5  # a parked crew this close (edge to edge) to a stuck one is asked aside
+MAKE_WAY_M = (3.0, 8.0)
+MAKE_WAY_S = 90.0
+OBSTACLE_COST = 1e4  # passable at a price: a detour is never trapped by what it avoids
+WAY_CELLS = 400  # the most cells ``way`` traces
 
 
 class _Grid:
@@ -77,6 +121,21 @@ class _Grid:
         return g
 
 
+@dataclasses.dataclass
+class _Escape:
+    """One crew's climb up the escalation ladder toward one target (module doc)."""
+
+    target: int
+    best: float  # the lowest cost-to-go reached on ``seen``
+    since_s: float  # when it last made progress
+    seen: object = None  # the field ``best`` was measured on (a new one is measured afresh)
+    rung: int = 0  # rungs climbed since the last progress
+    way: np.ndarray | None = None  # a detour the crew keeps to (rung 3), else its own field
+    spots: list = dataclasses.field(default_factory=list)  # where it got stuck: avoided by detours
+    retreat: tuple | None = None  # (field, until_s, fresh afterwards) of a back-off
+    last_s: float = -math.inf  # when it was last asked for an action
+
+
 class Navigator:
     """Scripted low level (``cmdp_pymunk.policy.LowLevel``): ``actions(engine)`` every second,
     by crew index. It reads the state, not the rays; its plans for an episode live in
@@ -107,6 +166,12 @@ class Navigator:
         """Every crew's action, by crew index (the observations are not needed)."""
         return self.plans(engine).actions()
 
+    def way(self, engine, i: int) -> list[tuple[float, float]]:
+        """The cell centres (m) crew ``i`` means to walk from where it stands, down the field
+        it follows (a detour or back-off if it is on one): for the stall report's picture.
+        Empty for a crew that is not walking to a target."""
+        return self.plans(engine).way(i)
+
 
 class _Plans:
     """One episode's grids, cost-to-go fields and per-crew progress, for ``Navigator``."""
@@ -129,6 +194,9 @@ class _Plans:
         self.since_progress = [0] * n
         self.detour = [None] * n  # (field, target, steps left)
         self.goal = [None] * n
+        self.escape: list[_Escape | None] = [None] * n
+        self.aside: dict[int, tuple[np.ndarray, float]] = {}  # parked crews making way
+        self.rungs = {"back_off": 0, "make_way": 0, "detour": 0, "give_up": 0}  # fired
         self.plans = 0
 
     def _make_grids(self) -> None:
@@ -207,11 +275,13 @@ class _Plans:
 
     def act(self, crew):
         if not crew.moving:
+            self.escape[crew.index] = None  # it reached, or works: a later walk starts afresh
             return STAND_STILL
         pose = self.engine.pose(crew.index)
         x, y = pose[0], pose[1]
         target = best_target(crew)
         if target < 0:
+            self.escape[crew.index] = None
             return self._idle(crew, pose, x, y)
         if self.goal[crew.index] != target:
             self.goal[crew.index] = target
@@ -219,6 +289,10 @@ class _Plans:
             self.since_progress[crew.index] = 0
             self.detour[crew.index] = None
         field = self._field(crew, target)
+        if field is not None:
+            point = self._escalate(crew, target, field, x, y)
+            if point is not None:
+                return self._drive(crew, pose, x, y, *point)
         detour = self.detour[crew.index]
         if detour is not None:
             field = detour[0]
@@ -301,9 +375,246 @@ class _Plans:
         if field is not None:
             self.detour[crew.index] = (field, DETOUR_STEPS)
 
-    def _idle(self, crew, pose, x, y):
-        """No target: stand aside, out of active task areas and storages."""
+    # -- the escalation ladder (module doc) ---------------------------------------------------
+
+    def _escalate(self, crew, target: int, own: np.ndarray, x: float, y: float):
+        """Watch the crew's progress toward ``target`` and climb the ladder when there is
+        none; returns the point to walk to while a rung steers, else None (the crew follows
+        its own field and rung 1, as before the ladder)."""
+        now = self.site.time_s
+        esc = self.escape[crew.index]
+        if esc is None or esc.target != target:
+            esc = self.escape[crew.index] = _Escape(target, self._value(own, x, y), now, own)
+        if now - esc.last_s > 1.5 or self._reached(crew, target, x, y):
+            # Not stuck: asked for no action for a while (the floor jumped idle time, which it
+            # does only while no crew walks), or where it reaches its target (waiting there
+            # to start).
+            esc.since_s, esc.rung = now, 0
+        esc.last_s = now
+        if esc.retreat is not None:
+            point = self._retreating(crew, esc, x, y, now)
+            if point is not None:
+                return point
+        followed = esc.way if esc.way is not None else own
+        here = self._value(followed, x, y)
+        if here == 0.0 and target < len(self.site.components):
+            # in the approach band: what is left is closing in on the task area
+            here = _distance_to_rect(self.site.tasks[crew.scope[target]].area, x, y)
+        if followed is not esc.seen:  # a new field (areas changed, a detour): measured afresh
+            esc.seen, esc.best = followed, here
+        if here < esc.best - LADDER_PROGRESS_M:
+            esc.best, esc.since_s, esc.rung = here, now, 0
+        stuck_s = now - esc.since_s
+        if esc.rung == 0 and stuck_s >= BACK_OFF_AFTER_S:
+            self._back_off(crew, esc, own, x, y, now)
+        elif esc.rung == 1 and stuck_s >= DETOUR_AFTER_S:
+            self._detour_round_stuck_spots(crew, esc, target)
+        elif esc.rung == 2 and stuck_s >= GIVE_UP_AFTER_S:
+            self._give_up_this_way(crew, esc, x, y, now)
+        if esc.retreat is not None:
+            return self._carrot(esc.retreat[0], x, y, lowest=True)
+        if esc.way is not None and self._value(esc.way, x, y) > 0.0:  # inf: in a blocked cell
+            return self._carrot(esc.way, x, y, lowest=True)
+        return None
+
+    def _retreating(self, crew, esc: _Escape, x: float, y: float, now: float):
+        """The point to walk to while a back-off lasts; None once it is over (at its cell or
+        out of time). Why a fresh start after giving up: the old way's best and stuck places
+        described a way that failed; the crew now stands somewhere else."""
+        retreat, until_s, fresh = esc.retreat
+        if now < until_s and self._value(retreat, x, y) > 0.0:
+            return self._carrot(retreat, x, y, lowest=True)
+        esc.retreat = None
+        if fresh:
+            esc.way, esc.spots, esc.seen, esc.since_s, esc.rung = None, [], None, now, 0
+        return None
+
+    def _back_off(self, crew, esc: _Escape, own: np.ndarray, x: float, y: float,
+                  now: float) -> None:
+        """Rung 2: step a few metres away from the crews round it, back the way it came.
+        Why: two crews nose to nose, or one pressed into a corner, each re-plan sends
+        straight back into the jam; room to turn is what a crew on site makes first. It
+        remembers where it was stuck."""
+        esc.spots.append((x, y))
+        esc.rung = 1
+        self._ask_aside(crew, esc.target, x, y, now)
+        cells = self._retreat_cells(crew, x, y, *BACK_OFF_M)
+        if cells.size:
+            rows_cols = np.unravel_index(cells, (self.ny, self.nx))
+            room = np.minimum(self._distance_to_crews(crew)[rows_cols], BACK_OFF_M[1])
+            # the most room from the crews, then the farthest back up its own field
+            goal = cells[np.lexsort((own[rows_cols], room))[-1]]
+            esc.retreat = (self._field_to(crew, goal), now + BACK_OFF_S, False)
+            self.rungs["back_off"] += 1
+
+    def _detour_round_stuck_spots(self, crew, esc: _Escape, target: int) -> None:
+        """Rung 3: a way that avoids where the crew got stuck and the crews standing still.
+        Why: rung 1 avoids crews only for ``DETOUR_STEPS`` steps, and then the crew's own
+        field leads back to the blocked lane (a crew that oscillates for an hour); this
+        detour is kept until it reaches or gets stuck on it too."""
+        esc.spots.append(self.engine.pose(crew.index)[:2])
+        esc.rung = 2
+        r = crew.spec.radius_m
+        avoid = np.zeros((self.ny, self.nx), dtype=bool)
+        for sx, sy in esc.spots:
+            avoid |= np.hypot(self.cx - sx, self.cy - sy) < r + STUCK_SPOT_M
+        avoid |= self._standing_crews(crew)
+        x, y = esc.spots[-1]
+        self._ask_aside(crew, target, x, y, self.site.time_s)
+        way = self._field(crew, target, extra_blocked=avoid)
+        if way is not None:
+            esc.way, esc.seen = way, None
+            self.rungs["detour"] += 1
+
+    def _give_up_this_way(self, crew, esc: _Escape, x: float, y: float, now: float) -> None:
+        """Rung 4: walk to a free cell some metres off, drawn from the crew's index and the
+        time (no random generator: the same floor gives the same schedule), then plan afresh.
+        Why: whatever wedged the crew (a knot of crews, a corner the grid thinks passable)
+        is left behind, and a walk from elsewhere meets it from another side or later."""
+        esc.rung = 3
+        cells = self._retreat_cells(crew, x, y, *LONG_BACK_OFF_M)
+        if cells.size == 0:
+            esc.way, esc.spots, esc.seen, esc.since_s, esc.rung = None, [], None, now, 0
+            return
+        goal = cells[(crew.index * 7919 + int(now)) % cells.size]
+        esc.retreat = (self._field_to(crew, goal), now + LONG_BACK_OFF_S, True)
+        self.rungs["give_up"] += 1
+
+    def _ask_aside(self, crew, target: int, x: float, y: float, now: float) -> None:
+        """Ask the parked crews next to a stuck one to step aside, each to a free cell a few
+        metres off, as far as it finds from the stuck crew and its target. Why: a crew
+        parked with nothing to do stands still for good (it may wait for the very task the
+        stuck crew is walking to: a deadlock on the imported L-shaped storey), and no way
+        round it may exist. ``Engine.make_way`` lets it move for ``MAKE_WAY_S`` s."""
+        tx, ty = self.site.target_xy[target]
+        for other in self.site.crews:
+            if other is crew or not _parked(other) or \
+                    self.aside.get(other.index, (None, -math.inf))[1] > now:  # already asked
+                continue
+            ox, oy, _ = self.engine.pose(other.index)
+            if math.hypot(ox - x, oy - y) - other.spec.radius_m - crew.spec.radius_m > \
+                    MAKE_WAY_GAP_M:
+                continue
+            cells = self._retreat_cells(other, ox, oy, *MAKE_WAY_M)
+            if cells.size == 0:
+                continue
+            cx, cy = self.cx.ravel()[cells], self.cy.ravel()[cells]
+            room = np.minimum(np.hypot(cx - x, cy - y), np.hypot(cx - tx, cy - ty))
+            goal = cells[np.argmax(room)]
+            until_s = now + MAKE_WAY_S
+            self.aside[other.index] = (self._field_to(other, goal), until_s)
+            self.engine.make_way(other.index, until_s)
+            self.rungs["make_way"] += 1
+
+    def _reached(self, crew, target: int, x: float, y: float) -> bool:
+        """Whether the crew stands where it reaches ``target`` (``decide.reached_target``'s
+        regions: a task area, a storage, the outlet's circle)."""
         site = self.site
+        n_comp = len(site.components)
+        if target < n_comp:
+            return inside(x, y, site.tasks[crew.scope[target]].area)
+        if target < site.outlet_target:
+            return inside(x, y, site.storages[target - n_comp].rect)
+        plane = self.engine.case.plane
+        return math.hypot(x - plane.outlet_x_m, y - plane.outlet_y_m) <= plane.outlet_radius_m
+
+    def _retreat_cells(self, crew, x: float, y: float, near_m: float, far_m: float):
+        """Flat indices of free cells between ``near_m`` and ``far_m`` from the crew that it
+        can walk to (on its grid, round the other crews)."""
+        grid = self.crew_grid[crew.index]
+        d = np.hypot(self.cx - x, self.cy - y)
+        ok = ~grid.blocked & (d >= near_m) & (d <= far_m) & ~self._crew_discs(crew, 0.2)
+        start = self._nearest_free(grid, x, y)
+        reach = dijkstra(grid.graph(self._cost(), self.area_key), directed=False,
+                         indices=start, limit=3 * far_m).reshape(self.ny, self.nx)
+        return np.flatnonzero((ok & np.isfinite(reach)).ravel())
+
+    def _nearest_free(self, grid: _Grid, x: float, y: float) -> int:
+        """The flat index of the free cell nearest (x, y): the crew's own, unless it is
+        pressed into a blocked one."""
+        i, j = self._cell(x, y)
+        if not grid.blocked[j, i]:
+            return j * self.nx + i
+        d = np.where(grid.blocked, np.inf, np.hypot(self.cx - x, self.cy - y))
+        return int(np.argmin(d))
+
+    def _field_to(self, crew, cell: int) -> np.ndarray:
+        """Cost-to-go to one cell, round the other crews."""
+        grid = self.crew_grid[crew.index]
+        cost = self._cost()
+        cost[self._crew_discs(crew, 0.2)] = OBSTACLE_COST
+        field = dijkstra(grid.graph(cost), directed=False, indices=cell)
+        return field.reshape(self.ny, self.nx)
+
+    def _crew_discs(self, crew, margin_m: float, standing_only: bool = False) -> np.ndarray:
+        """Cells where the crew would touch another crew (``standing_only``: one standing
+        still), with ``margin_m`` to spare."""
+        mask = np.zeros((self.ny, self.nx), dtype=bool)
+        for other in self.site.crews:
+            if other is crew or other.status == CrewStatus.LEFT:
+                continue
+            if standing_only and other.moving and best_target(other) >= 0:
+                continue
+            ox, oy, _ = self.engine.pose(other.index)
+            mask |= np.hypot(self.cx - ox, self.cy - oy) < \
+                other.spec.radius_m + crew.spec.radius_m + margin_m
+        return mask
+
+    def _standing_crews(self, crew) -> np.ndarray:
+        """Cells blocked by crews that stand still (working, waiting, fetching, parked or
+        without a target): they will not make way, unlike a crew walking somewhere."""
+        return self._crew_discs(crew, 0.2, standing_only=True)
+
+    def _distance_to_crews(self, crew) -> np.ndarray:
+        """Each cell's distance (m) to the nearest other crew's edge (inf with none)."""
+        d = np.full((self.ny, self.nx), np.inf)
+        for other in self.site.crews:
+            if other is crew or other.status == CrewStatus.LEFT:
+                continue
+            ox, oy, _ = self.engine.pose(other.index)
+            d = np.minimum(d, np.hypot(self.cx - ox, self.cy - oy) - other.spec.radius_m)
+        return d
+
+    def way(self, i: int) -> list[tuple[float, float]]:
+        """See ``Navigator.way``."""
+        crew = self.site.crews[i]
+        target = best_target(crew) if crew.moving else -1
+        if target < 0:
+            return []
+        esc = self.escape[i]
+        field = esc.retreat[0] if esc is not None and esc.retreat is not None else \
+            esc.way if esc is not None and esc.way is not None else self._field(crew, target)
+        if field is None:
+            return []
+        x, y, _ = self.engine.pose(i)
+        ci, cj = self._cell(x, y)
+        out = [(float(x), float(y))]
+        for _ in range(WAY_CELLS):
+            best = None
+            for di, dj in NEIGHBOURS:
+                ii, jj = ci + di, cj + dj
+                if 0 <= ii < self.nx and 0 <= jj < self.ny and \
+                        field[jj, ii] < (field[cj, ci] if best is None else best[0]):
+                    best = (field[jj, ii], ii, jj)
+            if best is None:
+                break
+            _, ci, cj = best
+            out.append((float(self.cx[0, ci]), float(self.cy[cj, 0])))
+        return out
+
+    def _idle(self, crew, pose, x, y):
+        """No target: stand aside, out of active task areas and storages (and, asked to
+        make way for a stuck crew, walk to the cell it was given)."""
+        site = self.site
+        aside = self.aside.get(crew.index)
+        if aside is not None:
+            field, until_s = aside
+            if site.time_s < until_s:
+                if self._value(field, x, y) <= 0.0:
+                    return STAND_STILL
+                carrot = self._carrot(field, x, y, lowest=True)
+                return STAND_STILL if carrot is None else self._drive(crew, pose, x, y, *carrot)
+            del self.aside[crew.index]
         if not site.in_congestion_area(x, y):  # the same test as the env's parking
             return STAND_STILL
         key = ("clear", self.crew_grid[crew.index].radius)
@@ -362,6 +673,17 @@ class _Plans:
         if forward > 0 and abs(error) > math.radians(5):
             lateral = 2 if error > 0 else 0
         return (forward, lateral, turn)
+
+
+def _parked(crew) -> bool:
+    """A crew standing with nothing to do (reaching, no target): it will not move by itself."""
+    return crew.status == CrewStatus.REACHING and crew.moving and best_target(crew) < 0
+
+
+def _distance_to_rect(rect, x: float, y: float) -> float:
+    """From (x, y) to the rectangle (x0, y0, x1, y1); 0 inside."""
+    x0, y0, x1, y1 = rect
+    return math.hypot(max(x0 - x, 0.0, x - x1), max(y0 - y, 0.0, y - y1))
 
 
 def _wrap(a: float) -> float:

@@ -134,6 +134,8 @@ class Engine:
         self.log = events.EventLog()
         self.metrics: Counters | None = None
         self.pending: list[int] = []  # crews whose scopes wait for values
+        # parked crews a low level moves out of another crew's way, until when (``make_way``)
+        self.making_way: dict[int, float] = {}
         self.action_needed = False  # some crew needs a movement decision
         self.positions: list[tuple[float, float]] = []  # every crew's (x, y), crew order
         self.activities: list[str] = []  # every crew's Gantt category (Fig. 9), as logged
@@ -191,6 +193,7 @@ class Engine:
             disruptions.update(self.site, self.world, self.log, self.timeline)
         decide.apply_decision_table(self._context())
         self.pending = []
+        self.making_way = {}
         self._evaluate()
         if self.timeline is not None:
             disruptions.refresh_causes(self.site)
@@ -307,8 +310,16 @@ class Engine:
         if not crew.moving:
             return False
         if self.park_idle and not crew.scope and crew.status == CrewStatus.REACHING:
-            return self.site.in_congestion_area(*self.positions[crew.index])
+            return self.site.in_congestion_area(*self.positions[crew.index]) or \
+                self.making_way.get(crew.index, -math.inf) > self.site.time_s
         return True
+
+    def make_way(self, i: int, until_s: float) -> None:
+        """Let crew i, parked (``park_idle``: no target, standing still), take reaching
+        actions until ``until_s``: a low level moves it out of the way of a crew it blocks
+        (a crew on site asks a gang standing in a passage to step aside). Without
+        ``park_idle`` every reaching crew takes them anyway."""
+        self.making_way[i] = until_s
 
     def set_target_values(self, i: int, values: dict[int, float]) -> None:
         """V_Tar for crew i's target scope, from outside (e.g. the stage-2 policy by Eq. 4):

@@ -12,6 +12,9 @@ state instead lets the caller skip the rays). State it keeps for one episode goe
 branch of the floor (the lookahead) as it would the floor itself. The PettingZoo env maps
 agent names in one helper (``CMDPEnv.agent_actions``).
 
+``ShowsWay``: a low level that can also say where a crew means to walk (``way(engine, i)``,
+the scripted navigator's planned cells), drawn on a stalled run's picture.
+
 ``TargetEvaluator`` (``evaluate``): V_Tar for a crew's target scope, ``values_for(engine, i)``;
 the priority heuristic, GA priorities, a plan, the lookahead, or the stage-2 model.
 """
@@ -40,6 +43,14 @@ class LowLevel(Protocol):
         decision may get anything (``move.STAND_STILL`` is customary)."""
 
 
+@runtime_checkable
+class ShowsWay(Protocol):
+    """A low level that can say where a crew means to walk (the stall report's picture)."""
+
+    def way(self, engine: Any, i: int) -> list[tuple[float, float]]:
+        """The points (m) crew ``i`` means to walk from where it stands; empty if none."""
+
+
 def best_target(crew) -> int:
     """The target of highest V_Tar in the crew's scope (lowest index on ties), or -1: the one
     every low level heads for, and where a crew walks on the event floor."""
@@ -48,4 +59,4 @@ def best_target(crew) -> int:
     return max(crew.values, key=lambda t: (crew.values[t], -t))
 
 
-__all__ = ["LowLevel", "TargetEvaluator", "best_target"]
+__all__ = ["LowLevel", "ShowsWay", "TargetEvaluator", "best_target"]

@@ -1,10 +1,11 @@
 """Running episodes and summing them up: the library every command-line script calls.
 
 ``run_episode`` drives an env with a low level to the end of an episode, a time-out or a stall
-(``stall_report`` says who and what was stuck); ``crew_summary``, ``reach_rate`` and
-``versions`` are what a run folder records. ``cmdp-simulate``, ``cmdp-train`` and the
-comparisons call these; none of them imports another script. Everything here takes an engine
-and addresses crews by index; ``play`` drives one to the end (the lookahead's branches too).
+(``stall_report`` says who and what was stuck, ``stall_text`` says it in prose);
+``crew_summary``, ``reach_rate`` and ``versions`` are what a run folder records.
+``cmdp-simulate``, ``cmdp-train`` and the comparisons call these; none of them imports another
+script. Everything here takes an engine and addresses crews by index; ``play`` drives one to
+the end (the lookahead's branches too).
 
 The low level is a ``policy.LowLevel`` (``bind``, ``reset``, ``actions``; the implementations
 are in ``agents``); this module needs nothing from ``agents``.
@@ -27,7 +28,7 @@ from .decide import target_id
 from .engine import Engine
 from .interrupt import sigint_guard
 from .observe import ReachingObservations
-from .policy import LowLevel
+from .policy import LowLevel, ShowsWay, best_target
 from .state import DISRUPTION_CAUSES, CrewStatus, IdleCause, Pool, activity
 
 PERCENTILES = (50, 80, 90)  # the makespan percentiles a run of many episodes reports
@@ -179,28 +180,127 @@ def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float |
     start = time.perf_counter()
     with sigint_guard(), bar:  # Ctrl-C stops the loop even when it lands inside pymunk
         play(engine, low_level, reaching, before_step, pause)
-    stalled = stall_report(engine, engine.stalled["after_s"]) if engine.stalled else None
+    stalled = stall_report(engine, engine.stalled["after_s"], _ways(engine, low_level)) \
+        if engine.stalled else None
     if frame_every_s is not None:
         keep(render(engine))
     return Episode(seed, engine.makespan_s, time.perf_counter() - start, stalled, frames)
 
 
-def stall_report(engine: Engine, for_s: float) -> dict:
-    """The crews and tasks involved in an episode that stopped making progress."""
+def stall_report(engine: Engine, for_s: float, ways: dict | None = None) -> dict:
+    """The crews and tasks involved in an episode that stopped making progress.
+
+    Per crew still on the floor: its id, type, radius, activity, position, target scope
+    (``targets``), task, the seconds it has held a target without reaching one
+    (``steps_since_reach``), and, for a crew walking to a target, ``heading_for``: the target
+    (``target``, ``task`` for a work point, ``position_m``, ``distance_m`` from the crew) and
+    ``way_m``, the cells its low level means to walk (``ways``: crew index -> points, from a
+    ``policy.ShowsWay`` low level; absent without one). ``stall_text`` reads it as prose."""
     site = engine.site
     crews = []
     for crew in site.crews:
         if crew.status == CrewStatus.LEFT:
             continue
         x, y, _ = engine.pose(crew.index)
-        crews.append({"crew": crew.id, "activity": activity(crew),
-                      "position_m": [round(x, 2), round(y, 2)],
-                      "targets": sorted(target_id(site, t) for t in crew.scope),
-                      "task": site.tasks[crew.task].id if crew.task >= 0 else None,
-                      "steps_since_reach": crew.steps_since_reach})
+        row = {"crew": crew.id, "type": crew.type, "radius_m": round(crew.spec.radius_m, 2),
+               "activity": activity(crew), "position_m": [round(x, 2), round(y, 2)],
+               "targets": sorted(target_id(site, t) for t in crew.scope),
+               "task": site.tasks[crew.task].id if crew.task >= 0 else None,
+               "steps_since_reach": crew.steps_since_reach,
+               "heading_for": _heading_for(site, crew, x, y)}
+        if ways and ways.get(crew.index):
+            row["way_m"] = [[round(px, 2), round(py, 2)] for px, py in ways[crew.index]]
+        crews.append(row)
     return {"after_s": for_s, "time_s": site.time_s, "crews": crews,
+            "tasks": len(site.tasks), "tasks_ended": site.tasks_ended,
             "tasks_on": [t.id for t in site.tasks if t.pool == Pool.ON],
             "tasks_queued": [t.id for t in site.tasks if t.pool == Pool.QUEUE]}
+
+
+def _heading_for(site, crew, x: float, y: float) -> dict | None:
+    """The target a walking crew heads for (the one every low level takes), or None."""
+    target = best_target(crew) if crew.moving else -1
+    if target < 0:
+        return None
+    tx, ty = site.target_xy[target]
+    task = crew.scope.get(target, -1) if target < len(site.components) else -1
+    return {"target": target_id(site, target), "task": site.tasks[task].id if task >= 0 else None,
+            "position_m": [round(float(tx), 2), round(float(ty), 2)],
+            "distance_m": round(math.hypot(tx - x, ty - y), 2)}
+
+
+def _ways(engine: Engine, low_level: LowLevel) -> dict | None:
+    """Each walking crew's intended way, from a low level that can say it."""
+    if not isinstance(low_level, ShowsWay):
+        return None
+    return {c.index: low_level.way(engine, c.index) for c in engine.site.crews
+            if c.status != CrewStatus.LEFT}
+
+
+# How the stall report's activities read in prose.
+ACTIVITY_WORDS = {"tasking": "is working on", "fetching": "is fetching materials",
+                  "waiting": "is waiting for the crane", "deregistered": "is walking out",
+                  "idle_predecessor": "is idle, waiting for a predecessor",
+                  "idle_area": "is idle, its work points closed by task areas",
+                  "idle_no_target": "is idle with nothing to do"}
+
+
+def stall_text(report: dict) -> str:
+    """``stall_report`` in prose for people: when and for how long nothing moved on, each
+    walking crew's target and how far it stands from it, what the others do, the tasks on
+    and queued. E.g. "At t = 21,183 s no task had moved on for 3,600 s; 33 of 36 tasks
+    ended. FC-2 (FC, 1.13 m radius) has held a target for 3,600 s without reaching one:
+    it walks to task F-14's work point at P-24 (12.30, -2.00) m and stands at (12.30,
+    -4.00) m, 2.0 m from it ..."."""
+    lines = [f"At t = {report['time_s']:,.0f} s no task had moved on for "
+             f"{report['after_s']:,.0f} s"
+             + (f"; {report['tasks_ended']} of {report['tasks']} tasks ended."
+                if "tasks" in report else ".")]
+    for crew in report["crews"]:
+        lines.append(_crew_sentence(crew) + _nearest_crew(crew, report["crews"]))
+    lines.append("Tasks on: " + (", ".join(report["tasks_on"]) or "none") + "; queued: "
+                 + (", ".join(report["tasks_queued"]) or "none") + ".")
+    return "\n".join(lines)
+
+
+def _crew_sentence(crew: dict) -> str:
+    """One crew of a stall report in a sentence."""
+    x, y = crew["position_m"]
+    who = f"{crew['crew']} ({crew['type']}, {crew['radius_m']:.2f} m radius)" \
+        if "type" in crew else crew["crew"]
+    here = f"({x:.2f}, {y:.2f}) m"
+    goal = crew.get("heading_for")
+    if goal is None:
+        doing = ACTIVITY_WORDS.get(crew["activity"], crew["activity"].replace("_", " "))
+        if crew["activity"] == "tasking" and crew["task"]:
+            doing += f" {crew['task']}"
+        return f"{who} {doing}, at {here}."
+    gx, gy = goal["position_m"]
+    what = f"task {goal['task']}'s work point at {goal['target']}" if goal["task"] else \
+        "the outlet" if goal["target"] == "outlet" else f"storage {goal['target']}"
+    way = crew.get("way_m") or []
+    planned = f"; its planned way runs {_way_length(way):.1f} m from there" if len(way) > 1 \
+        else ""
+    return (f"{who} has held a target for {crew['steps_since_reach']:,} s without reaching "
+            f"one: it walks to {what} ({gx:.2f}, {gy:.2f}) m and stands at {here}, "
+            f"{goal['distance_m']:.1f} m from it{planned}.")
+
+
+def _nearest_crew(crew: dict, crews: list[dict]) -> str:
+    """" The nearest crew, X, is 0.2 m from it." for a walking crew ("" otherwise): the
+    first suspect when a crew stops short of its target."""
+    if crew.get("heading_for") is None:
+        return ""
+    others = [(math.dist(crew["position_m"], o["position_m"]) - crew.get("radius_m", 0.0)
+               - o.get("radius_m", 0.0), o["crew"]) for o in crews if o is not crew]
+    if not others:
+        return ""
+    gap, other = min(others)
+    return f" The nearest crew, {other}, is {max(gap, 0.0):.1f} m from it (edge to edge)."
+
+
+def _way_length(way: list) -> float:
+    return float(sum(math.dist(a, b) for a, b in zip(way, way[1:], strict=False)))
 
 
 def crew_summary(engine: Engine) -> dict:

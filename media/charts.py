@@ -9,6 +9,9 @@
 - :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
   as time goes on, with the components it worked on numbered in the order it started them;
   (b) every crew's path, one small panel per crew.
+- :func:`stall_picture`: the floor where a run stalled (``rollout.stall_report``): every crew
+  where it stands, drawn to its size, a walking crew's target and the way it means to walk,
+  and its last minutes of path from the log.
 - :func:`draw_run` draws all three into a run folder; :class:`GifStream` writes frames as a GIF
   as they come (:func:`write_gif` for a sequence of them). A run on the event floor
   (``summary.json``'s ``fidelity``, docs/event-floor.md) says so in the Gantt charts' titles
@@ -618,6 +621,64 @@ def trajectories(events: Sequence[Event], case: Case, path: str | Path,
     fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
                frameon=False)
     return save_png(fig, path)
+
+
+STALL_TRAIL_S = 900.0  # how much of each crew's recent path a stall picture shows
+STUCK_COLOUR = "#d62728"
+
+
+def stall_picture(report: dict, case: Case, path: str | Path,
+                  events: Sequence[Event] = ()) -> Path:
+    """The floor where a run stalled, from its stall report (``rollout.stall_report``):
+    the layout, each crew as a disc of its radius where it stands (red if it walks to a
+    target, grey otherwise) with its id, a red star on the target it walks to, dashed red
+    the way it means to walk (``way_m``, where the low level said it), and thin lines for
+    each crew's last ``STALL_TRAIL_S`` s of ``position`` events. Writes a PNG to ``path``
+    (atomically) and returns it."""
+    hw, hh = case.plane.half_extents
+    fig = Figure(figsize=(11, 11 * hh / hw + 1.2), layout="constrained")
+    ax = fig.subplots()
+    _draw_layout(ax, case, faint=True)
+    start = report["time_s"] - STALL_TRAIL_S
+    for trail in crew_paths(events).values():
+        recent = trail[trail[:, 0] >= start]
+        if len(recent) >= 2:
+            ax.plot(recent[:, 1], recent[:, 2], color="#777777", linewidth=0.7, alpha=0.7)
+    for crew in report["crews"]:
+        _draw_stalled_crew(ax, crew)
+    ax.set_title(f"Stalled at t = {report['time_s']:,.0f} s: no task moved on for "
+                 f"{report['after_s']:,.0f} s", fontsize=11)
+    key = [Line2D([], [], color=STUCK_COLOUR, marker="o", linestyle="none",
+                  label="crew walking to a target"),
+           Line2D([], [], color="#888888", marker="o", linestyle="none", label="other crew"),
+           Line2D([], [], color=STUCK_COLOUR, marker="*", markersize=10, linestyle="none",
+                  label="its target"),
+           Line2D([], [], color=STUCK_COLOUR, linestyle="--", label="its planned way"),
+           Line2D([], [], color="#777777", linewidth=0.7,
+                  label=f"last {STALL_TRAIL_S:,.0f} s of path")]
+    fig.legend(handles=key, loc="outside lower center", ncol=len(key), fontsize=8,
+               frameon=False)
+    return save_png(fig, path)
+
+
+def _draw_stalled_crew(ax, crew: dict) -> None:
+    """One crew of a stall report on the stall picture."""
+    x, y = crew["position_m"]
+    goal = crew.get("heading_for")
+    colour = STUCK_COLOUR if goal else "#888888"
+    ax.add_patch(Circle((x, y), crew.get("radius_m", 0.5), facecolor=colour, alpha=0.35,
+                        edgecolor=colour, linewidth=1.2))
+    ax.annotate(crew["crew"], (x, y), xytext=(0, 9), textcoords="offset points", ha="center",
+                fontsize=8, fontweight="bold", color=colour)
+    if goal is None:
+        return
+    way = np.asarray(crew.get("way_m") or [], dtype=float)
+    if len(way) >= 2:
+        ax.plot(way[:, 0], way[:, 1], "--", color=STUCK_COLOUR, linewidth=1.2)
+    gx, gy = goal["position_m"]
+    ax.plot([gx], [gy], marker="*", markersize=13, color=STUCK_COLOUR, linestyle="none")
+    ax.annotate(goal["task"] or goal["target"], (gx, gy), xytext=(6, -10),
+                textcoords="offset points", fontsize=7, color=STUCK_COLOUR)
 
 
 def crew_multiples(fig, paths: dict, case: Case, order: list[str]) -> list:

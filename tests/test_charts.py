@@ -327,3 +327,18 @@ def test_s_curve_title_says_how_many_episodes_finished():
         "Tasks ended over time (S-curve): 1 of 3 episodes finished; P50/P80/P90 over those"
     assert s_curve_title([[1]], 3, percentiles=False) == \
         "Tasks ended over time (S-curve): 0 of 1 episodes finished"
+
+
+def test_stall_picture_draws_a_hand_made_stall_report(tmp_path, tiny_case):
+    """The floor at a stall from a report and the hand-made log (``conftest.RUN``): a walking
+    crew with its target and planned way, a parked one; written atomically as a PNG."""
+    report = {"after_s": 200.0, "time_s": 540.0, "tasks_on": [], "tasks_queued": ["M-C"],
+              "crews": [
+                  {"crew": "M-1", "radius_m": 0.56, "activity": "navigating",
+                   "position_m": [2.0, -2.0], "heading_for": {
+                       "target": "C", "task": "M-C", "position_m": [0.5, 0.0],
+                       "distance_m": 2.5}, "way_m": [[2.0, -2.0], [1.5, -1.5], [1.0, -1.0]]},
+                  {"crew": "M-2", "radius_m": 0.56, "activity": "idle_no_target",
+                   "position_m": [6.0, 3.0], "heading_for": None}]}
+    path = charts.stall_picture(report, tiny_case, tmp_path / "stall.png", make_events())
+    assert path.read_bytes()[:4] == b"\x89PNG" and not list(tmp_path.glob(".*.tmp"))

@@ -62,3 +62,29 @@ def test_makespan_stats_over_the_seed_bound():
     assert stats["mean_over_seed_bound"] == pytest.approx(1.75)
     assert makespan_stats([{"makespan_s": 1.0, "reach_rate": 1.0}])["mean_over_seed_bound"] \
         is None
+
+
+def test_stall_text_reads_a_report_as_prose():
+    """A hand-made stall report (the shape ``stall_report`` gives) in prose, word for word."""
+    from cmdp_pymunk.rollout import stall_text
+
+    report = {"after_s": 3600.0, "time_s": 21183.0, "tasks": 36, "tasks_ended": 33,
+              "tasks_on": ["F-12"], "tasks_queued": ["F-14", "R-3"],
+              "crews": [
+                  {"crew": "FC-2", "type": "FC", "radius_m": 1.13, "activity": "navigating",
+                   "position_m": [12.3, -4.0], "targets": ["P-24"], "task": None,
+                   "steps_since_reach": 3600,
+                   "heading_for": {"target": "P-24", "task": "F-14",
+                                   "position_m": [12.3, 2.2], "distance_m": 6.2},
+                   "way_m": [[12.3, -4.0], [12.3, -1.0], [16.3, 2.0]]},
+                  {"crew": "FC-1", "type": "FC", "radius_m": 1.13, "activity": "tasking",
+                   "position_m": [3.0, 1.5], "targets": [], "task": "F-12",
+                   "steps_since_reach": 0, "heading_for": None}]}
+    assert stall_text(report).splitlines() == [
+        "At t = 21,183 s no task had moved on for 3,600 s; 33 of 36 tasks ended.",
+        "FC-2 (FC, 1.13 m radius) has held a target for 3,600 s without reaching one: it walks "
+        "to task F-14's work point at P-24 (12.30, 2.20) m and stands at (12.30, -4.00) m, "
+        "6.2 m from it; its planned way runs 8.0 m from there. The nearest crew, FC-1, is "
+        "8.5 m from it (edge to edge).",  # way: 3 m, then a 3-4-5 step; 10.80 - 2 x 1.13 m
+        "FC-1 (FC, 1.13 m radius) is working on F-12, at (3.00, 1.50) m.",
+        "Tasks on: F-12; queued: F-14, R-3."]

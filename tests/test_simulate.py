@@ -222,7 +222,14 @@ def test_stall_is_detected_and_reported(tmp_path, capsys, monkeypatch, gantt_fig
     # the env's own stall guard (the one training uses) stopped it: at 200 s, not later
     assert data["simulated_s"] == data["stalled"]["time_s"] == 200
     assert {c["crew"] for c in data["stalled"]["crews"]} == {"HIC-1", "RC-1"}
-    assert "STALLED" in capsys.readouterr().err
+    # the console says it in prose (no JSON), naming the crew and the target it walks to, and
+    # the floor at the stall is drawn beside summary.json, which keeps the report as data
+    err = capsys.readouterr().err
+    assert "STALLED" in err and "At t = 200 s no task had moved on for 200 s" in err
+    assert "HIC-1 (HIC, " in err and "walks to task HI-P-1's work point at P-1" in err
+    assert '"crews"' not in err
+    assert (out / "stall.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert not list(out.glob(".*.tmp"))  # written atomically: no temporary file left
     # schedule.csv lists every task although none started, in the case's order: HI-P-1 has no
     # predecessor (queue), both R tasks wait for it; no crew, no times
     assert (out / "schedule.csv").read_text().splitlines()[1:] == [

@@ -69,7 +69,12 @@ only, so there is no ``trajectories.png`` (the GIF shows them jump along their w
 the histogram and the S-curve are still drawn.
 
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
-is stopped and reported with the crews and tasks involved; the command then exits with 1.
+is stopped and reported in prose (``rollout.stall_text``: when, each walking crew's target and
+how far it stands from it, what the others do, the tasks on and queued) with a picture,
+``stall.png`` in its folder (``media.charts.stall_picture``: the crews where they stand, the
+targets, the ways they meant to walk, their last minutes of path), drawn even with
+``--no-charts``; ``summary.json``'s ``stalled`` keeps the report as data. The command then
+exits with 1.
 A bad case file exits with 2 and a message naming the file, the entry and the fix.
 """
 
@@ -386,6 +391,10 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
             datetime.datetime.fromisoformat(args.ifc_start or DEFAULT_IFC_START)
         export_4d(args.ifc, case, task_bars(run.events),
                   folder / f"{args.ifc.stem}-4d.ifc", start)
+    if data["stalled"]:  # where it stuck, drawn even without charts: the first thing to see
+        from media.charts import stall_picture
+
+        stall_picture(data["stalled"], case, folder / "stall.png", run.events)
     if args.charts and args.seed_charts:
         from media.charts import draw_run
 
@@ -620,7 +629,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
 
     from agents.models import PolicyStuck
     from cmdp_pymunk import interrupt
-    from cmdp_pymunk.rollout import run_episode, seconds_and_hours
+    from cmdp_pymunk.rollout import run_episode, seconds_and_hours, stall_text
     from cmdp_pymunk.schedule import finish_times
     from training.runs.backends import WorkerLost, Workers
 
@@ -700,9 +709,9 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
             finishes.append(finish_times(run.events))
             if data["stalled"]:
                 failed = True
-                bar.write(f"cmdp-simulate: seed {seed}: STALLED at t = {data['simulated_s']:.0f} s"
-                          f" after {data['stalled']['after_s']:.0f} s without progress:\n"
-                          + json.dumps(data["stalled"], indent=2), file=sys.stderr)
+                bar.write(f"cmdp-simulate: seed {seed}: STALLED (the picture: "
+                          f"{folder / 'stall.png'})\n" + stall_text(data["stalled"]),
+                          file=sys.stderr)
             elif not data["all_finished"]:
                 failed = True
                 bar.write(f"cmdp-simulate: seed {seed}: time limit reached with "
