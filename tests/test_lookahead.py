@@ -86,8 +86,8 @@ def test_lookahead_specs_and_their_errors():
     assert isinstance(ev, LookaheadEvaluator) and ev.settings == LookaheadSettings(2, 0)
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
     assert make_evaluator("lookahead").settings == LookaheadSettings()
-    with pytest.raises(ValueError,
-                       match="candidates=INT, futures=INT or expected, workers=INT, race=INT, base=SPEC"):
+    with pytest.raises(ValueError, match="candidates=INT, futures=INT or expected, "
+                                         "workers=INT, race=INT, base=SPEC"):
         make_evaluator("lookahead:cands=2")
     expected = make_evaluator("lookahead:futures=expected")
     assert expected.settings == LookaheadSettings(futures=1, expected_paces=True)
