@@ -203,12 +203,17 @@ def precast_deck(schema: str = "IFC4"):
 
     f, _, storeys = new_model(schema)
     plan = ifcopenshell.api.context.add_context(f, context_type="Plan")
-    w, h = DECK_SLAB_M
-    slabs = {}
-    for name, (x0, y0) in DECK.items():
-        slabs[name], _ = add_assembled(f, plan, storeys["Level 1"], "IfcSlab", name,
-                                       box(x0 + w / 2, y0 + h / 2, w, h), z=0.0, depth=0.25)
-    return f, slabs
+    return f, assembled_slabs(f, plan, storeys["Level 1"], DECK, DECK_SLAB_M, 0.25)
+
+
+def assembled_slabs(f, context, storey, corners: dict, size: tuple[float, float],
+                    depth: float) -> dict:
+    """Slabs of ``size`` (metres) at ``corners`` (name -> lower left corner), each a
+    placement whose body sits on an aggregated proxy (``add_assembled``): {name: slab}."""
+    w, h = size
+    return {name: add_assembled(f, context, storey, "IfcSlab", name,
+                                box(x0 + w / 2, y0 + h / 2, w, h), z=0.0, depth=depth)[0]
+            for name, (x0, y0) in corners.items()}
 
 
 # the structural storey: (IFC class, name) -> (x0, y0, x1, y1, z bottom, depth), metres
@@ -254,12 +259,7 @@ WIDE = {f"W-{r + 1}{c + 1}": (300.0 + c * (WIDE_SLAB_M[0] + joint),
 def wide_slab_deck(schema: str = "IFC4"):
     """The 5 x 5 wide-slab deck (module doc); returns (file, {name: slab})."""
     f, body, storeys = new_model(schema)
-    w, h = WIDE_SLAB_M
-    slabs = {}
-    for name, (x0, y0) in WIDE.items():
-        slabs[name], _ = add_assembled(f, body, storeys["Level 1"], "IfcSlab", name,
-                                       box(x0 + w / 2, y0 + h / 2, w, h), z=0.0, depth=0.07)
-    return f, slabs
+    return f, assembled_slabs(f, body, storeys["Level 1"], WIDE, WIDE_SLAB_M, 0.07)
 
 
 # the L: (IFC class, name) -> (x0, y0, x1, y1, z bottom, depth), metres
