@@ -301,18 +301,22 @@ def test_the_disrupted_built_in_case_runs_on_the_built_in_calibration():
     assert calibration_for(disrupted) == calibration_for(plain)
 
 
-def test_tiny_floors_correlate_with_the_pymunk_floors():
-    """The validation's small version in the gate: 10 tiny floors on both."""
-    case = cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE)
+def eq9_on_both_floors(case, seeds, calibration=None) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 9's makespans on the pymunk floor and on the event floor, seed by seed."""
     engine = Engine(case, evaluator="priority", park_idle=True)
-    floor = EventFloor(case, evaluator="priority")
+    floor = EventFloor(case, evaluator="priority", calibration=calibration)
     pairs = []
-    for seed in range(10):
+    for seed in seeds:
         a = run_episode(engine, Navigator(), seed, 3600, progress=False).makespan_s
         floor.reset(seed)
         floor.run()
         pairs.append((a, floor.makespan_s))
-    a, b = np.array(pairs).T
+    return np.array(pairs).T
+
+
+def test_tiny_floors_correlate_with_the_pymunk_floors():
+    """The validation's small version in the gate: 10 tiny floors on both."""
+    a, b = eq9_on_both_floors(cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE), range(10))
     assert np.corrcoef(a, b)[0, 1] >= 0.8
     assert abs(b.mean() / a.mean() - 1) < 0.1
     assert not math.isnan(a.sum() + b.sum())
@@ -350,14 +354,6 @@ def test_built_in_floors_on_held_out_seeds_track_the_pymunk_floor():
     floor against itself with crews 1 % faster correlates 0.86 on 100-139 (the trajectories'
     own sensitivity), so the bound asked here is 0.75."""
     case = cmdp_pymunk.load_case()
-    engine = Engine(case, evaluator="priority", park_idle=True)
-    floor = EventFloor(case, evaluator="priority", calibration=calibration_for(case))
-    pairs = []
-    for seed in range(100, 110):
-        a = run_episode(engine, Navigator(), seed, 3600, progress=False).makespan_s
-        floor.reset(seed)
-        floor.run()
-        pairs.append((a, floor.makespan_s))
-    a, b = np.array(pairs).T
+    a, b = eq9_on_both_floors(case, range(100, 110), calibration_for(case))
     assert np.corrcoef(a, b)[0, 1] >= 0.75
     assert abs(b.mean() / a.mean() - 1) <= 0.03
