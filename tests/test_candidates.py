@@ -55,6 +55,25 @@ def test_row_zero_plays_eq9s_schedule():
     assert played[-1].info["makespan_s"] == heuristic
 
 
+def test_row_zero_on_the_event_floor_plays_eq9s_event_schedule():
+    """fidelity = "event" (issue 32, item 5): the same masked choice on the event floor."""
+    from cmdp_pymunk import load_case
+    from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+    from cmdp_pymunk.evaluate import PriorityEvaluator
+
+    config = candidate_config(fidelity="event")
+    case = stage2.training_case(config)
+    floor = stage2.make_floor(config, case)
+    assert type(floor.engine).__name__ == "EventFloor"
+    played = stage2.play_floor(floor, 3, lambda obs: 0)
+    plain = load_case(None)
+    eq9 = EventFloor(plain, evaluator=PriorityEvaluator(), calibration=calibration_for(plain))
+    eq9.reset(3)
+    eq9.run()
+    assert played[-1].info["makespan_s"] == eq9.makespan_s
+    assert floor.engine.calibration.fitted_on == eq9.calibration.fitted_on != ""
+
+
 def test_untrained_policy_chooses_eq9_on_recorded_states():
     config = candidate_config()
     case = stage2.training_case(config)
@@ -95,6 +114,8 @@ def test_a_policy_started_from_a_rule_scores_as_the_rule(tmp_path):
     ({"start_model": "m.zip"}, 'action = "candidate"'),
     ({"action": "candidate", "central_critic": False, "start_model": "nope.zip"},
      "no such file"),
+    ({"fidelity": "event", "low_level": __file__}, "event floor has no low level"),
+    ({"fidelity": "physics"}, "fidelity"),
 ])
 def test_bad_candidate_settings_are_refused_with_their_fix(override, message):
     with pytest.raises(ValueError, match=message):

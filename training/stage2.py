@@ -65,6 +65,12 @@ class Stage2Config(scaffold.PPOSettings):
                 "checkpoint_every_steps": 4096}
 
     low_level: str = "scripted"  # "scripted" or a stage-1 model .zip (actions sampled)
+    # the floor the decisions are played on (issue 32, item 5): "pymunk", the paper's, or
+    # "event", the event floor with the case's calibration (no physics and no low level:
+    # some 40 times as many decisions a second, so budgets of 100,000s of decisions fit two
+    # cores); a model trained there runs on the pymunk floor (the same spaces) and is
+    # fine-tuned there with start_model
+    fidelity: Literal["pymunk", "event"] = "pymunk"
     stall_s: Rate = 3600.0  # truncate an episode in which no task moves on for this long
     central_critic: bool = True  # MAPPO: the critic also sees the global state
     # R_e (Eq. 5) weights for training; they replace the case's [evaluation_reward]
@@ -126,6 +132,10 @@ class Stage2Config(scaffold.PPOSettings):
         if self.low_level != "scripted" and not Path(self.low_level).is_file():
             raise ValueError(f"low_level = {self.low_level!r}: no such stage-1 model; fix: give "
                              '"scripted" or the path of a stage-1 .zip')
+        if self.low_level != "scripted" and self.fidelity == "event":
+            raise ValueError(f"low_level = {self.low_level!r} with fidelity = \"event\": the "
+                             "event floor has no low level (crews walk the shortest way); fix: "
+                             "--set low_level=scripted, or fidelity=pymunk for a stage-1 model")
         return self
 
 
@@ -156,8 +166,9 @@ def make_floor(config: Stage2Config, case):
     with ``central_critic``. The scripted navigator reads the state, not the rays: idle crews
     are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast. With
     ``action = "candidate"`` it is wrapped in ``training.candidate_loop.CandidateLoop``."""
-    floor = DecisionLoop(case, low_level_factory(config.low_level), stall_s=config.stall_s,
-                  park_idle=config.low_level == "scripted", with_state=config.central_critic)
+    floor = DecisionLoop(case, low_level_factory(config.low_level), fidelity=config.fidelity,
+                         stall_s=config.stall_s, park_idle=config.low_level == "scripted",
+                         with_state=config.central_critic)
     if config.action == "candidate":
         from .candidate_loop import CandidateLoop
 
