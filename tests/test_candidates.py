@@ -202,3 +202,15 @@ def test_a_run_can_start_from_a_distilled_model(tmp_path):
     with pytest.raises(ValueError, match="same candidates"):
         stage2.new_candidate_model(config.model_copy(update={"candidates": 4}),
                                    distill.choice_venv(4))
+
+
+@pytest.mark.parametrize("name", ["stage2.toml", "stage2_candidate.toml", "stage2_event.toml",
+                                  "stage2_finetune.toml"])
+def test_the_stage2_configs_load(name):
+    """Every committed stage-2 config is valid as written (the event run's on the event floor,
+    its fine-tuning on the pymunk floor, both at 5 candidates so the model carries over)."""
+    config = Stage2Config.load(stage2.DEFAULT_CONFIG.with_name(name))
+    if name in ("stage2_event.toml", "stage2_finetune.toml"):
+        assert config.action == "candidate" and config.candidates == 5
+        assert config.fidelity == ("event" if "event" in name else "pymunk")
+        assert config.seed_pool == 100  # training seeds 0-99: no selection or report seed
