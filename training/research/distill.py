@@ -3,7 +3,11 @@
     python -m training.research.distill label --seeds 0-19 --out runs/labels [--futures
     0|N|expected]
                                      [--acting SPEC] [--workers 2] [--ray [ADDRESS]]
+    python -m training.research.distill label --seeds 0-9 --out runs/labels-pi \
+        --teacher candidates=3+futures=16+race=4+floor=event+base=student:PATH \
+        --acting student:PATH [--features all|NAME,NAME,...]
     python -m training.research.distill fit runs/labels --out models/student_priority.json
+                                     [--weights gap]
     python -m training.research.distill fit-model runs/labels --out runs/distilled/model.zip
     python -m training.research.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
 
@@ -11,7 +15,11 @@
 decision with two or more candidates, the candidates' features (``agents.features``), their
 Eq. 9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per
 floor, written whole as soon as its floor is done, so a stopped run resumes where it stopped
-(seeds with a file are skipped). The floors run in worker processes, or on Ray actors with
+(seeds with a file are skipped). ``--teacher OPTIONS`` names the whole lookahead
+(``agents.specs.make_lookahead``'s ``candidates=K+futures=F+race=R+floor=event+base=SPEC``)
+instead of ``--candidates`` and ``--futures``; ``--features`` the candidate features kept
+(any of ``agents.features.ALL_FEATURES``, their names stored in each file; files without
+names hold ``FEATURE_NAMES``). The floors run in worker processes, or on Ray actors with
 ``--ray`` (docs/ray.md). ``--futures expected`` labels with the certainty-equivalent
 lookahead (every task not yet started at its expected pace: a choice that depends on the state
 alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
@@ -22,8 +30,11 @@ decisions kept with ``--states`` in other sampled futures: how much of a label i
 noise. ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
 the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
-penalty; every weight 0 is Eq. 9 itself. The JSON it writes names the command, the label
-folder and the seeds.
+penalty; every weight 0 is Eq. 9 itself. ``--weights gap`` weights each decision's
+cross-entropy by how much its choice matters (``choice_weights``). The JSON it writes names
+the command, the label folder and the seeds. Rounds of approximate policy iteration (label the
+student's own states, fit, make the student the next base) are
+``training.research.policy_iteration``.
 """
 
 from __future__ import annotations
@@ -57,23 +68,59 @@ def futures_option(text: str) -> int | str:
                      "expected (the expected paces)")
 
 
-def label_floor(case_path: str | None, seed: int, candidates: int, futures: int | str,
-                acting: str | None = None, states: bool = False) -> dict:
+def teacher_options(text: str) -> str:
+    """``--teacher``: the lookahead's options (``candidates=3+futures=16+race=4+floor=event+
+    base=SPEC``; a leading ``lookahead:`` is allowed), checked by building the lookahead once
+    (a bad option or a missing base file fails here, naming the fix)."""
+    from agents.specs import make_lookahead
+
+    options = text.removeprefix("lookahead:")
+    try:
+        make_lookahead(options)
+    except ValueError as err:
+        raise ValueError(f"--teacher {text!r}: {err}") from None
+    return options
+
+
+def features_option(text: str) -> tuple[str, ...]:
+    """``--features``: ``all`` (``ALL_FEATURES``), ``first`` (``FEATURE_NAMES``) or names from
+    ``ALL_FEATURES`` joined by commas, each once."""
+    from agents.features import ALL_FEATURES, FEATURE_NAMES
+
+    if text in ("all", "first"):
+        return ALL_FEATURES if text == "all" else FEATURE_NAMES
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    unknown = [n for n in names if n not in ALL_FEATURES]
+    if unknown or not names or len(set(names)) != len(names):
+        raise ValueError(f"--features {text!r}: give all, first, or names from "
+                         f"{', '.join(ALL_FEATURES)} joined by commas, each once"
+                         + (f" ({', '.join(unknown)} unknown)" if unknown else ""))
+    return names
+
+
+def label_floor(case_path: str | None, seed: int, candidates: int = 3,
+                futures: int | str = 0, acting: str | None = None, states: bool = False,
+                teacher: str | None = None, features: tuple[str, ...] | None = None) -> dict:
     """One floor under the lookahead (or under ``acting``, the lookahead labelling): its
     makespan and the arrays of its decisions; with ``states``, each decision's floor too
-    (``decision_state``)."""
+    (``decision_state``). ``teacher``: the lookahead's options (``teacher_options``), instead
+    of ``candidates`` and ``futures`` (a base rule of Eq. 9); ``features``: the candidate
+    features kept (default ``FEATURE_NAMES``)."""
     import cmdp_pymunk
-    from agents.features import FloorFacts, candidate_features
+    from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
     from agents.lookahead import LookaheadEvaluator
     from agents.navigator import Navigator
-    from agents.specs import make_evaluator
+    from agents.specs import make_evaluator, make_lookahead
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
 
+    features = tuple(features or FEATURE_NAMES)
     case = cmdp_pymunk.load_case(case_path)
     navigator = Navigator()  # drives the floor and, from its plans, the branches
-    lookahead = LookaheadEvaluator(settings=lookahead_settings(candidates, futures),
+    options = teacher if teacher is not None else f"candidates={candidates}+futures={futures}"
+    spec = make_lookahead(options)
+    lookahead = LookaheadEvaluator(spec.base, spec.settings,
                                    acting=make_evaluator(acting) if acting else None,
                                    low_level=navigator)
     engine = Engine(case, evaluator=lookahead, park_idle=True)
@@ -89,7 +136,7 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
         crew = site.crews[i]
         priorities = priority.priorities(crew, site, engine.positions[i])
         phi = candidate_features(facts[0], crew, site, engine.positions[i],
-                                 decision.candidates, priorities, engine.positions)
+                                 decision.candidates, priorities, engine.positions, features)
         rows.append((crew.type, [priorities[t] for t in decision.candidates], phi,
                      decision.makespans_s, decision.candidates.index(decision.choice)))
         if states:
@@ -100,8 +147,8 @@ def label_floor(case_path: str | None, seed: int, candidates: int, futures: int 
     run_episode(engine, navigator, seed, stall_s=3600.0, progress=False)
     return {"seed": seed, "makespan_s": engine.makespan_s, "rows": rows,
             "wall_s": time.perf_counter() - start, "overrides": lookahead.summary()["overrides"],
-            "teacher": f"lookahead:candidates={candidates}+futures={futures}",
-            "acting": acting or "", "states": snapshots}
+            "teacher": f"lookahead:{options}", "candidates": spec.settings.candidates,
+            "features": features, "acting": acting or "", "states": snapshots}
 
 
 def decision_state(engine, low_level, i: int, candidates: list[int]) -> bytes:
@@ -124,13 +171,18 @@ def decision_state(engine, low_level, i: int, candidates: list[int]) -> bytes:
                         protocol=pickle.HIGHEST_PROTOCOL)
 
 
-def save_labels(path: Path, result: dict, candidates: int) -> None:
-    rows = result["rows"]
-    n, k = len(rows), candidates
+def save_labels(path: Path, result: dict, candidates: int | None = None) -> None:
+    """A floor's labels as ``seed-N.npz`` (written whole, then moved into place: its presence
+    marks the floor as done): per decision the crew type, the candidates' Eq. 9 values,
+    features and makespans (NaN-padded to ``candidates``, default the teacher's), the
+    teacher's choice; the feature names, the teacher and the acting policy."""
     from agents.features import FEATURE_NAMES
 
+    rows = result["rows"]
+    names = tuple(result.get("features") or FEATURE_NAMES)
+    n, k = len(rows), candidates or result["candidates"]
     v = np.full((n, k), np.nan)
-    phi = np.zeros((n, k, len(FEATURE_NAMES)))
+    phi = np.zeros((n, k, len(names)))
     makespan = np.full((n, k), np.nan)
     for r, (_, values, features, makespans, _) in enumerate(rows):
         m = len(values)
@@ -143,18 +195,24 @@ def save_labels(path: Path, result: dict, candidates: int) -> None:
         # written before the label file, whose presence marks the floor as done
         write_atomic(path.with_name(path.name.replace(".npz", ".states.pkl")),
                      pickle.dumps(result["states"], protocol=pickle.HIGHEST_PROTOCOL))
-    tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez_compressed(tmp, crew_type=np.array([r[0] for r in rows], dtype="U8"), values=v,
+    import io
+
+    from cmdp_pymunk.events import write_atomic
+
+    blob = io.BytesIO()
+    np.savez_compressed(blob, crew_type=np.array([r[0] for r in rows], dtype="U8"), values=v,
                         features=phi, makespan_s=makespan,
                         choice=np.array([r[4] for r in rows], dtype=np.int64),
                         seed=result["seed"], floor_makespan_s=result["makespan_s"] or np.nan,
                         wall_s=result["wall_s"], teacher=result.get("teacher", ""),
-                        acting=result.get("acting", ""))
-    tmp.replace(path)
+                        acting=result.get("acting", ""),
+                        feature_names=np.array(names, dtype="U32"))
+    write_atomic(path, blob.getvalue())  # a stopped run leaves no half-written seed-N.npz
 
 
-def _label_job(runner, case_path, seed, candidates, futures, acting=None, states=False):
-    return label_floor(case_path, seed, candidates, futures, acting, states)
+def _label_job(runner, case_path, seed, candidates, futures, acting=None, states=False,
+               teacher=None, features=None):
+    return label_floor(case_path, seed, candidates, futures, acting, states, teacher, features)
 
 
 def label(args) -> int:
@@ -163,8 +221,8 @@ def label(args) -> int:
     from training.compare import seed_list
     from training.runs.backends import open_backend
 
-    futures = futures_option(args.futures)
-    lookahead_settings(args.candidates, futures)  # bad settings fail before any floor runs
+    teacher = label_teacher(args)  # bad settings fail before any floor runs
+    features = features_option(args.features)
     import cmdp_pymunk
 
     cmdp_pymunk.load_case(args.case)  # and so does a bad case file
@@ -176,20 +234,35 @@ def label(args) -> int:
     out.mkdir(parents=True, exist_ok=True)
     seeds = [s for s in seed_list(args.seeds) if not (out / f"seed-{s}.npz").exists()]
     print(f"label: {len(seed_list(args.seeds)) - len(seeds)} seeds already labelled in {out}; "
-          f"{len(seeds)} to go (candidates {args.candidates}, futures {futures}, acting "
+          f"{len(seeds)} to go (teacher lookahead:{teacher}, acting "
           f"{args.acting or 'the lookahead'}, {args.workers} worker(s))", flush=True)
-    jobs = [(args.case, s, args.candidates, futures, args.acting, args.states) for s in seeds]
+    jobs = [(args.case, s, None, None, args.acting, args.states, teacher, features)
+            for s in seeds]
     # Floors in worker processes, or on Ray actors (--ray): each file is written here as its
     # floor arrives, so a stopped run keeps every finished floor.
     with tqdm(total=len(jobs), unit="floor", desc="label", file=sys.stderr) as bar, \
             open_backend(_label_job, None, args.workers or None, args.ray) as pool:
         for _, result in pool.as_completed(jobs):
-            _report(out, result, args.candidates, bar)
+            _report(out, result, bar)
     return 0
 
 
-def _report(out: Path, result: dict, candidates: int, bar) -> None:
-    save_labels(out / f"seed-{result['seed']}.npz", result, candidates)
+def label_teacher(args) -> str:
+    """The teacher's lookahead options: ``--teacher``, or ``--candidates`` and ``--futures``
+    (Eq. 9 as the base; their defaults 3 and 0), never both."""
+    if args.teacher is not None:
+        if args.candidates is not None or args.futures is not None:
+            raise ValueError("--teacher names the whole lookahead; fix: put candidates=K and "
+                             "futures=F inside it instead of --candidates and --futures")
+        return teacher_options(args.teacher)
+    candidates = 3 if args.candidates is None else args.candidates
+    futures = futures_option("0" if args.futures is None else args.futures)
+    lookahead_settings(candidates, futures)
+    return f"candidates={candidates}+futures={futures}"
+
+
+def _report(out: Path, result: dict, bar) -> None:
+    save_labels(out / f"seed-{result['seed']}.npz", result)
     bar.update(1)
     bar.write(f"label: seed {result['seed']}: makespan {result['makespan_s']} s, "
               f"{len(result['rows'])} decisions, {result['overrides']} overrides, "
@@ -198,16 +271,40 @@ def _report(out: Path, result: dict, candidates: int, bar) -> None:
 
 # -- fit ----------------------------------------------------------------------------------------
 
-def load_labels(folder: Path) -> dict:
-    files = sorted(Path(folder).glob("seed-*.npz"), key=lambda p: int(p.stem.split("-")[1]))
+def label_files(folder: Path) -> list[Path]:
+    """A label folder's ``seed-N.npz`` files, by seed."""
+    files = [f for f in Path(folder).glob("seed-*.npz") if f.stem[5:].isdigit()]
+    return sorted(files, key=lambda p: int(p.stem[5:]))
+
+
+def load_labels(folders: Path | str | list) -> dict:
+    """Every ``seed-N.npz`` of a label folder (or of several: one list of decisions, the
+    folders in order) as one set of arrays, with ``feature_names``: the features' columns,
+    which every file must share (a file written before they were stored holds
+    ``FEATURE_NAMES``)."""
+    from agents.features import FEATURE_NAMES
+
+    folders = [folders] if isinstance(folders, (str, Path)) else list(folders)
+    files = [f for folder in folders for f in label_files(folder)]
     if not files:
-        raise ValueError(f"{folder}: no seed-N.npz label files; make them with "
-                         f"`python -m training.research.distill label --out {folder}`")
+        raise ValueError(f"{', '.join(map(str, folders))}: no seed-N.npz label files; make "
+                         f"them with `python -m training.research.distill label --out "
+                         f"{folders[0]}`")
     parts = [np.load(f) for f in files]
+    names = [tuple(str(n) for n in p["feature_names"]) if "feature_names" in p
+             else FEATURE_NAMES for p in parts]
+    if len(set(names)) > 1:
+        odd = next(k for k, n in enumerate(names) if n != names[0])
+        raise ValueError(f"label files with other features: {files[0]} has "
+                         f"{', '.join(names[0])}; {files[odd]} has {', '.join(names[odd])}; "
+                         "fix: fit on files of one --features (label the others again, or "
+                         "move them to another folder)")
     return {"crew_type": np.concatenate([p["crew_type"] for p in parts]),
             "values": np.concatenate([p["values"] for p in parts]),
             "features": np.concatenate([p["features"] for p in parts]),
             "makespan_s": np.concatenate([p["makespan_s"] for p in parts]),
+            "choice": np.concatenate([p["choice"] for p in parts]),
+            "feature_names": names[0],
             "seeds": [int(p["seed"]) for p in parts],
             "row_seed": np.concatenate([np.full(len(p["choice"]), int(p["seed"]))
                                         for p in parts]),
@@ -225,10 +322,31 @@ def soft_targets(makespan_s: np.ndarray, tau_s: float) -> np.ndarray:
     return p / p.sum(axis=1, keepdims=True)
 
 
-def fit_weights(data: dict, tau_s: float, l2: float) -> tuple[dict[str, np.ndarray], dict]:
-    """Per crew type, w and beta minimising cross-entropy to the soft targets + l2 |w|^2."""
+def choice_weights(makespan_s: np.ndarray) -> np.ndarray:
+    """How much each decision's choice matters: the gap between its candidates' estimated
+    makespans (max - min over the real, non-NaN candidates), divided by the mean gap of the
+    rows given, so the weights average 1. A decision whose candidates all cost the same teaches
+    nothing (weight 0: its soft target is flat, and fitting it only pulls the scores
+    together); one where the wrong pick costs 800 s counts eight times one where it costs
+    100 s. All gaps 0: all weights 0. Give it the rows of one crew type (``fit_weights``)."""
+    gap = np.nanmax(makespan_s, axis=1) - np.nanmin(makespan_s, axis=1)
+    mean = gap.mean() if len(gap) else 0.0
+    return gap / mean if mean > 0 else np.zeros_like(gap)
+
+
+FIT_WEIGHTS = ("none", "gap")  # fit_weights(weights=...): every decision alike, or by its gap
+
+
+def fit_weights(data: dict, tau_s: float, l2: float,
+                weights: str = "none") -> tuple[dict[str, np.ndarray], dict]:
+    """Per crew type, w and beta minimising cross-entropy to the soft targets + l2 |w|^2;
+    ``weights="gap"``: each decision's cross-entropy weighted by ``choice_weights`` (over the
+    crew type's rows), so the fit spends itself where a choice costs seconds. L-BFGS from a
+    fixed start: the same labels give the same weights."""
     from scipy.optimize import minimize
 
+    if weights not in FIT_WEIGHTS:
+        raise ValueError(f"fit weights {weights!r}: give one of {', '.join(FIT_WEIGHTS)}")
     out, report = {}, {}
     target = soft_targets(data["makespan_s"], tau_s)
     for crew_type in sorted(set(data["crew_type"])):
@@ -237,14 +355,16 @@ def fit_weights(data: dict, tau_s: float, l2: float) -> tuple[dict[str, np.ndarr
         mask = ~np.isnan(v)
         v0 = np.where(mask, v, 0.0)
         nf = phi.shape[2]
+        row_weight = (choice_weights(data["makespan_s"][rows]) if weights == "gap"
+                      else np.ones(len(v0)))
 
-        def loss(x, v0=v0, phi=phi, p=p, mask=mask):
+        def loss(x, v0=v0, phi=phi, p=p, mask=mask, row_weight=row_weight):
             beta, w = np.exp(x[0]), x[1:]
             logits = np.where(mask, beta * (v0 + phi @ w), -np.inf)
             top = logits.max(axis=1, keepdims=True)
             logp = logits - top - np.log(np.exp(logits - top).sum(axis=1, keepdims=True))
-            ce = -np.sum(p * np.where(mask, logp, 0.0)) / len(v0)  # padded: p = 0
-            return ce + l2 * float(w @ w) / len(v0)
+            per_row = -np.sum(p * np.where(mask, logp, 0.0), axis=1)  # padded: p = 0
+            return float(row_weight @ per_row) / len(v0) + l2 * float(w @ w) / len(v0)
 
         x0 = np.zeros(1 + nf)
         x0[0] = np.log(5.0)  # beta: V' differences of about 0.2 give odds of about e
@@ -267,13 +387,14 @@ def fit(args) -> int:
     from agents.student import StudentEvaluator
 
     data = load_labels(Path(args.labels))
-    weights, report = fit_weights(data, args.tau_s, args.l2)
+    weights, report = fit_weights(data, args.tau_s, args.l2, args.weights)
     student = StudentEvaluator({k: v.tolist() for k, v in weights.items()},
-                               candidates=data["values"].shape[1])
+                               candidates=data["values"].shape[1],
+                               features=data["feature_names"])
     meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
             "labels": str(args.labels), "label_seeds": data["seeds"],
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
-            "tau_s": args.tau_s, "l2": args.l2, "fit": report}
+            "tau_s": args.tau_s, "l2": args.l2, "fit_weighting": args.weights, "fit": report}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
     student.save(Path(args.out), meta)
     for crew_type, r in report.items():
@@ -302,6 +423,11 @@ def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
     from agents.candidates import CANDIDATE_COLUMNS, observation_bounds
 
     values, features = data["values"], data["features"]
+    names = tuple(data.get("feature_names", CANDIDATE_COLUMNS[1:]))
+    if names != CANDIDATE_COLUMNS[1:]:
+        raise ValueError(f"labels with features {', '.join(names)}: the masked-choice model "
+                         f"reads {', '.join(CANDIDATE_COLUMNS[1:])}; fix: label with "
+                         "--features first")
     n, k = values.shape
     if k > cap:
         raise ValueError(f"labels of {k} candidates for a policy of {cap}; fix: --candidates {k}")
@@ -483,10 +609,18 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("label", help="label decisions with the lookahead, one file per seed")
     p.add_argument("--case", default=None, help="case file (default: built-in)")
     p.add_argument("--seeds", default="0-19", help="training seeds, e.g. 0-19")
-    p.add_argument("--candidates", type=int, default=3, help="top-k of Eq. 9 tried")
-    p.add_argument("--futures", default="0",
-                   help="sampled futures per candidate (0: the floor's own durations), or "
-                        "expected (one branch at the expected paces)")
+    p.add_argument("--candidates", type=int, default=None,
+                   help="top-k of Eq. 9 tried (default 3)")
+    p.add_argument("--futures", default=None,
+                   help="sampled futures per candidate (0, the default: the floor's own "
+                        "durations), or expected (one branch at the expected paces)")
+    p.add_argument("--teacher", default=None, metavar="OPTIONS",
+                   help="the whole lookahead instead of --candidates and --futures, e.g. "
+                        "candidates=3+futures=16+race=4+floor=event+base=student:PATH "
+                        "(agents.specs.make_lookahead's options)")
+    p.add_argument("--features", default="first",
+                   help="candidate features kept: first (the 11 FEATURE_NAMES, default), all "
+                        "(ALL_FEATURES, with the binding ones) or names joined by commas")
     p.add_argument("--acting", default=None, metavar="SPEC",
                    help="DAgger: the floor follows this evaluator (e.g. student:PATH or a "
                         "masked-choice model .zip) and the lookahead only labels")
@@ -506,6 +640,9 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--tau-s", type=float, default=FIT_DEFAULTS["tau_s"],
                    help="temperature of the teacher's soft choice, in seconds of makespan")
     f.add_argument("--l2", type=float, default=FIT_DEFAULTS["l2"], help="weight penalty")
+    f.add_argument("--weights", choices=FIT_WEIGHTS, default="none",
+                   help="gap: weight each decision by the gap between its candidates' "
+                        "makespans (how much the choice matters); none: all alike (default)")
     m = sub.add_parser("fit-model", help="fit the masked-choice SB3 model (MaskablePPO) to a "
                        "label folder by cross-entropy")
     m.add_argument("labels", help="label folder made by `label`")
