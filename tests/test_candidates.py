@@ -58,8 +58,8 @@ def test_row_zero_plays_eq9s_schedule():
 def test_row_zero_on_the_event_floor_plays_eq9s_event_schedule():
     """fidelity = "event" (issue 32, item 5): the same masked choice on the event floor."""
     from cmdp_pymunk import load_case
-    from cmdp_pymunk.eventfloor import EventFloor, calibration_for
     from cmdp_pymunk.evaluate import PriorityEvaluator
+    from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 
     config = candidate_config(fidelity="event")
     case = stage2.training_case(config)

@@ -182,3 +182,23 @@ def test_bad_options_fail_before_any_floor(tmp_path, capsys):
                                   str(tmp_path / "once")]) == 0
     err = fails("--rounds", "1", "--l2", "3", out="once")
     assert "other settings (l2)" in err and "give a new --out" in err
+
+
+def test_the_committed_student_is_a_round_of_this_code():
+    """models/api_student_r2.json: round 2 of the documented run, readable by this code, and
+    it plays a floor to the end (the event floor: milliseconds)."""
+    from agents.student import StudentEvaluator
+    from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+
+    path = ROOT / "models" / "api_student_r2.json"
+    meta = json.loads(path.read_text())
+    assert meta["round"] == 2 and meta["fit_weighting"] == "gap"
+    assert not set(meta["fitted_on_seeds"]) & set(policy_iteration.REPORT_SEEDS)
+    student = StudentEvaluator.load(path)
+    assert student.features == ALL_FEATURES and student.candidates == 3
+    assert sorted(student.weights) == ["FC", "HIC", "JCC", "RC"]
+    case = cmdp_pymunk.load_case(None)
+    floor = EventFloor(case, evaluator=student, calibration=calibration_for(case))
+    floor.reset(7)
+    floor.run()
+    assert floor.makespan_s is not None
