@@ -106,6 +106,19 @@ def test_choice_rows_pad_clip_and_mask_by_hand():
     assert rows[0, 1, 1] == 1.0 and rows[1, 1].tolist() == [0.0] * (f + 1)
     with pytest.raises(ValueError, match="--candidates 2"):
         distill.choice_rows({"values": values, "features": features}, cap=1)
+    # labels with every feature (policy iteration's): the model's columns taken by name, the
+    # same rows; labels without one of them are refused with the fix
+    from agents.features import ALL_FEATURES
+
+    wide = np.zeros((2, 2, len(ALL_FEATURES)))
+    wide[..., [ALL_FEATURES.index(n) for n in FEATURE_NAMES]] = features
+    wide[..., len(FEATURE_NAMES):] = 9.0  # the binding features: not the model's
+    same, _ = distill.choice_rows({"values": values, "features": wide,
+                                   "feature_names": ALL_FEATURES}, cap=3)
+    assert same.tolist() == flat.tolist()
+    with pytest.raises(ValueError, match="areas_near missing"):
+        distill.choice_rows({"values": values, "features": features[..., :4],
+                             "feature_names": FEATURE_NAMES[:3] + ("rank1",)}, cap=3)
 
 
 def test_fit_model_learns_a_feature_the_teacher_follows_and_loads_as_an_evaluator(tmp_path):

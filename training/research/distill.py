@@ -424,10 +424,14 @@ def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
 
     values, features = data["values"], data["features"]
     names = tuple(data.get("feature_names", CANDIDATE_COLUMNS[1:]))
-    if names != CANDIDATE_COLUMNS[1:]:
+    missing = [c for c in CANDIDATE_COLUMNS[1:] if c not in names]
+    if missing:
         raise ValueError(f"labels with features {', '.join(names)}: the masked-choice model "
-                         f"reads {', '.join(CANDIDATE_COLUMNS[1:])}; fix: label with "
-                         "--features first")
+                         f"reads {', '.join(CANDIDATE_COLUMNS[1:])} ({', '.join(missing)} "
+                         "missing); fix: label with --features first or all")
+    # labels with more features (policy iteration labels all of ALL_FEATURES): the model's
+    # columns, taken by name
+    features = features[..., [names.index(c) for c in CANDIDATE_COLUMNS[1:]]]
     n, k = values.shape
     if k > cap:
         raise ValueError(f"labels of {k} candidates for a policy of {cap}; fix: --candidates {k}")
