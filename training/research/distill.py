@@ -386,13 +386,13 @@ def fit_weights(data: dict, tau_s: float, l2: float,
 def fit(args) -> int:
     from agents.student import StudentEvaluator
 
-    data = load_labels(Path(args.labels))
+    data = load_labels([Path(f) for f in args.labels])
     weights, report = fit_weights(data, args.tau_s, args.l2, args.weights)
     student = StudentEvaluator({k: v.tolist() for k, v in weights.items()},
                                candidates=data["values"].shape[1],
                                features=data["feature_names"])
     meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
-            "labels": str(args.labels), "label_seeds": data["seeds"],
+            "labels": [str(f) for f in args.labels], "label_seeds": data["seeds"],
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
             "tau_s": args.tau_s, "l2": args.l2, "fit_weighting": args.weights, "fit": report}
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
@@ -576,7 +576,7 @@ def fit_model(args) -> int:
 
     from cmdp_pymunk.events import write_atomic
 
-    data = load_labels(Path(args.labels))
+    data = load_labels([Path(f) for f in args.labels])
     cap = args.candidates or data["values"].shape[1]
     if args.start_rule and not args.candidates:
         from agents.student import StudentEvaluator
@@ -590,7 +590,7 @@ def fit_model(args) -> int:
     tmp = out.with_name(out.stem + ".tmp.zip")
     model.save(tmp)
     meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
-            "labels": str(args.labels), "label_seeds": data["seeds"],
+            "labels": [str(f) for f in args.labels], "label_seeds": data["seeds"],
             "teachers": sorted(set(data["teachers"])), "acting": sorted(set(data["acting"])),
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
             "candidates": cap, "start_rule": args.start_rule or "", "seed": args.seed,
@@ -639,7 +639,8 @@ def main(argv: list[str] | None = None) -> int:
     add_ray_option(p)
     p.add_argument("--out", default="runs/labels", help="label folder (resumes)")
     f = sub.add_parser("fit", help="fit the student to a label folder")
-    f.add_argument("labels", help="label folder made by `label`")
+    f.add_argument("labels", nargs="+", help="label folder(s) made by `label` (several: "
+                   "their decisions together, e.g. the rounds of policy iteration)")
     f.add_argument("--out", default="models/student_priority.json")
     f.add_argument("--tau-s", type=float, default=FIT_DEFAULTS["tau_s"],
                    help="temperature of the teacher's soft choice, in seconds of makespan")
@@ -649,7 +650,7 @@ def main(argv: list[str] | None = None) -> int:
                         "makespans (how much the choice matters); none: all alike (default)")
     m = sub.add_parser("fit-model", help="fit the masked-choice SB3 model (MaskablePPO) to a "
                        "label folder by cross-entropy")
-    m.add_argument("labels", help="label folder made by `label`")
+    m.add_argument("labels", nargs="+", help="label folder(s) made by `label`")
     m.add_argument("--out", default="runs/distilled/model.zip", help="model zip to write "
                    "(and NAME.distill.json beside it: the command, the labels, the fit)")
     m.add_argument("--candidates", type=int, default=0,
