@@ -75,6 +75,15 @@ def test_label_fit_and_simulate_on_the_tiny_case(tmp_path):
     assert distill.main(["fit", str(labels), "--out", str(model)]) == 0
     data = json.loads(model.read_text())
     assert data["label_seeds"] == [0, 1, 2] and data["command"].startswith("python -m")
+    # the same decisions split over two folders (rounds of policy iteration): the same weights
+    part = tmp_path / "part"
+    part.mkdir()
+    (labels / "seed-2.npz").rename(part / "seed-2.npz")
+    both = tmp_path / "both.json"
+    assert distill.main(["fit", str(labels), str(part), "--out", str(both)]) == 0
+    fitted = json.loads(both.read_text())
+    assert fitted["label_seeds"] == [0, 1, 2] and fitted["weights"] == data["weights"]
+    (part / "seed-2.npz").rename(labels / "seed-2.npz")
     assert simulate.main(["--case", tiny, "--evaluator", f"student:{model}", "--out",
                           str(tmp_path / "run"), "--no-charts", "--no-progress"]) == 0
 
