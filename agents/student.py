@@ -7,13 +7,13 @@ choices (``training.research.distill``), so it is as cheap to run as Eq. 9 and c
 lookahead's base (a step of approximate policy iteration).
 
 Like the lookahead, a choice that overrides Eq. 9 is held until the crew reaches a target or
-the target leaves its scope (per episode, so one evaluator can serve branches of a floor).
+the target leaves its scope (per site, so one evaluator can serve branches of a floor;
+``agents.hold``, shared with masked-choice models saved with ``hold_choice``).
 """
 
 from __future__ import annotations
 
 import json
-import weakref
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +22,7 @@ from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
 from cmdp_pymunk.state import ScopeKind
 
 from .features import ALL_FEATURES, FEATURE_NAMES, FloorFacts, candidate_features
+from .hold import HeldChoices
 from .lookahead import promote, ranked
 
 
@@ -51,16 +52,12 @@ class StudentEvaluator(Evaluator):
         self.candidates = candidates
         self.base = PriorityEvaluator()
         self._facts: dict = {}
-        self._held: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._held = HeldChoices()  # pickles empty
 
     def __getstate__(self):  # pickled into lookahead workers: the caches stay behind
         state = dict(self.__dict__)
-        state["_facts"], state["_held"] = {}, None
+        state["_facts"] = {}
         return state
-
-    def __setstate__(self, state):
-        self.__dict__.update(state)
-        self._held = weakref.WeakKeyDictionary()
 
     def facts(self, site) -> FloorFacts:
         key = id(site.case)
@@ -73,12 +70,9 @@ class StudentEvaluator(Evaluator):
         crew, position = site.crews[i], engine.positions[i]
         priorities = self.base.priorities(crew, site, position)
         values = as_target_values(priorities)  # Eq. 9's V_Tar, from V' computed once
-        held = self._held.setdefault(site, {})
-        if crew.index in held:
-            target, reaches = held[crew.index]
-            if target in values and crew.stats.reaches == reaches:
-                return promote(values, target)
-            del held[crew.index]
+        held = self._held.values(site, crew, values)  # a hold lasts until a reach
+        if held is not None:
+            return held
         order = ranked(values)
         top = order[:self.candidates]
         w = self.weights.get(crew.type)
@@ -90,7 +84,7 @@ class StudentEvaluator(Evaluator):
         choice = top[int(np.argmax(scores))]  # ties: Eq. 9's order
         if choice == order[0]:
             return values
-        held[crew.index] = (choice, crew.stats.reaches)
+        self._held.hold(site, crew, choice)
         return promote(values, choice)
 
     # -- files -----------------------------------------------------------------------------------
