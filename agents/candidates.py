@@ -10,9 +10,16 @@ another row swaps that target with Eq. 9's best (``lookahead.promote``), so only
 choice changes. Scopes of other kinds (storages, the crane) and scopes with a single target
 are valued by Eq. 9 without asking the policy.
 
+Typed rows (``typed = true``, ``CandidateView(cap, CREW_TYPES)``): each row also carries a
+one-hot of the deciding crew's type over the vocabulary ``CREW_TYPES`` stored in the model
+(the paper's five types); a crew of a type outside it gets all-zero type columns, so the
+model scores it by its shared terms only (the per-type term is zero for it).
+
 The policy (``agents.candidate_policy``) scores each row as ``scale * V' + r(row)``, ``r`` a
 small network shared across rows whose last layer starts at zero: untrained, its argmax is
-Eq. 9's choice (row 0 wins ties: torch's argmax takes the first).
+Eq. 9's choice (row 0 wins ties: torch's argmax takes the first). A model saved with
+``hold_choice`` holds a choice other than Eq. 9's until the crew reaches a target or the
+target leaves its scope, as the student does (``agents.hold``).
 """
 
 from __future__ import annotations
@@ -26,19 +33,33 @@ from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
 from cmdp_pymunk.state import ScopeKind
 
 from .features import FEATURE_NAMES, FloorFacts, candidate_features
+from .hold import HeldChoices
 from .lookahead import promote, ranked
 
 CANDIDATE_COLUMNS = ("eq9_value",) + FEATURE_NAMES
 EQ9_RANGE = (-1.0, 1.5)  # V' with the paper's betas (1, 0.5, -1): from -1 up to 1.5
+# the typed rows' vocabulary: the paper's crew types (cmdp_pymunk/cases/precast_floor.toml),
+# in a fixed order that a typed model's weights are laid out in
+CREW_TYPES = ("JCC", "HIC", "GC", "RC", "FC")
 
 
-def observation_bounds(cap: int) -> tuple[np.ndarray, np.ndarray]:
-    """Low and high of the flat observation (``cap`` rows of ``CANDIDATE_COLUMNS``): V' in
-    ``EQ9_RANGE``, every feature in [0, 1]."""
-    low = np.zeros((cap, len(CANDIDATE_COLUMNS)), np.float32)
+def observation_bounds(cap: int, types: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Low and high of the flat observation (``cap`` rows of ``CANDIDATE_COLUMNS`` and, typed,
+    ``types`` one-hot columns of the crew's type): V' in ``EQ9_RANGE``, every feature and type
+    column in [0, 1]."""
+    low = np.zeros((cap, len(CANDIDATE_COLUMNS) + types), np.float32)
     high = np.ones_like(low)
     low[:, 0], high[:, 0] = EQ9_RANGE
     return low.ravel(), high.ravel()
+
+
+def type_columns(crew_type: str, types: tuple[str, ...]) -> np.ndarray:
+    """The one-hot of ``crew_type`` over the vocabulary ``types``; all zeros for a type
+    outside it (the model then scores the crew by its shared terms only)."""
+    onehot = np.zeros(len(types), np.float32)
+    if crew_type in types:
+        onehot[types.index(crew_type)] = 1.0
+    return onehot
 
 
 def has_choice(crew) -> bool:
@@ -48,14 +69,16 @@ def has_choice(crew) -> bool:
 
 class CandidateView:
     """Builds a decision's rows and turns a chosen row into V_Tar (see the module doc); keeps
-    the case-only facts per case."""
+    the case-only facts per case. ``types``: the crew-type vocabulary of typed rows
+    (``CREW_TYPES``), () for the untyped rows of ``CANDIDATE_COLUMNS`` only."""
 
-    def __init__(self, cap: int):
+    def __init__(self, cap: int, types: tuple[str, ...] = ()):
         if cap < 2:
             raise ValueError(f"candidates = {cap}: the policy needs at least 2 to choose from")
-        self.cap = cap
+        self.cap, self.types = cap, tuple(types)
+        self.width = len(CANDIDATE_COLUMNS) + len(self.types)  # floats per row
         self.base = PriorityEvaluator()
-        self.low, self.high = observation_bounds(cap)
+        self.low, self.high = observation_bounds(cap, len(self.types))
         self._facts: dict[int, FloorFacts] = {}
 
     def facts(self, site) -> FloorFacts:
@@ -70,12 +93,13 @@ class CandidateView:
         priorities = self.base.priorities(crew, site, position)
         values = as_target_values(priorities)
         order = ranked(values)[:self.cap]
-        width = len(CANDIDATE_COLUMNS)
-        obs = np.zeros(self.cap * width, np.float32)
-        table = obs.reshape(self.cap, width)
+        obs = np.zeros(self.cap * self.width, np.float32)
+        table = obs.reshape(self.cap, self.width)
         table[:len(order), 0] = [priorities[t] for t in order]
-        table[:len(order), 1:] = candidate_features(self.facts(site), crew, site, position,
-                                                    order, priorities, positions)
+        table[:len(order), 1:len(CANDIDATE_COLUMNS)] = candidate_features(
+            self.facts(site), crew, site, position, order, priorities, positions)
+        if self.types:
+            table[:len(order), len(CANDIDATE_COLUMNS):] = type_columns(crew.type, self.types)
         np.clip(obs, self.low, self.high, out=obs)
         mask = np.zeros(self.cap, bool)
         mask[:len(order)] = True
@@ -101,29 +125,44 @@ class CandidateDecision:
 
 class CandidateModelEvaluator(Evaluator):
     """A trained masked-choice model (``cmdp-train stage2 --set action=candidate``) as a
-    target evaluator: the crew's rows, the policy's argmax over the real ones, its values."""
+    target evaluator: the crew's rows, the policy's argmax over the real ones, its values.
+
+    What the rows are and whether a choice is held come from the policy's saved parameters:
+    ``types`` (the crew-type vocabulary of typed rows; () for untyped) and ``hold_choice``
+    (hold a choice other than Eq. 9's as the student does, ``agents.hold``); a model saved
+    before them has neither and behaves as it always did."""
 
     def __init__(self, path: str | Path, model=None):
         self.path = Path(path)
         self.model = model if model is not None else load_candidate_model(path)
         cap = self.model.action_space.n
-        self.view = CandidateView(cap)
-        expected = cap * len(CANDIDATE_COLUMNS)
+        policy = self.model.policy
+        self.view = CandidateView(cap, tuple(getattr(policy, "types", ())))
+        self.held = HeldChoices() if getattr(policy, "hold_choice", False) else None
+        expected = cap * self.view.width
         if self.model.observation_space.shape != (expected,):
             raise ValueError(f"{self.path}: the model reads {self.model.observation_space.shape} "
                              f"floats, expected ({expected},) for {cap} candidates of "
-                             f"{len(CANDIDATE_COLUMNS)} columns; fix: retrain it with these "
+                             f"{self.view.width} columns ({len(CANDIDATE_COLUMNS)} and "
+                             f"{len(self.view.types)} crew types); fix: retrain it with these "
                              "features")
 
     def values_for(self, engine, i: int) -> dict[int, float]:
         site = engine.site
         crew = site.crews[i]
+        if self.held is not None:  # first, as the student: a hold outlasts the scope's kind
+            held = self.held.values(site, crew, self.view.base.values_for(engine, i))
+            if held is not None:
+                return held
         if not has_choice(crew):
             return self.view.base.values_for(engine, i)
         decision = self.view.rows(crew, site, engine.positions[i], engine.positions)
         action, _ = self.model.predict(decision.observation[None],
                                        action_masks=decision.mask[None], deterministic=True)
-        return decision.values(int(action[0]))
+        choice = int(action[0])
+        if self.held is not None and choice != 0:
+            self.held.hold(site, crew, decision.targets[choice])
+        return decision.values(choice)
 
 
 def is_candidate_model(path: str | Path) -> bool:

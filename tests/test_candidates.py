@@ -8,7 +8,8 @@ import pytest
 import torch as th
 from test_ga import far_start_case
 
-from agents.candidates import CANDIDATE_COLUMNS, CandidateView, observation_bounds
+from agents.candidates import CANDIDATE_COLUMNS, CREW_TYPES, CandidateView, observation_bounds
+from agents.features import FEATURE_NAMES
 from training import stage2
 from training.runs.runner import EpisodeRunner
 from training.stage2 import Stage2Config
@@ -118,6 +119,8 @@ def test_a_policy_started_from_a_rule_scores_as_the_rule(tmp_path):
      "no such file"),
     ({"fidelity": "event", "low_level": __file__}, "event floor has no low level"),
     ({"fidelity": "physics"}, "fidelity"),
+    ({"typed": True}, 'action = "candidate"'),
+    ({"hold_choice": True}, "typed=false and hold_choice=false"),
 ])
 def test_bad_candidate_settings_are_refused_with_their_fix(override, message):
     with pytest.raises(ValueError, match=message):
@@ -216,3 +219,207 @@ def test_the_stage2_configs_load(name):
         assert config.action == "candidate" and config.candidates == 5
         assert config.fidelity == ("event" if "event" in name else "pymunk")
         assert config.seed_pool == 100  # training seeds 0-99: no selection or report seed
+
+
+# -- typed rows: a model that starts as a per-type student -----------------------------------------
+
+TYPED_WIDTH = len(CANDIDATE_COLUMNS) + len(CREW_TYPES)
+
+
+def one_feature(name: str, weight: float) -> list[float]:
+    w = [0.0] * len(FEATURE_NAMES)
+    w[FEATURE_NAMES.index(name)] = weight
+    return w
+
+
+# per-type vectors that prefer different rows: JCC the nearest target, HIC the farthest, GC
+# the longest tail; RC all zeros and FC without weights (both Eq. 9, as in the student)
+HAND_WEIGHTS = {"JCC": one_feature("nearness", 2.0), "HIC": one_feature("nearness", -2.0),
+                "GC": one_feature("tail", 3.0), "RC": [0.0] * len(FEATURE_NAMES)}
+
+
+def save_student(path, weights, candidates=3, features=FEATURE_NAMES):
+    from agents.student import StudentEvaluator
+
+    StudentEvaluator(weights, candidates, features).save(path, {"made_by": "a test"})
+    return str(path)
+
+
+def random_rows(n, cap, seed=0):
+    """n decisions of cap rows: V' over its range, features in [0, 1], type columns 0."""
+    rng = np.random.default_rng(seed)
+    rows = np.zeros((n, cap, TYPED_WIDTH), np.float32)
+    rows[..., 0] = rng.uniform(-1.0, 1.5, (n, cap))
+    rows[..., 1:len(CANDIDATE_COLUMNS)] = rng.uniform(0.0, 1.0, (n, cap, len(FEATURE_NAMES)))
+    return rows
+
+
+def logits_of(scorer, rows):
+    with th.no_grad():
+        return scorer(th.as_tensor(rows.reshape(len(rows), -1))).numpy()
+
+
+def test_typed_bounds_and_rows_end_in_the_crew_types_one_hot(tiny_env):
+    low, high = observation_bounds(3, len(CREW_TYPES))
+    assert low.shape == high.shape == (3 * TYPED_WIDTH,)
+    types_low = low.reshape(3, -1)[:, len(CANDIDATE_COLUMNS):]
+    types_high = high.reshape(3, -1)[:, len(CANDIDATE_COLUMNS):]
+    assert (types_low == 0).all() and (types_high == 1).all()
+    assert all((a == b).all() for a, b in zip(observation_bounds(3, 0), observation_bounds(3),
+                                              strict=True))
+    site = tiny_env.engine.site
+    crew = next(c for c in site.crews if len(c.scope) > 1)
+    where = (crew, site, tiny_env.engine.positions[crew.index], tiny_env.engine.positions)
+    plain = CandidateView(3).rows(*where)
+    # the tiny case's crew types (XC, KC, MC) are outside the paper's vocabulary: zeros, and
+    # the other columns as untyped
+    typed = CandidateView(3, CREW_TYPES).rows(*where).observation.reshape(3, TYPED_WIDTH)
+    assert (typed[:, :len(CANDIDATE_COLUMNS)] == plain.observation.reshape(3, -1)).all()
+    assert (typed[:, len(CANDIDATE_COLUMNS):] == 0).all()
+    # a vocabulary that names the crew's type: its one-hot on every real row, pads all zeros
+    own = CandidateView(3, ("ZZ", crew.type)).rows(*where)
+    table = own.observation.reshape(3, len(CANDIDATE_COLUMNS) + 2)
+    assert table[own.mask, len(CANDIDATE_COLUMNS):].tolist() == [[0.0, 1.0]] * own.mask.sum()
+    assert (table[~own.mask] == 0).all()
+
+
+def test_a_typed_policy_started_from_a_student_chooses_as_the_student():
+    from agents.candidate_policy import CandidateScorer
+    from agents.candidates import type_columns
+
+    scorer = CandidateScorer(TYPED_WIDTH, scale=10.0, types=len(CREW_TYPES))
+    scorer.start_from_student(HAND_WEIGHTS, CREW_TYPES)
+    rows = random_rows(300, 5)
+    eq9 = rows[..., 0].argmax(1)
+    picks = {}
+    for crew_type in CREW_TYPES:  # the same rows, told each type in turn
+        rows[..., len(CANDIDATE_COLUMNS):] = type_columns(crew_type, CREW_TYPES)
+        w = np.asarray(HAND_WEIGHTS.get(crew_type, [0.0] * len(FEATURE_NAMES)))
+        student = rows[..., 0] + rows[..., 1:len(CANDIDATE_COLUMNS)] @ w  # V' + w_type . phi
+        logits = logits_of(scorer, rows)
+        assert np.allclose(logits, 10.0 * student, atol=1e-4)
+        picks[crew_type] = logits.argmax(1)
+        assert (picks[crew_type] == student.argmax(1)).all()
+    # the types choose differently on the same rows; those without weights choose as Eq. 9
+    assert (picks["JCC"] != picks["HIC"]).mean() > 0.5 and (picks["GC"] != eq9).mean() > 0.3
+    assert (picks["RC"] == eq9).all() and (picks["FC"] == eq9).all()
+
+
+def test_an_unknown_crew_type_scores_by_the_shared_terms_as_untyped():
+    from agents.candidate_policy import CandidateScorer
+    from agents.candidates import type_columns
+
+    typed = CandidateScorer(TYPED_WIDTH, scale=10.0, types=len(CREW_TYPES))
+    typed.start_from_student(HAND_WEIGHTS, CREW_TYPES)
+    plain = CandidateScorer(len(CANDIDATE_COLUMNS), scale=10.0)
+    th.manual_seed(0)
+    with th.no_grad():  # shared terms that are not zero, copied onto the untyped scorer
+        typed.linear.weight.normal_()
+        typed.residual[-1].weight.normal_()
+        plain.linear.weight.copy_(typed.linear.weight[:, :len(CANDIDATE_COLUMNS)])
+        plain.residual[0].weight.copy_(typed.residual[0].weight[:, :len(CANDIDATE_COLUMNS)])
+        plain.residual[0].bias.copy_(typed.residual[0].bias)
+        plain.residual[-1].weight.copy_(typed.residual[-1].weight)
+        plain.residual[-1].bias.copy_(typed.residual[-1].bias)
+    rows = random_rows(50, 4)
+    assert (type_columns("XC", CREW_TYPES) == 0).all()  # a type outside the vocabulary
+    assert np.allclose(logits_of(typed, rows),
+                       logits_of(plain, rows[..., :len(CANDIDATE_COLUMNS)]), atol=1e-5)
+    # its student weights have no row to sit in: refused, unless they are zeros
+    with pytest.raises(ValueError, match="outside the typed model's vocabulary"):
+        typed.start_from_student({"XC": one_feature("tail", 1.0)}, CREW_TYPES)
+    typed.start_from_student({"XC": [0.0] * len(FEATURE_NAMES)}, CREW_TYPES)
+
+
+def test_a_typed_held_model_keeps_types_and_hold_through_save_and_load(tmp_path):
+    from sb3_contrib import MaskablePPO
+
+    from agents.candidates import CandidateModelEvaluator
+    from training.research import distill
+
+    student = save_student(tmp_path / "student.json", HAND_WEIGHTS)
+    model = distill.new_choice_model(3, student, seed=0, typed=True, hold_choice=True)
+    model.save(tmp_path / "typed.zip")
+    loaded = MaskablePPO.load(tmp_path / "typed.zip", device="cpu")
+    assert loaded.policy.types == CREW_TYPES and loaded.policy.hold_choice is True
+    assert loaded.observation_space.shape == (3 * TYPED_WIDTH,)
+    assert th.equal(loaded.policy.action_net.per_type.weight,
+                    model.policy.action_net.per_type.weight)
+    assert loaded.policy.action_net.per_type.weight.abs().sum() > 0
+    evaluator = CandidateModelEvaluator(tmp_path / "typed.zip")
+    assert evaluator.view.types == CREW_TYPES and evaluator.held is not None
+    # an untyped model: no type columns, no hold, the parameters of before
+    distill.new_choice_model(3, "", seed=0).save(tmp_path / "plain.zip")
+    plain = CandidateModelEvaluator(tmp_path / "plain.zip")
+    assert plain.view.types == () and plain.held is None
+    assert not hasattr(plain.model.policy.action_net, "per_type")
+
+
+def test_a_student_of_other_features_is_refused_with_the_fix(tmp_path, capsys):
+    from agents.features import ALL_FEATURES
+    from training.research import distill
+
+    for name, features in (("all", ALL_FEATURES), ("reordered", FEATURE_NAMES[::-1])):
+        path = save_student(tmp_path / f"{name}.json", {"RC": [0.1] * len(features)},
+                            features=features)
+        config = candidate_config(candidates=3, typed=True, start_rule=path)
+        with pytest.raises(ValueError, match=r"all.json|reordered.json") as err:
+            stage2.new_candidate_model(config, distill.choice_venv(3, len(CREW_TYPES)))
+        assert "in that order; fix: refit it with" in str(err.value)
+        assert "--features first" in str(err.value)
+        out = tmp_path / f"{name}.zip"
+        assert distill.main(["student-model", path, "--out", str(out)]) == 2
+        assert "--features first" in capsys.readouterr().err and not out.exists()
+    other = save_student(tmp_path / "five.json", HAND_WEIGHTS, candidates=5)
+    with pytest.raises(ValueError, match="candidates=5"):
+        stage2.new_candidate_model(candidate_config(candidates=3, typed=True, start_rule=other),
+                                   distill.choice_venv(3, len(CREW_TYPES)))
+
+
+def event_floor(evaluator, seed):
+    from cmdp_pymunk import load_case
+    from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+
+    case = load_case(None)
+    floor = EventFloor(case, evaluator=evaluator, calibration=calibration_for(case))
+    floor.reset(seed)
+    floor.run()
+    return floor
+
+
+def test_a_held_model_holds_as_the_student_in_deployment_and_training(tmp_path):
+    """On the built-in event floor (seed 0) a student that sends RC and FC crews to far
+    targets: the model with hold_choice plays its schedule event for event, the one without
+    re-decides while crews walk and plays another; the training floor holds as deployment."""
+    from agents.specs import make_evaluator
+    from agents.student import StudentEvaluator
+    from training.research import distill
+
+    far = one_feature("nearness", -5.0)
+    student = save_student(tmp_path / "far.json", {"RC": far, "FC": far})
+    for hold in (True, False):
+        out = tmp_path / f"hold-{hold}.zip"
+        assert distill.main(["student-model", student, "--out", str(out)]
+                            + ["--hold-choice"] * hold) == 0
+    floors = {name: event_floor(evaluator, 0) for name, evaluator in (
+        ("student", StudentEvaluator.load(student)), ("eq9", "priority"),
+        ("held", make_evaluator(str(tmp_path / "hold-True.zip"))),
+        ("unheld", make_evaluator(str(tmp_path / "hold-False.zip"))))}
+    assert floors["student"].log.events != floors["eq9"].log.events
+    assert floors["held"].log.events == floors["student"].log.events
+    assert floors["unheld"].log.events != floors["student"].log.events
+    # the training floor (candidate_loop) with the same model and settings: the same floors
+    for hold in (True, False):
+        config = candidate_config(fidelity="event", candidates=3, typed=True,
+                                  hold_choice=hold)
+        floor = stage2.make_floor(config, stage2.training_case(config))
+        model = make_evaluator(str(tmp_path / f"hold-{hold}.zip")).model
+
+        def choose(obs, floor=floor, model=model):
+            action, _ = model.predict(obs[None], action_masks=floor.action_masks()[None],
+                                      deterministic=True)
+            return action[0]
+
+        played = stage2.play_floor(floor, 0, choose)
+        deployed = floors["held" if hold else "unheld"]
+        assert played[-1].info["makespan_s"] == deployed.makespan_s

@@ -232,3 +232,104 @@ def test_label_states_give_back_each_decisions_floor(tmp_path):
         for k in range(len(candidates)):
             assert label_noise.candidate_makespan(str(kept / f"seed-{seed}.states.pkl"), 0, k,
                                                   EXPECTED) == b["makespan_s"][0, k]
+
+
+# -- typed models: the student as a masked-choice model -----------------------------------------
+
+def schedule(evaluator, case, seed: int = 0):
+    """A floor's schedule: its makespan and each task's start times, and its whole event log."""
+    env = play_floor(evaluator, case, seed)
+    starts = {}
+    for e in env.log.events:
+        if e.kind == "task_start":
+            starts.setdefault(e.subject, []).append(e.time_s)
+    return (env.engine.makespan_s, starts), env.log.events
+
+
+def test_student_model_plays_the_students_schedule_on_the_tiny_case(tmp_path, capsys):
+    from agents.candidates import CREW_TYPES
+    from agents.features import ALL_FEATURES
+    from agents.specs import make_evaluator
+
+    tiny = str(cmdp_pymunk.TINY_CASE)
+    labels, student = tmp_path / "labels", tmp_path / "student.json"
+    # labels of every feature, as policy iteration's; the student fitted on the model's 11
+    assert distill.main(["label", "--case", tiny, "--seeds", "0-2", "--candidates", "2",
+                         "--features", "all", "--out", str(labels)]) == 0
+    assert distill.load_labels(labels)["feature_names"] == ALL_FEATURES
+    assert distill.main(["fit", str(labels), "--features", "first", "--out",
+                         str(student)]) == 0
+    fitted = json.loads(student.read_text())
+    assert fitted["features"] == list(FEATURE_NAMES) and fitted["candidates"] == 2
+    assert distill.main(["fit", str(labels), "--features", "tail,nope", "--out",
+                         str(tmp_path / "x.json")]) == 2
+    assert "nope unknown" in capsys.readouterr().err
+    # fit-model --typed on the same labels: typed rows from their crew_type, the hold saved
+    fitted_model = tmp_path / "fitted" / "typed.zip"
+    assert distill.main(["fit-model", str(labels), "--typed", "--hold-choice", "--out",
+                         str(fitted_model)]) == 0
+    meta = json.loads(fitted_model.with_suffix(".distill.json").read_text())
+    assert meta["typed"] and meta["hold_choice"]
+    assert make_evaluator(str(fitted_model)).view.types == CREW_TYPES
+    # three decisions (one a floor) teach it almost nothing (weights about 1e-6): a hand-made
+    # student of the same file that sends crews to the farther target changes the schedule
+    hand = tmp_path / "hand.json"
+    far = [0.0] * len(FEATURE_NAMES)
+    far[FEATURE_NAMES.index("nearness")] = -5.0
+    hand.write_text(json.dumps({**fitted, "weights": {"RC": far, "HIC": far}}))
+    case = cmdp_pymunk.load_case(tiny)
+    eq9, _ = schedule("priority", case)
+    for made in (student, hand):
+        model = made.with_suffix(".zip")
+        assert distill.main(["student-model", str(made), "--out", str(model),
+                             "--hold-choice"]) == 0
+        meta = json.loads(model.with_suffix(".distill.json").read_text())
+        assert meta["student"] == str(made) and meta["command"].startswith("python -m")
+        assert meta["hold_choice"] and meta["student_meta"]["features"] == fitted["features"]
+        evaluator = make_evaluator(str(model))
+        assert evaluator.view.types == CREW_TYPES and evaluator.view.cap == 2
+        for seed in (0, 1):
+            students, student_events = schedule(StudentEvaluator.load(made), case, seed)
+            models, model_events = schedule(make_evaluator(str(model)), case, seed)
+            assert models == students and model_events == student_events
+    assert schedule(StudentEvaluator.load(hand), case)[0] != eq9
+
+
+def test_typed_choice_rows_by_hand():
+    # a 2-candidate decision of an RC crew and one of a crew type outside the vocabulary,
+    # shown to a policy of 3 rows: RC's one-hot on its real rows; zeros for the other crew
+    # and on padded rows; the untyped columns as before
+    from agents.candidates import CREW_TYPES
+
+    f = len(FEATURE_NAMES)
+    data = {"values": np.array([[1.2, 0.4], [0.9, 0.1]]), "features": np.full((2, 2, f), 0.5),
+            "crew_type": np.array(["RC", "XC"])}
+    flat, mask = distill.choice_rows(data, cap=3, types=CREW_TYPES)
+    rows = flat.reshape(2, 3, f + 1 + len(CREW_TYPES))
+    assert rows[0, :2, f + 1:].tolist() == [[0.0, 0.0, 0.0, 1.0, 0.0]] * 2
+    assert (rows[1, :, f + 1:] == 0).all() and (rows[:, 2] == 0).all()
+    plain, same_mask = distill.choice_rows(data, cap=3)
+    assert (rows[..., :f + 1].reshape(2, -1) == plain).all() and (mask == same_mask).all()
+    with pytest.raises(ValueError, match="crew_type"):
+        distill.choice_rows({k: data[k] for k in ("values", "features")}, 3, CREW_TYPES)
+
+
+def test_typed_fit_model_learns_per_type_choices(tmp_path):
+    # JCC's teacher wants the longest tail, HIC's the shortest: one shared weight vector
+    # cannot follow both, a typed model can
+    rng = np.random.default_rng(2)
+    n, k, f = 400, 3, len(FEATURE_NAMES)
+    tail = FEATURE_NAMES.index("tail")
+    features = rng.random((n, k, f))
+    crew_type = np.array(["JCC", "HIC"] * (n // 2))
+    sign = np.where(crew_type == "JCC", 1.0, -1.0)[:, None]
+    data = {"values": np.sort(rng.random((n, k)), axis=1)[:, ::-1] * 0.2, "features": features,
+            "makespan_s": 30000.0 - 2000.0 * sign * features[:, :, tail],
+            "row_seed": np.repeat(np.arange(10), n // 10), "crew_type": crew_type}
+    settings = {"epochs": 200}
+    typed, report = distill.fit_choice_model(data, 3, settings=settings, log=lambda *_: None,
+                                             typed=True, hold_choice=True)
+    _, plain = distill.fit_choice_model(data, 3, settings=settings, log=lambda *_: None)
+    assert report["agree_model_teacher_validation"] > 0.8
+    assert report["agree_model_teacher_validation"] > plain["agree_model_teacher_validation"] + 0.2
+    assert typed.policy.hold_choice and typed.policy.types[:2] == ("JCC", "HIC")

@@ -7,6 +7,12 @@ of Eq. 4's desired position. It has the floor's interface (``reset``, ``decide``
 ``action_masks()`` for sb3-contrib's MaskablePPO. A decision the policy has nothing to choose in
 (a scope of storages or the crane, or one task target) is valued by Eq. 9 inside the step; its
 reward goes to the policy's decision before it, as the floor's lone targets do.
+
+Typed (``types``, ``Stage2Config.typed``): the rows carry the deciding crew's type
+(``agents.candidates.CandidateView``). With ``hold_choice``, a choice other than Eq. 9's is
+held as the deployed model holds it (``agents.hold``): while the hold lasts, the crew's
+re-evaluations are valued without asking the policy, like decisions without a choice, so
+training meets the decisions that deployment does.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ import numpy as np
 from gymnasium import spaces
 
 from agents.candidates import CandidateView, has_choice, observation_bounds
+from agents.hold import HeldChoices
 from cmdp_pymunk.adapters.decision_loop import DecisionLoop, Outcome
 
 
@@ -33,15 +40,18 @@ class CandidateLoop:
 
     ``against_heuristic``: a factory of a second floor like this one, to play Eq. 9 on each
     seed once (cached) for ``terminal_term``; ``seed_pool`` (> 0): episode seeds are taken
-    modulo it (so the heuristic's makespans are reused)."""
+    modulo it (so the heuristic's makespans are reused); ``types``: the crew-type vocabulary
+    of typed rows (() for untyped); ``hold_choice``: hold choices (the module doc)."""
 
-    def __init__(self, floor: DecisionLoop, cap: int, against_heuristic=None, seed_pool: int = 0):
-        self.floor, self.view = floor, CandidateView(cap)
+    def __init__(self, floor: DecisionLoop, cap: int, against_heuristic=None, seed_pool: int = 0,
+                 types: tuple[str, ...] = (), hold_choice: bool = False):
+        self.floor, self.view = floor, CandidateView(cap, types)
         self.against_heuristic, self.seed_pool = against_heuristic, seed_pool
+        self.held = HeldChoices() if hold_choice else None
         self._heuristic_s: dict[int, float] = {}
         self._reference: DecisionLoop | None = None  # where Eq. 9 plays each seed, made when needed
         self._seed: int | None = None
-        self.low, self.high = observation_bounds(cap)
+        self.low, self.high = observation_bounds(cap, len(self.view.types))
         self.actor_size = len(self.low)
         self.action_space = spaces.Discrete(cap)
         self._decision = None  # the deciding crew's CandidateDecision
@@ -67,6 +77,10 @@ class CandidateLoop:
         if not 0 <= k < n:
             raise ValueError(f"action {k}: only rows 0-{n - 1} are real (mask the others: "
                              "action_masks())")
+        if self.held is not None and k != 0:
+            engine = self.floor.engine
+            self.held.hold(engine.site, engine.site.crews[self.floor.deciding],
+                           self._decision.targets[k])
         return self._to_choice(self.floor.value_scope(self._decision.values(k)))
 
     def _to_choice(self, out: Outcome) -> Outcome:
@@ -76,11 +90,13 @@ class CandidateLoop:
         while not (out.terminated or out.truncated):
             engine, i = self.floor.engine, self.floor.deciding
             crew = engine.site.crews[i]
-            if has_choice(crew):
+            values = self._held_values(engine, i)
+            if values is None and has_choice(crew):
                 self._decision = self.view.rows(crew, engine.site, engine.positions[i],
                                                 engine.positions)
                 return Outcome(reward, False, False)
-            out = self.floor.value_scope(self.view.base.values_for(engine, i))
+            out = self.floor.value_scope(values if values is not None
+                                         else self.view.base.values_for(engine, i))
             reward += out.reward
         if self.against_heuristic is not None:
             engine = self.floor.engine
@@ -88,6 +104,14 @@ class CandidateLoop:
                                     self.heuristic_makespan_s(self._seed), engine.site.time_s,
                                     out.terminated, engine.max_time_s)
         return Outcome(reward, out.terminated, out.truncated)
+
+    def _held_values(self, engine, i: int) -> dict[int, float] | None:
+        """Crew i's values while it holds a choice (Eq. 9's, the held target promoted);
+        None when it holds none or the loop holds nothing."""
+        if self.held is None:
+            return None
+        site = engine.site
+        return self.held.values(site, site.crews[i], self.view.base.values_for(engine, i))
 
     def heuristic_makespan_s(self, seed: int) -> float:
         """Eq. 9's makespan on ``seed`` (what row 0 at every decision plays), played once per

@@ -92,8 +92,16 @@ class Stage2Config(scaffold.PPOSettings):
     candidates: Annotated[int, Strict(), Field(ge=2)] = 5
     heuristic_scale: Rate = 10.0  # the candidate policy's logits: this times Eq. 9's V' + r
     # the candidate policy starts as this searched rule (a student file of cmdp-search-rule,
-    # one weight vector for every crew type) instead of Eq. 9; "" for Eq. 9
+    # one weight vector for every crew type) instead of Eq. 9; "" for Eq. 9. With typed: a
+    # per-type student (training.research.distill fit --features first), one vector per type
     start_rule: str = ""
+    # typed rows (candidate action only): each row also carries a one-hot of the deciding
+    # crew's type (agents.candidates.CREW_TYPES; a type outside it: zeros) and the policy a
+    # linear term per type, so it can start exactly as a per-type student (start_rule)
+    typed: bool = False
+    # hold a choice other than Eq. 9's until the crew reaches a target or the target leaves
+    # its scope, as the student does (agents.hold), in training and in the saved model
+    hold_choice: bool = False
     # or from this masked-choice model's weights (e.g. `python -m training.research.distill
     # fit-model`: PPO fine-tunes the distilled policy); "" for none
     start_model: str = ""
@@ -109,6 +117,10 @@ class Stage2Config(scaffold.PPOSettings):
                 and self.action != "candidate":
             raise ValueError("start_rule, against_heuristic and seed_pool are for action = "
                              "\"candidate\"; fix: --set action=candidate, or drop them")
+        if (self.typed or self.hold_choice) and self.action != "candidate":
+            raise ValueError("typed and hold_choice are for action = \"candidate\" (the masked "
+                             "choice's rows and holds); fix: --set action=candidate, or "
+                             "typed=false and hold_choice=false")
         if self.start_rule and self.action != "candidate":
             raise ValueError("start_rule is for action = \"candidate\"; fix: --set "
                              "action=candidate, or drop start_rule")
@@ -121,7 +133,8 @@ class Stage2Config(scaffold.PPOSettings):
                              "fit-model)")
         if self.start_rule and not Path(self.start_rule).is_file():
             raise ValueError(f"start_rule = {self.start_rule!r}: no such file; fix: give the "
-                             "rule.json of a cmdp-search-rule run")
+                             "rule.json of a cmdp-search-rule run (typed: also a student of "
+                             "`python -m training.research.distill fit --features first`)")
         if self.action == "candidate" and self.central_critic:
             raise ValueError("action = \"candidate\" has no centralized critic (its critic reads "
                              "the candidates' rows); fix: --set central_critic=false")
@@ -173,9 +186,11 @@ def make_floor(config: Stage2Config, case):
         from .candidate_loop import CandidateLoop
 
         plain = config.model_copy(update={"action": "desired_position", "start_rule": "",
-                                          "start_model": ""})
+                                          "start_model": "", "typed": False,
+                                          "hold_choice": False})
         reference = partial(make_floor, plain, case) if config.against_heuristic else None
-        return CandidateLoop(floor, config.candidates, reference, config.seed_pool)
+        return CandidateLoop(floor, config.candidates, reference, config.seed_pool,
+                             crew_types(config), config.hold_choice)
     return floor
 
 
@@ -439,18 +454,38 @@ def algorithm(config: Stage2Config):
     return PPO
 
 
+def crew_types(config: Stage2Config) -> tuple[str, ...]:
+    """The crew-type vocabulary of the rows: ``CREW_TYPES`` when typed, else ()."""
+    from agents.candidates import CREW_TYPES
+
+    return CREW_TYPES if config.typed else ()
+
+
 def new_candidate_model(config: Stage2Config, venv):
     """MaskablePPO with ``agents.candidate_policy.CandidateScorerPolicy`` (Eq. 9 untrained;
-    ``net_arch`` is its critic's)."""
+    ``net_arch`` is its critic's); typed rows and ``hold_choice`` go into the policy's saved
+    parameters (an untyped, unheld policy's are as before), and a typed policy with
+    ``start_rule`` starts as that per-type student."""
     from agents.candidate_policy import CandidateScorerPolicy
     from agents.candidates import CANDIDATE_COLUMNS
 
-    policy_kwargs = {"columns": len(CANDIDATE_COLUMNS),
+    types = crew_types(config)
+    policy_kwargs = {"columns": len(CANDIDATE_COLUMNS) + len(types),
                      "heuristic_scale": config.heuristic_scale,
                      "net_arch": {"pi": [], "vf": list(config.net_arch)}}
+    if types:
+        policy_kwargs["types"] = types
+    if config.hold_choice:
+        policy_kwargs["hold_choice"] = True
     model = scaffold.new_ppo(config, CandidateScorerPolicy, venv, policy_kwargs,
                              seed=config.seed, algorithm=algorithm(config))
-    if config.start_rule:
+    if config.start_rule and types:
+        weights = student_weights(config.start_rule, config.candidates)
+        try:
+            model.policy.action_net.start_from_student(weights, types)
+        except ValueError as err:
+            raise ValueError(f"start_rule = {config.start_rule!r}: {err}") from None
+    elif config.start_rule:
         model.policy.action_net.start_from_rule(rule_vector(config.start_rule,
                                                             config.candidates))
     if config.start_model:
@@ -458,8 +493,9 @@ def new_candidate_model(config: Stage2Config, venv):
             model.set_parameters(config.start_model, exact_match=True, device="cpu")
         except (RuntimeError, ValueError, KeyError) as err:
             raise ValueError(f"start_model = {config.start_model!r} does not fit this run's "
-                             f"policy ({str(err).splitlines()[0]}); fix: the same candidates and "
-                             "net_arch as the model's (its .distill.json or config)") from None
+                             f"policy ({str(err).splitlines()[0]}); fix: the same candidates, "
+                             "typed and net_arch as the model's (its .distill.json or "
+                             "config)") from None
     return model
 
 
@@ -477,3 +513,24 @@ def rule_vector(path: str, candidates: int) -> list[float]:
         raise ValueError(f"start_rule = {path!r} re-ranks {rule.candidates} candidates, the "
                          f"policy {candidates}; fix: --set candidates={rule.candidates}")
     return list(vectors.pop())
+
+
+def student_weights(path: str, candidates: int, source: str = "start_rule") -> \
+        dict[str, list[float]]:
+    """A per-type student's weights (``agents.student``'s file: one vector per crew type)
+    for a typed policy of ``candidates`` rows; ValueError naming the file and the fix for a
+    student of other features than the model's columns (``FEATURE_NAMES``, in that order) or
+    of other candidates. ``source``: how the file was given, for the message."""
+    from agents.features import FEATURE_NAMES
+    from agents.student import StudentEvaluator
+
+    student = StudentEvaluator.load(path)
+    if student.features != FEATURE_NAMES:
+        raise ValueError(f"{source} = {path!r}: a student of the features "
+                         f"{', '.join(student.features)}; a typed model reads "
+                         f"{', '.join(FEATURE_NAMES)}, in that order; fix: refit it with "
+                         "`python -m training.research.distill fit LABELS --features first`")
+    if student.candidates != candidates:
+        raise ValueError(f"{source} = {path!r} re-ranks {student.candidates} candidates, the "
+                         f"policy {candidates}; fix: --set candidates={student.candidates}")
+    return {crew_type: w.tolist() for crew_type, w in student.weights.items()}

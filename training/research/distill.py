@@ -7,8 +7,11 @@
         --teacher candidates=3+futures=16+race=4+floor=event+base=student:PATH \
         --acting student:PATH [--features all|NAME,NAME,...]
     python -m training.research.distill fit runs/labels --out models/student_priority.json
-                                     [--weights gap]
+                                     [--weights gap] [--features first|all|NAME,...]
     python -m training.research.distill fit-model runs/labels --out runs/distilled/model.zip
+                                     [--typed] [--hold-choice]
+    python -m training.research.distill student-model STUDENT.json --out MODEL.zip
+                                     [--hold-choice]
     python -m training.research.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
@@ -25,12 +28,19 @@ lookahead (every task not yet started at its expected pace: a choice that depend
 alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
 evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
 its states. ``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``)
-to the labels by cross-entropy. ``noise`` (``training.research.label_noise``) replays labelled
+to the labels by cross-entropy; ``--typed``, with typed rows (the crew's type as a one-hot)
+and a per-type linear term (``Stage2Config.typed``), ``--hold-choice`` holding its choices as
+the student does. ``student-model`` writes, without training, a typed masked-choice model
+whose untrained policy is a per-type student (a student of ``FEATURE_NAMES``: ``fit
+--features first``), for PPO to fine-tune (``start_model``); with ``--hold-choice`` it plays
+the student's schedule. ``noise`` (``training.research.label_noise``) replays labelled
 decisions kept with ``--states`` in other sampled futures: how much of a label is the future's
 noise. ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
 the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
-penalty; every weight 0 is Eq. 9 itself. ``--weights gap`` weights each decision's
+penalty; every weight 0 is Eq. 9 itself. ``--features`` fits on some of the labels' feature
+columns, taken by name (policy iteration labels carry all 15; a typed model reads the 11
+``FEATURE_NAMES``). ``--weights gap`` weights each decision's
 cross-entropy by how much its choice matters (``choice_weights``). The JSON it writes names
 the command, the label folder and the seeds. Rounds of approximate policy iteration (label the
 student's own states, fit, make the student the next base) are
@@ -383,10 +393,26 @@ def fit_weights(data: dict, tau_s: float, l2: float,
     return out, report
 
 
+def select_features(data: dict, names: tuple[str, ...] | None) -> dict:
+    """The labels with only the feature columns ``names`` (taken by name, in that order;
+    None: all of them); ValueError naming the missing ones and the fix."""
+    if names is None:
+        return data
+    have = tuple(data["feature_names"])
+    missing = [n for n in names if n not in have]
+    if missing:
+        raise ValueError(f"--features {','.join(names)}: the labels hold {', '.join(have)} "
+                         f"({', '.join(missing)} missing); fix: choose from those, or label "
+                         "with --features all")
+    return {**data, "features": data["features"][..., [have.index(n) for n in names]],
+            "feature_names": tuple(names)}
+
+
 def fit(args) -> int:
     from agents.student import StudentEvaluator
 
     data = load_labels([Path(f) for f in args.labels])
+    data = select_features(data, features_option(args.features) if args.features else None)
     weights, report = fit_weights(data, args.tau_s, args.l2, args.weights)
     student = StudentEvaluator({k: v.tolist() for k, v in weights.items()},
                                candidates=data["values"].shape[1],
@@ -416,11 +442,14 @@ MODEL_FIT_HELP = {"tau_s": "temperature of the teacher's soft choice, in seconds
                   "validation": "share of the label floors (the highest seeds) held back"}
 
 
-def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
+def choice_rows(data: dict, cap: int, types: tuple[str, ...] = ()) \
+        -> tuple[np.ndarray, np.ndarray]:
     """The labels as the masked-choice policy sees its decisions (``agents.candidates``): one
     flat row block per decision (V' then the features, clipped to the observation's bounds,
-    padded with zeros) and the mask of real candidates."""
-    from agents.candidates import CANDIDATE_COLUMNS, observation_bounds
+    padded with zeros) and the mask of real candidates. ``types``: typed rows, each ending in
+    the one-hot of the decision's ``crew_type`` over this vocabulary (``CREW_TYPES``; a type
+    outside it: zeros)."""
+    from agents.candidates import CANDIDATE_COLUMNS, observation_bounds, type_columns
 
     values, features = data["values"], data["features"]
     names = tuple(data.get("feature_names", CANDIDATE_COLUMNS[1:]))
@@ -429,32 +458,40 @@ def choice_rows(data: dict, cap: int) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"labels with features {', '.join(names)}: the masked-choice model "
                          f"reads {', '.join(CANDIDATE_COLUMNS[1:])} ({', '.join(missing)} "
                          "missing); fix: label with --features first or all")
+    if types and "crew_type" not in data:
+        raise ValueError("typed rows need the labels' crew_type; fix: label again with "
+                         "`python -m training.research.distill label` (its files carry it)")
     # labels with more features (policy iteration labels all of ALL_FEATURES): the model's
     # columns, taken by name
     features = features[..., [names.index(c) for c in CANDIDATE_COLUMNS[1:]]]
     n, k = values.shape
     if k > cap:
         raise ValueError(f"labels of {k} candidates for a policy of {cap}; fix: --candidates {k}")
-    table = np.zeros((n, cap, len(CANDIDATE_COLUMNS)), np.float32)
+    width, plain = len(CANDIDATE_COLUMNS) + len(types), len(CANDIDATE_COLUMNS)
+    table = np.zeros((n, cap, width), np.float32)
     mask = np.zeros((n, cap), bool)
     mask[:, :k] = ~np.isnan(values)
     table[:, :k, 0] = np.where(mask[:, :k], values, 0.0)
-    table[:, :k, 1:] = np.where(mask[:, :k, None], features, 0.0)
-    low, high = observation_bounds(cap)
+    table[:, :k, 1:plain] = np.where(mask[:, :k, None], features, 0.0)
+    if types:
+        onehot = np.stack([type_columns(str(t), tuple(types)) for t in data["crew_type"]])
+        table[:, :, plain:] = onehot[:, None, :]
+    low, high = observation_bounds(cap, len(types))
     flat = np.clip(table.reshape(n, -1), low, high)
-    return flat * np.repeat(mask, len(CANDIDATE_COLUMNS), axis=1), mask
+    return flat * np.repeat(mask, width, axis=1), mask
 
 
-def choice_venv(cap: int):
-    """A vector env with only the spaces of a masked-choice floor (``training.candidate_loop``):
-    enough to build the model without running floors."""
+def choice_venv(cap: int, types: int = 0):
+    """A vector env with only the spaces of a masked-choice floor (``training.candidate_loop``;
+    ``types``: that many crew-type columns a row): enough to build the model without running
+    floors."""
     import gymnasium
     from gymnasium import spaces
     from stable_baselines3.common.vec_env import DummyVecEnv
 
     from agents.candidates import observation_bounds
 
-    low, high = observation_bounds(cap)
+    low, high = observation_bounds(cap, types)
 
     class ChoiceSpaces(gymnasium.Env):
         observation_space = spaces.Box(low, high, dtype=np.float32)
@@ -472,15 +509,18 @@ def choice_venv(cap: int):
     return DummyVecEnv([ChoiceSpaces])
 
 
-def new_choice_model(cap: int, start_rule: str, seed: int):
+def new_choice_model(cap: int, start_rule: str, seed: int, typed: bool = False,
+                     hold_choice: bool = False):
     """A fresh masked-choice MaskablePPO (``training.stage2``'s, from
-    ``training/configs/stage2_candidate.toml``) that starts as Eq. 9 or as ``start_rule``."""
-    from training.stage2 import DEFAULT_CONFIG, Stage2Config, new_candidate_model
+    ``training/configs/stage2_candidate.toml``) that starts as Eq. 9 or as ``start_rule``
+    (typed: a per-type student, ``Stage2Config.typed``); ``hold_choice`` is saved with it."""
+    from training.stage2 import DEFAULT_CONFIG, Stage2Config, crew_types, new_candidate_model
 
     settings = Stage2Config.load(DEFAULT_CONFIG.with_name("stage2_candidate.toml")).model_dump()
     config = Stage2Config.model_validate({**settings, "candidates": cap,
-                                          "start_rule": start_rule, "seed": seed})
-    return new_candidate_model(config, choice_venv(cap))
+                                          "start_rule": start_rule, "seed": seed,
+                                          "typed": typed, "hold_choice": hold_choice})
+    return new_candidate_model(config, choice_venv(cap, len(crew_types(config))))
 
 
 def choice_agreement(logits: np.ndarray, mask: np.ndarray, target: np.ndarray) -> float:
@@ -499,17 +539,20 @@ def choice_regret_s(scores: np.ndarray, mask: np.ndarray, makespan_s: np.ndarray
 
 
 def fit_choice_model(data: dict, cap: int, start_rule: str = "", seed: int = 0,
-                     settings: dict | None = None, log=print):
+                     settings: dict | None = None, log=print, typed: bool = False,
+                     hold_choice: bool = False):
     """Fit the masked-choice policy's scorer to the teacher's soft choices by cross-entropy
     (Adam, early stopping on the label floors held back for validation: the last
-    ``validation`` share of the seeds); returns the model and a report."""
+    ``validation`` share of the seeds); returns the model and a report. ``typed``: typed
+    rows from the labels' ``crew_type`` and a per-type term (``Stage2Config.typed``);
+    ``hold_choice``: saved with the model."""
     import torch
 
     settings = {**MODEL_FIT_DEFAULTS, **(settings or {})}
     torch.manual_seed(seed)
-    model = new_choice_model(cap, start_rule, seed)
+    model = new_choice_model(cap, start_rule, seed, typed, hold_choice)
     scorer = model.policy.action_net
-    flat, mask = choice_rows(data, cap)
+    flat, mask = choice_rows(data, cap, model.policy.types)
     target = np.zeros(mask.shape)
     target[:, :data["values"].shape[1]] = soft_targets(data["makespan_s"], settings["tau_s"])
     seeds = np.asarray(data["row_seed"])
@@ -572,10 +615,6 @@ def fit_choice_model(data: dict, cap: int, start_rule: str = "", seed: int = 0,
 
 
 def fit_model(args) -> int:
-    import json
-
-    from cmdp_pymunk.events import write_atomic
-
     data = load_labels([Path(f) for f in args.labels])
     cap = args.candidates or data["values"].shape[1]
     if args.start_rule and not args.candidates:
@@ -584,21 +623,58 @@ def fit_model(args) -> int:
         # the rule's own candidate count (labels of fewer leave the other rows masked)
         cap = max(cap, StudentEvaluator.load(args.start_rule).candidates)
     settings = {k: getattr(args, k) for k in MODEL_FIT_DEFAULTS}
-    model, report = fit_choice_model(data, cap, args.start_rule or "", args.seed, settings)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(out.stem + ".tmp.zip")
-    model.save(tmp)
+    model, report = fit_choice_model(data, cap, args.start_rule or "", args.seed, settings,
+                                     typed=args.typed, hold_choice=args.hold_choice)
     meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
             "labels": [str(f) for f in args.labels], "label_seeds": data["seeds"],
             "teachers": sorted(set(data["teachers"])), "acting": sorted(set(data["acting"])),
             "label_wall_s_per_floor": round(float(np.mean(data["label_wall_s"])), 1),
             "candidates": cap, "start_rule": args.start_rule or "", "seed": args.seed,
+            "typed": args.typed, "hold_choice": args.hold_choice,
             "settings": settings, "fit": report}
+    save_model(model, Path(args.out), meta, "fit-model")
+    return 0
+
+
+def save_model(model, out: Path, meta: dict, command: str) -> None:
+    """The model zip and ``NAME.distill.json`` (``meta``) beside it, each written whole and
+    moved into place (the zip last, so a zip always has its json)."""
+    import json
+
+    from cmdp_pymunk.events import write_atomic
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(out.stem + ".tmp.zip")
+    model.save(tmp)
     write_atomic(out.with_suffix(".distill.json"), json.dumps(meta, indent=1) + "\n")
     tmp.replace(out)
-    print(f"fit-model: wrote {out} (use it as --evaluator {out}) and "
+    print(f"{command}: wrote {out} (use it as --evaluator {out}) and "
           f"{out.with_suffix('.distill.json')}")
+
+
+# -- student-model: a typed masked-choice model that starts as a student --------------------------
+
+def student_model(args) -> int:
+    """A typed MaskablePPO masked-choice model whose untrained policy is the student of
+    ``args.student`` (``agents.student``; no training): the default stage-2 candidate config
+    with the student's ``candidates``, the per-type weights in the policy's per-type term
+    (``CandidateScorer.start_from_student``), ``--hold-choice`` saved with it."""
+    import json
+
+    from agents.student import StudentEvaluator
+    from training.stage2 import student_weights
+
+    cap = StudentEvaluator.load(args.student).candidates  # a bad file fails here, named
+    student = student_weights(args.student, cap, "student-model")  # and other features here
+    data = json.loads(Path(args.student).read_text(encoding="utf-8"))
+    model = new_choice_model(cap, str(args.student), args.seed, typed=True,
+                             hold_choice=args.hold_choice)
+    meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
+            "student": str(args.student), "candidates": cap, "typed": True,
+            "hold_choice": args.hold_choice, "seed": args.seed,
+            "crew_types": sorted(student),
+            "student_meta": {k: v for k, v in data.items() if k != "weights"}}
+    save_model(model, Path(args.out), meta, "student-model")
     return 0
 
 
@@ -648,6 +724,11 @@ def main(argv: list[str] | None = None) -> int:
     f.add_argument("--weights", choices=FIT_WEIGHTS, default="none",
                    help="gap: weight each decision by the gap between its candidates' "
                         "makespans (how much the choice matters); none: all alike (default)")
+    f.add_argument("--features", default=None,
+                   help="fit on these of the labels' features, taken by name: first (the 11 "
+                        "FEATURE_NAMES a typed model reads: student-model), all "
+                        "(ALL_FEATURES) or names joined by commas (default: all the labels "
+                        "hold)")
     m = sub.add_parser("fit-model", help="fit the masked-choice SB3 model (MaskablePPO) to a "
                        "label folder by cross-entropy")
     m.add_argument("labels", nargs="+", help="label folder(s) made by `label`")
@@ -658,10 +739,25 @@ def main(argv: list[str] | None = None) -> int:
     m.add_argument("--start-rule", default="",
                    help="start from this searched rule (cmdp-search-rule's rule.json) "
                         "instead of Eq. 9")
+    m.add_argument("--typed", action="store_true",
+                   help="typed rows (a one-hot of the crew's type) and a per-type linear term; "
+                        "--start-rule may then be a per-type student")
+    m.add_argument("--hold-choice", action="store_true",
+                   help="the model holds a choice until the crew reaches a target, as the "
+                        "student does")
     m.add_argument("--seed", type=int, default=0, help="torch seed")
     for key, value in MODEL_FIT_DEFAULTS.items():
         m.add_argument(f"--{key.replace('_', '-')}", type=type(value), default=value,
                        help=f"{MODEL_FIT_HELP[key]} (default {value})")
+    s = sub.add_parser("student-model", help="write a typed masked-choice model (MaskablePPO) "
+                       "that starts as a per-type student, without training")
+    s.add_argument("student", help="student JSON of `fit --features first`")
+    s.add_argument("--out", required=True, help="model zip to write (and NAME.distill.json "
+                   "beside it: the command, the student and its meta)")
+    s.add_argument("--hold-choice", action="store_true",
+                   help="hold a choice until the crew reaches a target, as the student does "
+                        "(then it plays the student's schedule)")
+    s.add_argument("--seed", type=int, default=0, help="torch seed (the critic's start)")
     n = sub.add_parser("noise", help="how much of the teacher's labels holds in other "
                        "futures (needs label --states; training/research/label_noise.py)")
     n.add_argument("labels", help="label folder made by `label --states`")
@@ -674,7 +770,8 @@ def main(argv: list[str] | None = None) -> int:
     args.argv = argv
     from training.research.label_noise import noise
 
-    commands = {"label": label, "fit": fit, "fit-model": fit_model, "noise": noise}
+    commands = {"label": label, "fit": fit, "fit-model": fit_model,
+                "student-model": student_model, "noise": noise}
     try:
         return commands[args.command](args)
     except (ValueError, BackendError) as err:
