@@ -4,6 +4,7 @@ from pathlib import Path
 
 import numpy as np
 import onnxruntime as ort  # the onnx extra, which make test installs
+import pytest
 import torch
 from gymnasium import spaces
 
@@ -62,16 +63,19 @@ def test_missing_model_is_reported(tmp_path, capsys):
     assert not Path(tmp_path / "x.onnx").exists()
 
 
-def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_path):
-    """A stage-2 masked-choice model (MaskablePPO, CandidateScorerPolicy) with every weight
-    made non-zero: on candidate rows and masks recorded from a tiny-floor episode the ONNX
-    logits equal the policy's own (masked ones -1e8) and its action is model.predict's."""
+@pytest.mark.parametrize("typed", [False, True])
+def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_path, typed):
+    """A stage-2 masked-choice model (MaskablePPO, CandidateScorerPolicy; typed: with its
+    per-type term) with every weight made non-zero: on candidate rows and masks recorded
+    from an episode the ONNX logits equal the policy's own (masked ones -1e8) and its action
+    is model.predict's."""
     from sb3_contrib import MaskablePPO
 
     from training import stage2
     from training.stage2 import Stage2Config
 
-    config = Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1)
+    config = Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1,
+                          typed=typed)
     case = stage2.training_case(config)
     floor = stage2.make_floor(config, case)
     model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))

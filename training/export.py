@@ -28,7 +28,8 @@ Inputs and outputs, a masked choice (stage 2's ``action = "candidate"``, a Maska
     ``obs``: float32 (batch, candidates x columns), the candidate rows of
     ``agents.candidates.CandidateView`` side by side; ``mask``: bool (batch, candidates),
     true for a real candidate. ``logits``: float32 (batch, candidates), each row's
-    ``scale * V' + linear(row) + residual(row)`` (``agents.candidate_policy.CandidateScorer``)
+    ``scale * V' + linear(row) + residual(row)`` (``agents.candidate_policy.CandidateScorer``;
+    a typed model's rows end in the crew type's one-hot, and it adds its per-type term)
     with the masked ones set to -1e8 as sb3-contrib does (a softmax gives the policy's
     probabilities). ``action``: int64 (batch,), the argmax, the candidate it chooses.
 
@@ -160,7 +161,8 @@ def candidate_to_onnx(model, source: str = ""):
         n("MatMul", ["res0", const("w_res1", weights(second.weight).T)], ["res1_mm"]),
         n("Add", ["res1_mm", const("b_res1", weights(second.bias))], ["res3"]),
         n("Add", ["lin3", "res3"], ["terms3"]),
-        n("Squeeze", ["terms3", const("last_axis", np.array([2], np.int64))], ["terms"]),
+        n("Squeeze", ["terms3", const("last_axis", np.array([2], np.int64))], ["shared"]),
+        *per_type_nodes(scorer, columns, const, weights),
         n("Add", ["scaled_v", "terms"], ["raw_logits"]),
         n("Where", ["mask", "raw_logits", const("huge_neg", np.float32(HUGE_NEG))],
           ["logits"]),
@@ -182,6 +184,30 @@ def candidate_to_onnx(model, source: str = ""):
         proto.metadata_props.add(key=key, value=value)
     onnx.checker.check_model(proto)
     return proto
+
+
+def per_type_nodes(scorer, columns: int, const, weights) -> list:
+    """The nodes from ``shared`` (batch, cap) to ``terms``: a typed scorer's per-type term
+    ``onehot . (W @ row[:-types])`` added (``CandidateScorer``), an untyped one's nothing."""
+    from onnx import helper
+
+    n = helper.make_node
+    if not scorer.types:
+        return [n("Identity", ["shared"], ["terms"])]
+    split = columns - scorer.types  # the type columns are the last ones of a row
+    return [
+        n("Slice", ["rows", const("plain_start", np.array([0], np.int64)),
+                    const("plain_end", np.array([split], np.int64)),
+                    const("row_axis", np.array([2], np.int64))], ["plain_rows"]),
+        n("Slice", ["rows", const("types_start", np.array([split], np.int64)),
+                    const("types_end", np.array([columns], np.int64)), "row_axis"],
+          ["onehot"]),
+        n("MatMul", ["plain_rows", const("w_per_type", weights(scorer.per_type.weight).T)],
+          ["per_type_all"]),
+        n("Mul", ["per_type_all", "onehot"], ["per_type_own"]),
+        n("ReduceSum", ["per_type_own", "row_axis"], ["per_type"], keepdims=0),
+        n("Add", ["shared", "per_type"], ["terms"]),
+    ]
 
 
 def export(model_path: str | Path, onnx_path: str | Path) -> Path:
