@@ -23,7 +23,7 @@ own type, so all or none of them need the crane and the queue never tells them a
 ``unlocks_bottleneck`` keeps its first definition (the bottleneck at the mean pace,
 ``FloorFacts.mean_pace_bottleneck``: formwork on the built-in floor, so it counts an R task's
 one F successor and never separates candidates) because the committed
-``models/searched_rule.json`` and ``models/stage2_evaluator.zip`` were made with it.
+``models/searched_rule.json`` and ``models/stage2_desired_position.zip`` were made with it.
 ``FEATURE_NAMES`` are the first eleven, the stage-2 model's columns; ``ALL_FEATURES`` adds
 ``BINDING_FEATURES``, for students and rule searches that name them.
 

@@ -33,7 +33,7 @@ from training.compare import seed_list
 LAYOUTS = sorted(p for p in (BUILTIN_CASE.parent / "layouts").glob("*.toml")
                  if not p.name.endswith(".event.toml"))  # calibrations live beside them
 EVERY_CASE = ("priority", "nearest", "student:models/searched_rule.json")
-BUILT_IN_ONLY = ("ga:models/ga_priorities.json", "models/stage2_evaluator.zip")
+BUILT_IN_ONLY = ("ga:models/ga_priorities.json", "models/stage2_desired_position.zip")
 STALL_S = 3600.0
 
 

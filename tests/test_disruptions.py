@@ -526,7 +526,7 @@ def test_a_model_trained_without_disruptions_is_refused_naming_the_sizes():
     # 7 crews, 3 storages: 2 + 3 + 7 = 12 more floats in each
     assert evaluation_size(disrupted) == evaluation_size(plain) + 12
     assert state_size(disrupted) == state_size(plain) + 12
-    model = Path(__file__).resolve().parents[1] / "models" / "stage2_evaluator.zip"
+    model = Path(__file__).resolve().parents[1] / "models" / "stage2_desired_position.zip"
     evaluator = ModelEvaluator(model)
     Engine(plain, evaluator=evaluator)  # the engine prepares its evaluator for the case
     with pytest.raises(ValueError) as err:

@@ -49,7 +49,7 @@ from training.runs.paired import mean_ci, p80
 from training.runs.runner import TIME_USE, EpisodeRunner, check_specs
 
 DEFAULT_STRATEGIES = ("priority", "nearest", "ga:models/ga_priorities.json",
-                      "student:models/searched_rule.json", "models/stage2_evaluator.zip")
+                      "student:models/searched_rule.json", "models/stage2_desired_position.zip")
 REFERENCE = "priority"
 # issue 30's criteria
 MIN_CORRELATION, MAX_GAP, MAX_TIME_USE_GAP, MAX_PAIRED_GAP = 0.9, 0.03, 0.15, 0.5
