@@ -21,7 +21,6 @@ can take.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 from pathlib import Path
