@@ -74,8 +74,9 @@ def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_pa
     from training import stage2
     from training.stage2 import Stage2Config
 
+    # the event floor records the same kind of rows as the pymunk floor, in a fraction of the time
     config = Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1,
-                          typed=typed)
+                          typed=typed, fidelity="event")
     case = stage2.training_case(config)
     floor = stage2.make_floor(config, case)
     model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))
