@@ -365,8 +365,14 @@ def test_a_student_of_other_features_is_refused_with_the_fix(tmp_path, capsys):
         config = candidate_config(candidates=3, typed=True, start_rule=path)
         with pytest.raises(ValueError, match=r"all.json|reordered.json") as err:
             stage2.new_candidate_model(config, distill.choice_venv(3, len(CREW_TYPES)))
-        assert "in that order; fix: refit it with" in str(err.value)
+        assert "in that order; fix: give a rule or student of these" in str(err.value)
         assert "--features first" in str(err.value)
+        # untyped: a rule of one vector for every type, the same check (weights go by position)
+        rule = save_student(tmp_path / f"{name}-rule.json",
+                            {t: [0.1] * len(features) for t in CREW_TYPES}, features=features)
+        with pytest.raises(ValueError, match="an untyped model reads"):
+            stage2.new_candidate_model(candidate_config(candidates=3, start_rule=rule),
+                                       distill.choice_venv(3))
         out = tmp_path / f"{name}.zip"
         assert distill.main(["student-model", path, "--out", str(out)]) == 2
         assert "--features first" in capsys.readouterr().err and not out.exists()

@@ -505,6 +505,7 @@ def rule_vector(path: str, candidates: int) -> list[float]:
     from agents.student import StudentEvaluator
 
     rule = StudentEvaluator.load(path)
+    check_model_features(rule, path, "start_rule", "an untyped model")
     vectors = {tuple(w) for w in rule.weights.values()}
     if len(vectors) != 1:
         raise ValueError(f"start_rule = {path!r}: {len(vectors)} weight vectors (one per crew "
@@ -515,21 +516,30 @@ def rule_vector(path: str, candidates: int) -> list[float]:
     return list(vectors.pop())
 
 
+def check_model_features(student, path: str, source: str, model: str) -> None:
+    """A rule or student written into a masked-choice model must weigh the model's columns,
+    ``FEATURE_NAMES`` in that order (weights are laid out by position); ValueError naming the
+    file and the fix otherwise."""
+    from agents.features import FEATURE_NAMES
+
+    if student.features != FEATURE_NAMES:
+        raise ValueError(f"{source} = {path!r}: a student of the features "
+                         f"{', '.join(student.features)}; {model} reads "
+                         f"{', '.join(FEATURE_NAMES)}, in that order; fix: give a rule or "
+                         "student of these (cmdp-search-rule's default features, or `python -m "
+                         "training.research.distill fit LABELS --features first`)")
+
+
 def student_weights(path: str, candidates: int, source: str = "start_rule") -> \
         dict[str, list[float]]:
     """A per-type student's weights (``agents.student``'s file: one vector per crew type)
     for a typed policy of ``candidates`` rows; ValueError naming the file and the fix for a
     student of other features than the model's columns (``FEATURE_NAMES``, in that order) or
     of other candidates. ``source``: how the file was given, for the message."""
-    from agents.features import FEATURE_NAMES
     from agents.student import StudentEvaluator
 
     student = StudentEvaluator.load(path)
-    if student.features != FEATURE_NAMES:
-        raise ValueError(f"{source} = {path!r}: a student of the features "
-                         f"{', '.join(student.features)}; a typed model reads "
-                         f"{', '.join(FEATURE_NAMES)}, in that order; fix: refit it with "
-                         "`python -m training.research.distill fit LABELS --features first`")
+    check_model_features(student, path, source, "a typed model")
     if student.candidates != candidates:
         raise ValueError(f"{source} = {path!r} re-ranks {student.candidates} candidates, the "
                          f"policy {candidates}; fix: --set candidates={student.candidates}")
