@@ -23,7 +23,7 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 demo: $(VENV)/.installed
 	$(VENV)/bin/cmdp-simulate --gif --out out/demo
 
-# The gate (about 100 s on 2 cores), the slow set (CI) and the nightly set (the full sweeps,
+# The gate (about 2 min on 2 cores), the slow set (CI) and the nightly set (the full sweeps,
 # before a release; not in CI): docs/testing.md says what each covers and how long it takes.
 test: $(VENV)/.installed
 	$(PY) -m pytest -q -m "not slow and not nightly"
