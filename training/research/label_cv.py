@@ -39,15 +39,12 @@ def seed_folds(seeds: list[int], folds: int, seed: int = 0) -> list[np.ndarray]:
     return np.array_split(order, folds)
 
 
-def rows_of(data: dict, rows: np.ndarray, columns: list[int] | None = None,
-            pooled: bool = False) -> dict:
-    """The label arrays restricted to ``rows`` (and feature ``columns``); ``pooled``: every
-    row of one crew type, so ``fit_weights`` fits one vector."""
+def rows_of(data: dict, rows: np.ndarray, pooled: bool = False) -> dict:
+    """The label arrays restricted to ``rows``; ``pooled``: every row of one crew type, so
+    ``fit_weights`` fits one vector."""
     n = len(data["choice"])
     out = {k: (v[rows] if isinstance(v, np.ndarray) and len(v) == n else v)
            for k, v in data.items()}
-    if columns is not None:
-        out["features"] = out["features"][:, :, columns]
     if pooled:
         out["crew_type"] = np.full(int(rows.sum()), "all")
     return out
@@ -119,16 +116,15 @@ def picked_makespan(scores: np.ndarray, data: dict) -> np.ndarray:
 
 
 def floor_gains(data: dict, folds: list[np.ndarray], make_scorer, fraction: float = 1.0,
-                columns: list[int] | None = None, pooled: bool = False) -> dict[int, float]:
+                pooled: bool = False) -> dict[int, float]:
     """Per held-out label floor: mean over its decisions of (pick's estimated makespan -
     Eq. 9 pick's), the student fitted on the other folds' first ``fraction`` of seeds."""
     gains = {}
     for k, fold in enumerate(folds):
         others = np.concatenate([f for j, f in enumerate(folds) if j != k])
         fitted_seeds = others[:max(1, int(round(fraction * len(others))))]
-        train = rows_of(data, np.isin(data["row_seed"], fitted_seeds), columns, pooled)
-        test_rows = np.isin(data["row_seed"], fold)
-        test = rows_of(data, test_rows, columns)
+        train = rows_of(data, np.isin(data["row_seed"], fitted_seeds), pooled)
+        test = rows_of(data, np.isin(data["row_seed"], fold))
         eq9 = picked_makespan(np.nan_to_num(test["values"]), test)
         student = picked_makespan(make_scorer(train)(test), test)
         for seed in fold:
@@ -180,19 +176,15 @@ def main(argv: list[str] | None = None) -> int:
         p.error(f"--fractions {args.fractions!r}: give shares in (0, 1], e.g. 0.25,0.5,1")
     try:
         data = distill.load_labels([Path(f) for f in args.labels])
-        names = list(data["feature_names"])
-        wanted = names if args.features == "all" else list(distill.features_option(args.features))
-        missing = [n for n in wanted if n not in names]
-        if missing:
-            raise ValueError(f"--features: the labels lack {', '.join(missing)}; fix: give "
-                             f"some of {', '.join(names)}")
+        if args.features != "all":  # all: the labels' own columns
+            data = distill.select_features(data, distill.features_option(args.features))
         if args.folds < 2 or args.folds > len(set(data["row_seed"])):
             raise ValueError(f"--folds {args.folds}: give 2 to {len(set(data['row_seed']))} "
                              "(the label floors)")
     except ValueError as err:
         print(f"label_cv: {err}", file=sys.stderr)
         return 2
-    columns = [names.index(n) for n in wanted]
+    wanted = list(data["feature_names"])
     folds = seed_folds(list(data["row_seed"]), args.folds, args.seed)
     if args.mlp:
         def make(train):
@@ -209,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{args.folds} folds by seed; student {kind} on {len(wanted)} features")
     for fraction in fractions:
         row = {"fraction": fraction, **summary(floor_gains(data, folds, make, fraction,
-                                                           columns, args.pooled))}
+                                                           args.pooled))}
         report["curve"].append(row)
         print(f"label_cv: fitted on {fraction:.0%} of the training seeds: pick - Eq. 9's pick "
               f"{row['mean_s']:+.1f} ± {row['ci95_s']:.1f} s a decision", flush=True)
