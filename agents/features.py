@@ -24,8 +24,23 @@ own type, so all or none of them need the crane and the queue never tells them a
 ``FloorFacts.mean_pace_bottleneck``: formwork on the built-in floor, so it counts an R task's
 one F successor and never separates candidates) because the committed
 ``models/searched_rule.json`` and ``models/stage2_desired_position.zip`` were made with it.
-``FEATURE_NAMES`` are the first eleven, the stage-2 model's columns; ``ALL_FEATURES`` adds
-``BINDING_FEATURES``, for students and rule searches that name them.
+``FEATURE_NAMES`` are the first eleven, the stage-2 model's columns;
+``POLICY_ITERATION_FEATURES`` adds ``BINDING_FEATURES`` (what policy iteration labels by
+default); ``ALL_FEATURES`` adds ``STATE_FEATURES`` too, for students and rule searches that
+name them.
+
+The state features (issue 32, next steps) ask whether the student misses absolute scale and
+the floor's state: the ratios above are scaled to the best candidate of each decision, so a
+linear student cannot tell a 100 s from a 5,000 s difference, nor whether the work a
+candidate releases goes to crews that are starving. In hours and hectometres: the
+candidate's expected duration and tail, the walk to it, the work it releases at once (all of
+it; weighted by each crew type's share of the remaining work per crew, ``load_shares``; of
+types with an idle crew), the queued work of other types its area blocks (the same three
+ways), of its own type, the successors' work it does not release alone, and the tail
+weighted by the floor's progress. Measured on 11,569 policy-iteration labels (relabelled by
+``distill relabel``, seed-fold CV with ``training.research.label_cv``): they add about 1 s a
+decision to the linear student's ~19 s (docs/results.md); on the built-in floor duration
+and tail never separate candidates (every task of a type has the same work).
 
 ``FloorFacts`` holds what depends on the case only (computed once per case);
 ``candidate_features`` reads the state at a decision. Features are scaled to about [0, 1].
@@ -51,7 +66,12 @@ FEATURE_NAMES = ("successors", "nearness", "conflicts", "tail", "unlocks_bottlen
                  "areas_near", "rank1")
 BINDING_FEATURES = ("unlocks_binding", "releases_binding_now", "blocks_binding",
                     "feeds_idle_binding")
-ALL_FEATURES = FEATURE_NAMES + BINDING_FEATURES
+STATE_FEATURES = ("duration_h", "tail_h", "distance_hm", "releases_h", "releases_loaded_h",
+                  "releases_idle_h", "blocks_h", "blocks_loaded_h", "blocks_idle_h",
+                  "blocks_own_h", "successors_pending_h", "tail_late_h")
+# what policy iteration labels and its students name by default (the committed students)
+POLICY_ITERATION_FEATURES = FEATURE_NAMES + BINDING_FEATURES
+ALL_FEATURES = POLICY_ITERATION_FEATURES + STATE_FEATURES
 NEAR_M = 4.0  # "near" a target: other crews and task areas within this distance
 
 
@@ -126,7 +146,10 @@ def candidate_features(facts: FloorFacts, crew, site, position, targets: list[in
     rows = _first_features(facts, crew, site, position, targets, priorities, positions)
     if names == FEATURE_NAMES:
         return rows
-    both = np.hstack([rows, binding_features(facts, site, crew, targets)])
+    columns = [rows, binding_features(facts, site, crew, targets)]
+    if any(n in STATE_FEATURES for n in names):
+        columns.append(state_features(facts, site, crew, position, targets))
+    both = np.hstack(columns)
     return both[:, [ALL_FEATURES.index(n) for n in names]]
 
 
@@ -198,3 +221,66 @@ def _first_features(facts: FloorFacts, crew, site, position, targets: list[int],
                      ratio(now[k], now), teammate[k], crowd[k] / max(1, len(others)),
                      ratio(areas[k], areas), 1.0 if target == best else 0.0))
     return np.array(rows, dtype=np.float64)
+
+
+# -- state features (issue 32): absolute units and the floor's state ---------------------------
+
+
+
+def load_shares(facts: FloorFacts, site) -> dict[str, float]:
+    """Per crew type, its remaining expected work per crew (tasks not ended; a running task by
+    its progress) over the largest among the types: 1 for the type that binds the rest of the
+    floor now, less for the others."""
+    remaining: dict[str, float] = {}
+    for t in site.tasks:
+        if t.pool == Pool.END:
+            continue
+        left = 1.0 - min(1.0, t.progress / t.work) if t.pool == Pool.ON and t.work > 0 else 1.0
+        remaining[t.crew_type] = remaining.get(t.crew_type, 0.0) + facts.expected_s[t.index] * left
+    crews: dict[str, int] = {}
+    for c in site.crews:
+        if c.status != CrewStatus.LEFT:
+            crews[c.type] = crews.get(c.type, 0) + 1
+    per_crew = {ct: w / max(1, crews.get(ct, 0)) for ct, w in remaining.items()}
+    top = max(per_crew.values(), default=0.0)
+    return {ct: (w / top if top > 0 else 0.0) for ct, w in per_crew.items()}
+
+
+def idle_types(site) -> set[str]:
+    """Crew types with a crew reaching without a target scope (idle, not away)."""
+    return {c.type for c in site.crews if c.status == CrewStatus.REACHING and not c.scope
+            and not c.absent}
+
+
+def state_features(facts: FloorFacts, site, crew, position, targets: list[int]) -> np.ndarray:
+    """``STATE_FEATURES`` per target: hours and hectometres rather than ratios, and the work a
+    candidate releases or blocks weighted by how much its crew type binds the rest of the
+    floor (``load_shares``) or whether a crew of that type stands idle."""
+    tasks = [site.tasks[crew.scope[t]] for t in targets]
+    share = load_shares(facts, site)
+    idle = idle_types(site)
+    progress = site.tasks_ended / max(1, len(site.tasks))
+    h = 1.0 / 3600.0
+    rows = []
+    for k, task in enumerate(tasks):
+        released = [s for s in task.successors
+                    if all(site.tasks[p].pool == Pool.END for p in site.tasks[s].predecessors
+                           if p != task.index)]
+        pending = [s for s in task.successors if s not in released]
+        blocked = [o for o in task.conflicts if site.tasks[o].pool == Pool.QUEUE]
+        other = [o for o in blocked if site.tasks[o].crew_type != crew.type]
+        own = [o for o in blocked if site.tasks[o].crew_type == crew.type]
+
+        def work(ts, weight=lambda ct: 1.0):
+            return h * sum(facts.expected_s[s] * weight(site.tasks[s].crew_type) for s in ts)
+
+        tail = facts.tail_s[task.index] * h
+        rows.append((facts.expected_s[task.index] * h, tail,
+                     math.dist(position, site.target_points[targets[k]]) / 100.0,
+                     work(released), work(released, lambda ct: share.get(ct, 0.0)),
+                     work(released, lambda ct: float(ct in idle)),
+                     work(other), work(other, lambda ct: share.get(ct, 0.0)),
+                     work(other, lambda ct: float(ct in idle)),
+                     work(own), work(pending), tail * progress))
+    return np.array(rows, dtype=np.float64).reshape(len(tasks), len(STATE_FEATURES))
+

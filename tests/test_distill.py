@@ -333,3 +333,43 @@ def test_typed_fit_model_learns_per_type_choices(tmp_path):
     assert report["agree_model_teacher_validation"] > 0.8
     assert report["agree_model_teacher_validation"] > plain["agree_model_teacher_validation"] + 0.2
     assert typed.policy.hold_choice and typed.policy.types[:2] == ("JCC", "HIC")
+
+
+def test_relabel_replays_the_acting_floor_and_adds_features(tmp_path, capsys):
+    """``distill relabel`` computes other features for labels without the teacher: the
+    replayed floor of the acting policy meets every decision of the file (same candidates,
+    Eq. 9 values and shared features), the teacher's makespans and choices are kept; a floor
+    the lookahead drove itself, or a file whose decisions are not the replay's, is refused."""
+    from agents.features import ALL_FEATURES, FEATURE_NAMES
+
+    tiny = str(cmdp_pymunk.TINY_CASE)
+    labels, wide = tmp_path / "labels", tmp_path / "wide"
+    assert distill.main(["label", "--case", tiny, "--seeds", "0-1", "--candidates", "2",
+                         "--futures", "expected", "--acting", "nearest",
+                         "--out", str(labels)]) == 0
+    assert distill.main(["relabel", str(labels), "--case", tiny, "--out", str(wide)]) == 0
+    old, new = distill.load_labels(labels), distill.load_labels(wide)
+    assert len(old["choice"]) > 0 and new["feature_names"] == ALL_FEATURES
+    for key in ("crew_type", "choice", "row_seed"):
+        assert np.array_equal(old[key], new[key])
+    for key in ("values", "makespan_s"):
+        assert np.array_equal(old[key], new[key], equal_nan=True)
+    assert np.allclose(new["features"][..., :len(FEATURE_NAMES)], old["features"])
+    assert new["acting"] == old["acting"] == ["nearest", "nearest"]
+    # a label file of the lookahead's own floor: nothing to replay without it
+    own = tmp_path / "own"
+    assert distill.main(["label", "--case", tiny, "--seeds", "0", "--candidates", "2",
+                         "--futures", "expected", "--out", str(own)]) == 0
+    assert distill.main(["relabel", str(own), "--case", tiny,
+                         "--out", str(tmp_path / "x")]) == 2
+    assert "followed the lookahead itself" in capsys.readouterr().err
+    # a file whose decisions are not the replayed floor's (here: another Eq. 9 value)
+    tampered = tmp_path / "tampered"
+    tampered.mkdir()
+    data = dict(np.load(labels / "seed-0.npz"))
+    data["values"] = data["values"] + 0.01
+    np.savez(tampered / "seed-0.npz", **data)
+    assert distill.main(["relabel", str(tampered), "--case", tiny,
+                         "--out", str(tmp_path / "y")]) == 2
+    assert "decision 0" in capsys.readouterr().err
+    assert not (tmp_path / "y" / "seed-0.npz").exists()

@@ -12,8 +12,10 @@ from agents.features import (
     ALL_FEATURES,
     BINDING_FEATURES,
     FEATURE_NAMES,
+    STATE_FEATURES,
     FloorFacts,
     candidate_features,
+    load_shares,
 )
 from agents.student import StudentEvaluator
 from cmdp_pymunk.bounds import expected_task_duration_s, expected_work_by_crew_type, loading_s
@@ -71,7 +73,9 @@ def test_binding_features_tell_candidates_apart_on_recorded_states(built_in):
                 first = candidate_features(facts, crew, site, engine.positions[i], top,
                                            priorities, engine.positions)
                 assert np.array_equal(every[:, :len(FEATURE_NAMES)], first)
-                assert ((every >= 0) & (every <= 1)).all()
+                ratios = every[:, :len(FEATURE_NAMES) + len(BINDING_FEATURES)]
+                assert ((ratios >= 0) & (ratios <= 1)).all()
+                assert (every >= 0).all()  # hours, hectometres: not scaled to 1
                 recorded.append(every)
             return values
 
@@ -91,6 +95,11 @@ def test_binding_features_tell_candidates_apart_on_recorded_states(built_in):
     assert separates("unlocks_bottleneck") == 0
     assert all(separates(n) > 0 for n in ("unlocks_binding", "releases_binding_now",
                                           "blocks_binding"))
+    # the built-in floor's tasks of one type all have the same work: duration and tail never
+    # tell a crew's candidates apart there (they may on other cases)
+    same_work = ("duration_h", "tail_h", "tail_late_h")
+    assert all(separates(n) == 0 for n in same_work)
+    assert all(separates(n) > 0 for n in STATE_FEATURES if n not in same_work)
 
 
 def test_a_student_with_binding_features_round_trips_and_old_files_still_load(tmp_path):
@@ -104,3 +113,35 @@ def test_a_student_with_binding_features_round_trips_and_old_files_still_load(tm
     assert old.features == FEATURE_NAMES
     with pytest.raises(ValueError, match="each once"):
         StudentEvaluator({}, 3, ("successors", "crane_queue"))
+
+
+def test_state_features_by_hand_at_the_floors_start(built_in):
+    """At second 0 of seed 0 (nothing ended, nobody gone): each crew type's load share is its
+    expected work per crew over the largest (``expected_work_by_crew_type``); a candidate's
+    duration and the queued work of other types its area blocks, in hours, by hand; the tail
+    weighted by progress is 0."""
+    built_in.reset(0)
+    site = built_in.site
+    facts = FloorFacts.of(site)
+    per_crew = expected_work_by_crew_type(site.case)
+    top = max(per_crew.values())
+    shares = load_shares(facts, site)
+    assert shares == pytest.approx({ct: w / top for ct, w in per_crew.items()})
+    crew = next(c for c in site.crews if c.type == "JCC")
+    site.crews[crew.index].scope = {site.tasks[t].component: t
+                                    for t in site.tasks_of_crew_type["JCC"][:3]}
+    targets = list(crew.scope)
+    phi = candidate_features(facts, crew, site, (0.0, 0.0), targets,
+                             {t: 0.5 for t in targets}, None, STATE_FEATURES)
+    for k, target in enumerate(targets):
+        task = site.tasks[crew.scope[target]]
+        assert phi[k, STATE_FEATURES.index("duration_h")] == pytest.approx(
+            facts.expected_s[task.index] / 3600)
+        other = [o for o in task.conflicts if site.tasks[o].crew_type != "JCC"
+                 and site.tasks[o].pool == 1]  # queued
+        assert phi[k, STATE_FEATURES.index("blocks_h")] == pytest.approx(
+            sum(facts.expected_s[o] for o in other) / 3600)
+        x, y = site.target_points[target]
+        assert phi[k, STATE_FEATURES.index("distance_hm")] == pytest.approx(
+            (x * x + y * y) ** 0.5 / 100)
+    assert (phi[:, STATE_FEATURES.index("tail_late_h")] == 0).all()

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import cmdp_pymunk
-from agents.features import ALL_FEATURES, FEATURE_NAMES
+from agents.features import ALL_FEATURES, FEATURE_NAMES, POLICY_ITERATION_FEATURES
 from training.research import distill, policy_iteration
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -63,10 +63,11 @@ def _labels(path: Path, seed: int, names) -> None:
 
 
 def test_label_files_name_their_features_and_must_agree(tmp_path):
-    _labels(tmp_path, 0, ALL_FEATURES)
-    _labels(tmp_path, 1, ALL_FEATURES)
+    _labels(tmp_path, 0, POLICY_ITERATION_FEATURES)
+    _labels(tmp_path, 1, POLICY_ITERATION_FEATURES)
     data = distill.load_labels(tmp_path)
-    assert data["feature_names"] == ALL_FEATURES and data["features"].shape == (2, 2, 15)
+    assert data["feature_names"] == POLICY_ITERATION_FEATURES
+    assert data["features"].shape == (2, 2, 15)
     _labels(tmp_path, 2, FEATURE_NAMES)
     with pytest.raises(ValueError, match="seed-2.npz has successors.*fix: fit on files of one"):
         distill.load_labels(tmp_path)
@@ -86,7 +87,7 @@ def test_label_with_a_whole_teacher_and_all_features(tmp_path, capsys):
                          "--features", "all", "--out", str(tmp_path / "l")]) == 0
     data = distill.load_labels(tmp_path / "l")
     assert data["teachers"] == [f"lookahead:{teacher}"]
-    assert data["feature_names"] == ALL_FEATURES and data["features"].shape[2] == 15
+    assert data["feature_names"] == ALL_FEATURES and data["features"].shape[2] == 27
     assert distill.main(["fit", str(tmp_path / "l"), "--weights", "gap",
                          "--out", str(tmp_path / "s.json")]) == 0
     assert json.loads((tmp_path / "s.json").read_text())["features"] == list(ALL_FEATURES)
@@ -116,7 +117,7 @@ def test_two_rounds_on_the_tiny_case(two_rounds):
                      for r in (1, 2))
     assert first["label_seeds"] == [0, 1] and second["label_seeds"] == [2, 3]
     assert second["fitted_on_seeds"] == [0, 1, 2, 3]  # --aggregate: every round's labels
-    assert first["features"] == list(ALL_FEATURES) and first["candidates"] == 3
+    assert first["features"] == list(POLICY_ITERATION_FEATURES) and first["candidates"] == 3
     assert second["base"] == f"student:{out / 'round-1' / 'student.json'}"
     assert second["teacher"].endswith(f"race=2+floor=event+base={second['base']}")
     assert first["command"].startswith("python -m training.research.policy_iteration")
@@ -195,7 +196,7 @@ def test_the_committed_student_is_a_round_of_this_code():
     assert meta["round"] == 2 and meta["fit_weighting"] == "gap"
     assert not set(meta["fitted_on_seeds"]) & set(policy_iteration.REPORT_SEEDS)
     student = StudentEvaluator.load(path)
-    assert student.features == ALL_FEATURES and student.candidates == 3
+    assert student.features == POLICY_ITERATION_FEATURES and student.candidates == 3
     assert sorted(student.weights) == ["FC", "HIC", "JCC", "RC"]
     case = cmdp_pymunk.load_case(None)
     floor = EventFloor(case, evaluator=student, calibration=calibration_for(case))

@@ -150,3 +150,78 @@ def test_a_search_on_the_event_floor_is_selected_on_the_pymunk_floor(tmp_path):
     assert "unlocks_binding" in rule["features"] and len(rule["features"]) > len(FEATURE_NAMES)
     with pytest.raises(ValueError, match="each once, from"):
         RuleSearchConfig(features=["crane_queue"])
+
+
+def _student(tmp_path, weights, candidates=3):
+    from agents.student import StudentEvaluator
+
+    path = tmp_path / "student.json"
+    StudentEvaluator(weights, candidates, FEATURE_NAMES).save(path, {})
+    return str(path)
+
+
+def test_a_search_from_a_student_offsets_its_weights_per_crew_type_by_hand(tmp_path):
+    """``start``: the search vector is an offset on the start student's weights; with
+    ``per_type`` one block per crew type the student holds weights for (in sorted order),
+    a type without weights keeps none."""
+    n = len(FEATURE_NAMES)
+    a, b = [0.1 * k for k in range(n)], [-0.2] * n
+    start = _student(tmp_path, {"B": b, "A": a})
+    i, j = FEATURE_NAMES.index("nearness"), FEATURE_NAMES.index("rank1")
+    pooled = RuleSearchConfig(features=["nearness", "rank1"], start=start, candidates=3)
+    weights = rule_weights(pooled, [1.0, -1.0], ["A", "B", "C"])
+    assert weights["A"][i] == pytest.approx(a[i] + 1) and weights["B"][j] == pytest.approx(-1.2)
+    assert weights["C"][i] == 1.0 and weights["C"][j] == -1.0  # zeros plus the offset
+    typed = RuleSearchConfig(features=["nearness", "rank1"], start=start, candidates=3,
+                             per_type=True)
+    from training.search.rule import search_dimension, search_names
+
+    assert search_names(typed, ["C", "B", "A"]) == ["A.nearness", "A.rank1", "B.nearness",
+                                                    "B.rank1"]
+    assert search_dimension(typed, ["A", "B", "C"]) == 4
+    weights = rule_weights(typed, [1.0, 2.0, 3.0, 4.0], ["A", "B", "C"])
+    assert weights["A"][i] == pytest.approx(a[i] + 1) and weights["A"][j] == pytest.approx(
+        a[j] + 2)
+    assert weights["B"][i] == pytest.approx(2.8) and weights["B"][j] == pytest.approx(3.8)
+    assert weights["C"] == [0.0] * n
+    others = [k for k in range(n) if k not in (i, j)]
+    assert [weights["A"][k] for k in others] == pytest.approx([a[k] for k in others])
+    with pytest.raises(ValueError, match="expected 4"):
+        rule_weights(typed, [1.0, 2.0], ["A", "B"])
+
+
+@pytest.mark.parametrize("settings, message", [
+    ({"per_type": True}, "give start"),
+    ({"start": "STUDENT", "features": ["nearness", "unlocks_binding"]},
+     r"\['unlocks_binding'\] are not the start student's"),
+    ({"start": "STUDENT", "features": ["nearness"], "candidates": 5}, "fix: candidates = 3"),
+])
+def test_bad_start_settings_are_named_with_their_fix(tmp_path, settings, message):
+    settings = {k: (_student(tmp_path, {}) if v == "STUDENT" else v)
+                for k, v in settings.items()}
+    with pytest.raises(ValueError, match=message):
+        RuleSearchConfig(**settings)
+
+
+def test_a_search_from_a_student_checks_the_student_and_keeps_it_unless_beaten(tmp_path):
+    from training.search.rule import SearchState, choose, generations_checked
+
+    start = _student(tmp_path, {"A": [0.0] * len(FEATURE_NAMES)})
+    config = RuleSearchConfig(features=["nearness"], generations=2, select_every=2,
+                              train_seeds=[0, 1], seeds_per_generation=1, select_seeds=[5],
+                              start=start, candidates=3)
+    assert generations_checked(config) == [0, 2]
+    state = SearchState(2, None, log=[{"generation": g, "mean_x": [0.5 * g]} for g in (1, 2)])
+    state.checked = {0: {"diff_mean_s": -90.0}, 2: {"diff_mean_s": -50.0}}
+    kept = choose(state, config)
+    assert kept["generation"] == 0 and kept["weights"] == [0.0] and "note" not in kept
+    state.checked = {0: {"diff_mean_s": -90.0}, 2: {"diff_mean_s": -120.0}}
+    assert choose(state, config)["weights"] == [1.0]
+    # a whole (tiny) search: generation 0 is played on the selection seeds too
+    case = far_start_case()
+    run = RuleSearchConfig(features=["nearness"], popsize=2, train_seeds=[0, 1],
+                           seeds_per_generation=1, select_seeds=[5], generations=1,
+                           start=start, candidates=3)
+    state = search_rule(case, run, tmp_path / "run", progress=False)
+    assert set(state.checked) == {0, 1}
+    assert json.loads((tmp_path / "run" / "rule.json").read_text())["start"] == start

@@ -69,10 +69,12 @@ def main(argv: list[str] | None = None) -> int:
         checked = ", ".join(f"{g}: {d:+.0f}" for g, d in sorted(sel["checked"].items()))
         print(f"cmdp-search-rule: means checked on selection seeds {seeds} (generation: "
               f"paired difference to Eq. 9, s): {checked}")
-        if sel["generation"] == 0:
+        if "note" in sel:
             print(f"cmdp-search-rule: {sel['note']}")
         else:
-            print(f"cmdp-search-rule: kept generation {sel['generation']}'s mean: "
+            kept = ("the start student" if sel["generation"] == 0
+                    else f"generation {sel['generation']}'s mean")
+            print(f"cmdp-search-rule: kept {kept}: "
                   f"{sel['ratio']:.3f} x Eq. 9, difference {sel['diff_mean_s']:+.0f} +- "
                   f"{sel['diff_ci95_s'] or 0:.0f} s ({sel['paired_seeds']} paired seeds; "
                   "picked on them, so report it on others)")

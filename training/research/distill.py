@@ -13,6 +13,7 @@
     python -m training.research.distill student-model STUDENT.json --out MODEL.zip
                                      [--hold-choice]
     python -m training.research.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
+    python -m training.research.distill relabel runs/labels --out runs/labels-all [--features all]
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
 decision with two or more candidates, the candidates' features (``agents.features``), their
@@ -35,7 +36,9 @@ whose untrained policy is a per-type student (a student of ``FEATURE_NAMES``: ``
 --features first``), for PPO to fine-tune (``start_model``); with ``--hold-choice`` it plays
 the student's schedule. ``noise`` (``training.research.label_noise``) replays labelled
 decisions kept with ``--states`` in other sampled futures: how much of a label is the future's
-noise. ``fit`` fits the student (``agents.student``): per crew type a
+noise. ``relabel`` (``training.research.relabel``) computes other features for labels made
+with ``--acting`` by replaying their floors under the acting policy, without the teacher (a
+few seconds a floor). ``fit`` fits the student (``agents.student``): per crew type a
 weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
 the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
 penalty; every weight 0 is Eq. 9 itself. ``--features`` fits on some of the labels' feature
@@ -766,19 +769,24 @@ def main(argv: list[str] | None = None) -> int:
                    help="sampled futures per decision, shared by its candidates")
     n.add_argument("--workers", type=int, default=1, help="worker processes")
     n.add_argument("--out", default="", help="also write the report (JSON) here")
+    from training.research import relabel as relabel_module
+
+    relabel_module.add_parser(sub)
     args = parser.parse_args(argv)
     args.argv = argv
     from training.research.label_noise import noise
 
     commands = {"label": label, "fit": fit, "fit-model": fit_model,
-                "student-model": student_model, "noise": noise}
+                "student-model": student_model, "noise": noise,
+                "relabel": relabel_module.relabel}
     try:
         return commands[args.command](args)
     except (ValueError, BackendError) as err:
         print(f"distill: {err}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        kept = {"label": "finished seeds are kept (run again to resume)"}
+        kept = {"label": "finished seeds are kept (run again to resume)",
+                "relabel": "finished floors are kept (run again to resume)"}
         print(f"\ndistill: interrupted; {kept.get(args.command, 'no output is half-written')}",
               file=sys.stderr)
         return 130

@@ -3,7 +3,8 @@ lookahead, is refitted, and becomes the next round's base (issue 32, item 4).
 
     python -m training.research.policy_iteration [--rounds 2] [--start models/searched_rule.json]
         [--teacher candidates=3+futures=16+race=4+floor=event] [--label-seeds 0-23]
-        [--select-seeds 140-159] [--features all] [--candidates 3] [--tau-s 300] [--l2 1]
+        [--select-seeds 140-159] [--features first|all|NAMES] [--candidates 3] [--tau-s 300]
+        [--l2 1]
         [--aggregate | --no-aggregate] [--workers 1] [--case FILE] [--out runs/policy_iteration]
 
 Round r (1, 2, ...) starts from a base: ``--start`` in round 1 (a student JSON, e.g. the
@@ -52,7 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.features import ALL_FEATURES
+from agents.features import POLICY_ITERATION_FEATURES
 from training.research import distill
 
 REPORT_SEEDS = tuple(range(100, 140)) + tuple(range(200, 240))  # the results' seeds: never
@@ -70,7 +71,7 @@ class IterationArgs:
     teacher: str = DEFAULT_TEACHER
     label_seeds: tuple[int, ...] = tuple(range(24))
     select_seeds: tuple[int, ...] = tuple(range(140, 160))
-    features: tuple[str, ...] = ALL_FEATURES
+    features: tuple[str, ...] = POLICY_ITERATION_FEATURES
     candidates: int = 3
     tau_s: float = distill.FIT_DEFAULTS["tau_s"]
     l2: float = distill.FIT_DEFAULTS["l2"]
@@ -488,9 +489,10 @@ def parse_args(argv: list[str]) -> IterationArgs:
     p.add_argument("--select-seeds", type=seed_list, default=list(d.select_seeds),
                    help="seeds on which each round's base and student meet Eq. 9 (default "
                         "140-159)")
-    p.add_argument("--features", type=features, default=ALL_FEATURES,
-                   help="the student's features: all (default: ALL_FEATURES), first (the 11 "
-                        "FEATURE_NAMES) or names joined by commas")
+    p.add_argument("--features", type=features, default=POLICY_ITERATION_FEATURES,
+                   help="the student's features (default: the first eleven and the four "
+                        "binding ones), first (the 11 FEATURE_NAMES), all (ALL_FEATURES, with "
+                        "the state features) or names joined by commas")
     p.add_argument("--candidates", type=positive_int, default=d.candidates,
                    help=f"the student re-ranks Eq. 9's best k targets (default {d.candidates})")
     p.add_argument("--tau-s", type=positive_seconds, default=d.tau_s,

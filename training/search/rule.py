@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import pickle
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -81,6 +82,11 @@ class RuleSearchConfig(BaseModel):
     fidelity: Literal["pymunk", "event"] = "pymunk"  # the floor the generations run on
     select_fidelity: Literal["pymunk", "event"] = "pymunk"  # and the selection (module doc)
     calibration: str | None = None  # the event floor's file; None: the case's, beside it
+    # Start from a student (a ``distill fit`` or earlier search's JSON) instead of Eq. 9: the
+    # search vector is then an offset on its weights (``rule_weights``), one for every crew type
+    # or, with ``per_type``, one block of ``features`` per crew type of the case.
+    start: str | None = None
+    per_type: bool = False
 
     @field_validator("features")
     @classmethod
@@ -89,6 +95,26 @@ class RuleSearchConfig(BaseModel):
         if unknown or len(set(names)) != len(names):
             raise ValueError(f"features {names}: each once, from {', '.join(ALL_FEATURES)}")
         return names
+
+    @model_validator(mode="after")
+    def _start_fits(self) -> RuleSearchConfig:
+        if self.start is None:
+            if self.per_type:
+                raise ValueError("per_type = true searches offsets on a start student's "
+                                 "per-type weights; fix: give start = \"PATH\" (a student "
+                                 "JSON) or drop per_type")
+            return self
+        student = start_student(self.start)
+        missing = [n for n in self.features if n not in student.features]
+        if missing:
+            raise ValueError(f"features {missing} are not the start student's "
+                             f"({self.start}: {', '.join(student.features)}); fix: search "
+                             "among its features")
+        if student.candidates != self.candidates:
+            raise ValueError(f"candidates = {self.candidates}, the start student "
+                             f"({self.start}) re-ranks {student.candidates}; fix: candidates = "
+                             f"{student.candidates}")
+        return self
 
     @model_validator(mode="after")
     def _seeds_fit(self) -> RuleSearchConfig:
@@ -111,21 +137,66 @@ def generation_seeds(config: RuleSearchConfig, generation: int) -> list[int]:
     return sorted(int(s) for s in rng.choice(pool, config.seeds_per_generation, replace=False))
 
 
+@lru_cache(maxsize=8)
+def start_student(path: str) -> StudentEvaluator:
+    """A search's start student (``RuleSearchConfig.start``), read once."""
+    return StudentEvaluator.load(path)
+
+
 def student_features(config: RuleSearchConfig) -> tuple[str, ...]:
-    """The student's features: ``FEATURE_NAMES`` when the search names only those (the files
-    of the first searches), else ``ALL_FEATURES``."""
+    """The student's features: the start student's; else ``FEATURE_NAMES`` when the search
+    names only those (the files of the first searches), else ``ALL_FEATURES``."""
+    if config.start is not None:
+        return start_student(config.start).features
     return FEATURE_NAMES if set(config.features) <= set(FEATURE_NAMES) else ALL_FEATURES
 
 
+def searched_types(config: RuleSearchConfig, crew_types) -> list[str]:
+    """The crew types with a block of their own (``per_type``): the case's types the start
+    student holds weights for (a type it has none for never re-ranks: a crane crew's), sorted;
+    none without ``per_type``."""
+    if not config.per_type:
+        return []
+    return sorted(set(crew_types) & set(start_student(config.start).weights))
+
+
+def search_names(config: RuleSearchConfig, crew_types) -> list[str]:
+    """The search vector's entries by name: the features, or TYPE.feature with ``per_type``."""
+    if not config.per_type:
+        return list(config.features)
+    return [f"{t}.{n}" for t in searched_types(config, crew_types) for n in config.features]
+
+
+def search_dimension(config: RuleSearchConfig, crew_types) -> int:
+    """The length of the search vector: a weight per searched feature, per crew type with
+    ``per_type`` (``searched_types``)."""
+    return len(search_names(config, crew_types))
+
+
 def rule_weights(config: RuleSearchConfig, x, crew_types) -> dict[str, list[float]]:
-    """The search vector ``x`` (one weight per searched feature) as the student's weights:
-    the same full-length vector over ``student_features`` (zeros for the features not
-    searched) for every crew type."""
+    """The search vector ``x`` as the student's weights over ``student_features``: without a
+    start, the same vector for every crew type (zeros for the features not searched); with
+    one, the start student's weights per crew type plus ``x`` on the searched features (with
+    ``per_type``, crew type k's block of ``x`` for the k-th of ``searched_types``; the other
+    types keep the start's weights)."""
     names = student_features(config)
-    full = np.zeros(len(names))
-    for name, value in zip(config.features, x, strict=True):
-        full[names.index(name)] = float(value)
-    return {t: full.tolist() for t in crew_types}
+    crew_types = sorted(crew_types)
+    x = np.asarray(x, dtype=np.float64)
+    if x.shape != (search_dimension(config, crew_types),):
+        raise ValueError(f"search vector of {x.shape[0]} numbers, expected "
+                         f"{search_dimension(config, crew_types)}")
+    start = start_student(config.start).weights if config.start is not None else {}
+    blocks = {t: x[k * len(config.features):(k + 1) * len(config.features)]
+              for k, t in enumerate(searched_types(config, crew_types))}
+    out = {}
+    for crew_type in crew_types:
+        full = np.array(start.get(crew_type, np.zeros(len(names))), dtype=np.float64)
+        block = blocks.get(crew_type) if config.per_type else x
+        if block is not None:
+            for name, value in zip(config.features, block, strict=True):
+                full[names.index(name)] += float(value)
+        out[crew_type] = full.tolist()
+    return out
 
 
 def paired_fitness(makespans: list[float | None], baseline: list[float | None],
@@ -164,10 +235,12 @@ class SearchState:
 
 
 def generations_checked(config: RuleSearchConfig) -> list[int]:
-    """The generations whose means meet Eq. 9 on the selection seeds."""
+    """The generations whose means meet Eq. 9 on the selection seeds; with a start student,
+    generation 0 too (the start itself: the search keeps it unless a mean beats it)."""
     last = config.generations
     every = {g for g in range(1, last + 1) if g % config.select_every == 0}
-    return sorted(every | ({last} if last > 0 else set()))
+    first = {0} if config.start is not None else set()
+    return sorted(first | every | ({last} if last > 0 else set()))
 
 
 def total_episodes(config: RuleSearchConfig, popsize: int) -> int:
@@ -178,13 +251,14 @@ def total_episodes(config: RuleSearchConfig, popsize: int) -> int:
             + len(generations_checked(config)) * len(config.select_seeds))
 
 
-def new_strategy(config: RuleSearchConfig):
+def new_strategy(config: RuleSearchConfig, dimension: int | None = None):
     import cma
 
     options = {"seed": config.seed + 1, "verbose": -9}  # cma reads seed 0 as "from the clock"
     if config.popsize is not None:
         options["popsize"] = config.popsize
-    return cma.CMAEvolutionStrategy(np.zeros(len(config.features)), config.sigma0, options)
+    return cma.CMAEvolutionStrategy(np.zeros(dimension or len(config.features)), config.sigma0,
+                                    options)
 
 
 def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None = 1,
@@ -199,7 +273,8 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
     address; ``training.runs.runner.open_backend``)."""
     state: SearchState = search.start(
         out, config, resume,
-        lambda: SearchState(0, new_strategy(config), config=config.model_dump()))
+        lambda: SearchState(0, new_strategy(config, search_dimension(config, case.crew_types)),
+                            config=config.model_dump()))
     state.checked = getattr(state, "checked", {})  # a checkpoint from before select_every
     limit = config.max_time_s or case.simulation.max_time_s
     popsize = state.es.popsize
@@ -244,7 +319,8 @@ def search_rule(case, config: RuleSearchConfig, out: Path, workers: int | None =
         need = [s for s in config.select_seeds if s not in state.baseline]
         for row in play([(None, config.candidates, s, config.navigator) for s in need]):
             state.baseline[row["seed"]] = row["makespan_s"]
-        means = {row["generation"]: row["mean_x"] for row in state.log}
+        means = {0: [0.0] * len(state.es.mean),
+                 **{row["generation"]: row["mean_x"] for row in state.log}}
         for g in generations_checked(config):
             if g in state.checked:
                 continue
@@ -272,13 +348,15 @@ def search_calibration(case, config: RuleSearchConfig):
 def choose(state: SearchState, config: RuleSearchConfig) -> dict:
     """The checked mean with the lowest paired difference to Eq. 9, or Eq. 9 itself (weights
     0, generation 0) when none is below 0; with every checked generation's difference."""
+    zeros = [0.0] * (len(state.es.mean) if state.es is not None else len(config.features))
     diffs = {g: r["diff_mean_s"] for g, r in state.checked.items()
              if g in generations_checked(config) and r["diff_mean_s"] is not None}
     best = min(diffs, key=lambda g: (diffs[g], g), default=None)
     if best is None or diffs[best] >= 0:
-        return {"generation": 0, "weights": [0.0] * len(config.features), "diff_mean_s": 0.0,
-                "checked": diffs, "note": "no checked mean beat Eq. 9: the rule is Eq. 9"}
-    means = {row["generation"]: row["mean_x"] for row in state.log}
+        return {"generation": 0, "weights": zeros, "diff_mean_s": 0.0,
+                "checked": diffs, "note": "no checked mean beat Eq. 9: the rule is Eq. 9"
+                + (" plus the start student's weights" if config.start else "")}
+    means = {0: zeros, **{row["generation"]: row["mean_x"] for row in state.log}}
     return {"generation": best, "weights": list(means[best]), **state.checked[best],
             "checked": diffs}
 
@@ -305,7 +383,7 @@ def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
     """history.csv, rule.json (the distribution's mean) and the checkpoint, each atomically."""
     search.write_history(
         out, "generation,episodes,best_paired_s,mean_paired_s,sigma,"
-        + ",".join(f"w_{name}" for name in config.features),
+        + ",".join(f"w_{name}" for name in search_names(config, crew_types)),
         [f"{r['generation']},{r['episodes']},{r['best']:.1f},{r['mean']:.1f},{r['sigma']:.4f},"
          + ",".join(f"{v:.4f}" for v in r["mean_x"]) for r in state.log])
     x = state.selection["weights"] if state.selection else state.es.mean
@@ -313,7 +391,9 @@ def _record(state: SearchState, out: Path, config: RuleSearchConfig, crew_types,
                             student_features(config))
     rule.save(out / "rule.json", {
         "made_by": "training.search.rule (CMA-ES, paired makespan against Eq. 9)",
-        "searched": dict(zip(config.features, (round(float(v), 6) for v in x), strict=True)),
+        "searched": dict(zip(search_names(config, crew_types), (round(float(v), 6) for v in x),
+                             strict=True)),
+        "start": config.start,
         "generation": state.selection["generation"] if state.selection else state.generation,
         "generations_run": state.generation, "popsize": popsize,
         "train_seeds": config.train_seeds, "seeds_per_generation": config.seeds_per_generation,
