@@ -78,6 +78,10 @@ class LookaheadSettings:
             (``cmdp_pymunk.eventfloor.EventFloor.from_engine``, the case's calibration): the
             lookahead thinks on the event floor, some 50 times cheaper a branch, and acts on
             the floor it values (the pymunk one).
+        from_share: the lookahead decides once this share of the floor's tasks has ended
+            (the endgame: few tasks are left to draw their paces, so a sampled future varies
+            less and a branch is short); before, the base rule decides alone. 0: from the
+            start.
     """
 
     candidates: int = 3
@@ -87,6 +91,7 @@ class LookaheadSettings:
     workers: int = 1
     think_on: str = "same"
     race: int = 0
+    from_share: float = 0.0
 
     def __post_init__(self):
         if not (isinstance(self.candidates, int) and self.candidates >= 1):
@@ -108,6 +113,9 @@ class LookaheadSettings:
             raise ValueError(f"lookahead race={self.race} starts each candidate on that many "
                              f"sampled futures, up to futures={self.futures}: give futures >= "
                              f"race (and sampled futures, not expected)")
+        if not (isinstance(self.from_share, (int, float)) and 0.0 <= self.from_share < 1.0):
+            raise ValueError(f"lookahead from_share must be in [0, 1) (the share of tasks ended "
+                             f"before it decides), not {self.from_share!r}")
         if self.expected_paces and self.futures != 1:
             raise ValueError(f"lookahead with expected paces branches once per candidate: "
                              f"futures must be 1, not {self.futures!r}")
@@ -213,6 +221,8 @@ class LookaheadEvaluator(Evaluator):
         candidates = order[:self.settings.candidates]
         if site.crews[i].scope_kind != ScopeKind.TASKS or len(candidates) < 2:
             return None
+        if site.tasks_ended < self.settings.from_share * len(site.tasks):
+            return None  # not yet the endgame: the base decides
         start = time.perf_counter()
         seen = None
         if self.settings.race:

@@ -60,11 +60,19 @@ def make_evaluator(spec: str):
     return ModelEvaluator(path)
 
 
+def _is_share(text: str) -> bool:
+    try:
+        return 0.0 <= float(text) < 1.0
+    except ValueError:
+        return False
+
+
 def make_lookahead(options: str):
     """``lookahead:candidates=K+futures=F+race=R+base=SPEC+floor=event`` (each optional;
     ``+`` because ``--strategies`` separates strategies with commas) as an evaluator;
     ``floor=event`` branches on event floors built from the floor's state (think there, act on
-    the floor); ``race=R`` sequential halving from H futures a candidate up to F."""
+    the floor); ``race=R`` sequential halving from H futures a candidate up to F;
+    ``from=SHARE`` only once that share of the tasks has ended (the endgame)."""
     from .lookahead import LookaheadEvaluator, LookaheadSettings
 
     settings, base = {}, "priority"
@@ -78,10 +86,13 @@ def make_lookahead(options: str):
             settings[key] = int(value)
         elif key == "floor" and value in ("same", "event"):
             settings["think_on"] = value
+        elif key == "from" and sep and _is_share(value):
+            settings["from_share"] = float(value)
         else:
             raise ValueError(f"--evaluator lookahead:{options}: {item!r} is not one of "
                              f"candidates=INT, futures=INT or expected, workers=INT, "
-                             f"race=INT, base=SPEC, floor=same or event (joined by +); e.g. "
+                             f"race=INT, base=SPEC, floor=same or event, from=SHARE (of the "
+                             f"tasks ended, in [0, 1)) (joined by +); e.g. "
                              f"lookahead:candidates=3+futures=1+base=priority")
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "

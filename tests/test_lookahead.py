@@ -198,3 +198,39 @@ def test_racing_over_as_many_futures_as_it_starts_with_is_the_plain_lookahead(ti
     with pytest.raises(ValueError, match="an interval needs two"):
         LookaheadSettings(futures=8, race=1)
 
+
+
+def test_an_endgame_lookahead_decides_only_once_its_share_of_tasks_has_ended(tiny_case):
+    """``from_share``: no decision before that share of the tasks has ended (the base rule's
+    floor until then), decisions after it; ``from=SHARE`` in the spec, checked."""
+    everywhere = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=0))
+    play_floor(everywhere, tiny_case)
+    assert everywhere.decisions
+
+    endgame = Recording(settings=LookaheadSettings(candidates=2, futures=0, from_share=0.5))
+    ended: list = []
+    original = Recording._decide
+
+    def watched(self, engine, i, values):
+        decision = original(self, engine, i, values)
+        if decision is not None:
+            ended.append(engine.site.tasks_ended / len(engine.site.tasks))
+        return decision
+
+    endgame._decide = watched.__get__(endgame)
+    env = play_floor(endgame, tiny_case)
+    assert env.engine.site.done
+    assert all(share >= 0.5 for share in ended)
+    assert len(endgame.decisions) < len(everywhere.decisions)
+    late = LookaheadEvaluator(settings=LookaheadSettings(candidates=2, futures=0,
+                                                         from_share=0.99))
+    alone = play_floor(late, tiny_case)
+    assert late.decisions == [] and alone.log.events == play_floor(
+        PriorityEvaluator(), tiny_case).log.events
+    spec = make_evaluator("lookahead:candidates=2+futures=4+race=2+from=0.7")
+    assert spec.settings.from_share == 0.7
+    for bad in ("from=1", "from=-0.1", "from=x"):
+        with pytest.raises(ValueError, match="from=SHARE"):
+            make_evaluator(f"lookahead:{bad}")
+    with pytest.raises(ValueError, match=r"from_share must be in \[0, 1\)"):
+        LookaheadSettings(from_share=1.0)
