@@ -29,6 +29,13 @@ beside it or ``calibration``): about 50 x cheaper, so hundreds of seeds a genera
 cores. The selection runs on ``select_fidelity``, the pymunk floor by default: the event floor
 proposes, the paper's floor decides (each seed's Eq. 9 baseline on the floor its seed runs on).
 
+With ``start`` (a student's JSON: ``distill fit``, a policy-iteration round, an earlier search)
+the search starts there instead of at Eq. 9: the vector is an offset on the student's weights
+(the same for every crew type, or with ``per_type`` one block per crew type the student has
+weights for), the features not searched keep the student's weights, and generation 0 (the
+student itself) is checked on the selection seeds beside the means, so the student is kept
+unless a mean beats it there (``training/configs/rule_search_student.toml``).
+
 A checkpoint after every generation holds the CMA-ES state (pickled whole, with its random
 generator), so ``--resume`` continues exactly as the uninterrupted run.
 """
