@@ -213,9 +213,24 @@ def play_floor(evaluator="priority", case=None, seed: int = 0):
     return play(*scripted_floor(evaluator, case, seed))
 
 
+def event_floor(evaluator="priority", seed: int = 0):
+    """The built-in case's event floor played to its end under ``evaluator`` (milliseconds:
+    the tests of an evaluator's choices need no per-second physics)."""
+    import cmdp_pymunk
+    from cmdp_pymunk.evaluate import make_evaluator
+    from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+
+    case = cmdp_pymunk.load_case(None)
+    floor = EventFloor(case, evaluator=make_evaluator(evaluator), stall_s=3600.0,
+                       calibration=calibration_for(case))
+    floor.reset(seed)
+    floor.run()
+    return floor
+
+
 @pytest.fixture(scope="session")
 def priority_floor():
-    """The built-in floor, seed 0, played once per session under the priority heuristic
-    (``play_floor()``), for the tests that compare another evaluator's floor with it and only
-    read it (its log, its makespan): a whole floor costs a few seconds."""
-    return play_floor()
+    """The built-in case's event floor, seed 0, played once per session under the priority
+    heuristic (``event_floor()``), for the tests that compare another evaluator's floor with
+    it and only read it (its log, its makespan)."""
+    return event_floor()

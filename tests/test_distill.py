@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import play_floor
+from conftest import event_floor, play_floor
 
 import cmdp_pymunk
 from agents.features import FEATURE_NAMES, FloorFacts
@@ -17,7 +17,7 @@ from training.research import distill
 
 def test_a_student_without_weights_is_eq_9_exactly(priority_floor):
     zero = {t: [0.0] * len(FEATURE_NAMES) for t in ("JCC", "HIC", "GC", "RC", "FC")}
-    student, base = play_floor(StudentEvaluator(zero)), priority_floor
+    student, base = event_floor(StudentEvaluator(zero)), priority_floor
     assert student.log.events == base.log.events
 
 
@@ -25,8 +25,8 @@ def test_a_student_with_weights_changes_choices_and_holds_them(priority_floor):
     # a large weight against nearness (far targets first) overrides Eq. 9 on the floor
     w = [0.0] * len(FEATURE_NAMES)
     w[FEATURE_NAMES.index("nearness")] = -5.0
-    env = play_floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
-    assert env.engine.site.done and env.log.events != priority_floor.log.events
+    floor = event_floor(StudentEvaluator({t: w for t in ("RC", "FC")}))
+    assert floor.site.done and floor.log.events != priority_floor.log.events
 
 
 def test_floor_facts_tail_by_hand(tiny_case):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 
 import pytest
-from conftest import play, play_floor
+from conftest import event_floor, play, play_floor
 
 import cmdp_pymunk
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings, promote, ranked
@@ -25,10 +25,10 @@ def test_promote_swaps_the_chosen_target_with_the_best():
 def test_one_candidate_is_the_base_rule_exactly(priority_floor):
     # (racing settings too: with one candidate there is no race either)
     lookahead = LookaheadEvaluator(settings=LookaheadSettings(candidates=1, futures=4, race=2))
-    env = play_floor(lookahead)
+    floor = event_floor(lookahead)
     base = priority_floor
-    assert env.engine.site.done and env.makespan_s == base.makespan_s
-    assert env.log.events == base.log.events
+    assert floor.site.done and floor.makespan_s == base.makespan_s
+    assert floor.log.events == base.log.events
     assert lookahead.decisions == []
 
 

@@ -21,7 +21,6 @@ in the stored acting and teacher specs (a policy file that moved since).
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -134,56 +133,3 @@ _elsewhere = ("the floor went elsewhere: the acting policy's file, the case or t
 
 def _relabel_job(runner, path, features, replace, case_path):
     return relabel_floor(path, features, replace, case_path)
-
-
-def relabel(args) -> int:
-    from tqdm import tqdm
-
-    import cmdp_pymunk
-    from cmdp_pymunk.events import write_atomic
-    from training.research.distill import features_option, label_files
-    from training.runs.backends import open_backend
-
-    features = features_option(args.features)
-    replace = [replace_option(r) for r in args.replace]
-    cmdp_pymunk.load_case(args.case)  # a bad case file fails before any floor
-    out = Path(args.out)
-    files = [f for folder in args.labels for f in label_files(Path(folder))]
-    if not files:
-        raise ValueError(f"{', '.join(args.labels)}: no seed-N.npz label files")
-    if any(f.parent.resolve() == out.resolve() for f in files):
-        raise ValueError(f"--out {out}: a label folder it reads; fix: another folder")
-    names = [f.name for f in files]
-    if len(set(names)) != len(names):
-        raise ValueError("two label folders hold the same seed; fix: relabel them into "
-                         "separate --out folders")
-    todo = [f for f in files if not (out / f.name).exists()]
-    print(f"relabel: {len(files) - len(todo)} floors already in {out}; {len(todo)} to go "
-          f"({len(features)} features, {args.workers} worker(s))", flush=True)
-    out.mkdir(parents=True, exist_ok=True)
-    jobs = [(str(f), features, replace, args.case) for f in todo]
-    with tqdm(total=len(jobs), unit="floor", desc="relabel") as bar, \
-            open_backend(_relabel_job, None, args.workers or None) as pool:
-        for _, result in pool.as_completed(jobs):
-            import io
-
-            blob = io.BytesIO()
-            np.savez_compressed(blob, **result["arrays"])
-            write_atomic(out / Path(result["path"]).name, blob.getvalue())
-            bar.update(1)
-    return 0
-
-
-def add_parser(sub) -> None:
-    r = sub.add_parser("relabel", help="compute other features for existing labels by replaying "
-                       "their floors under the acting policy (no teacher)")
-    r.add_argument("labels", nargs="+", help="label folder(s) made by `label --acting`")
-    r.add_argument("--case", default=None, help="the case the labels were made on (default: "
-                   "built-in)")
-    r.add_argument("--out", required=True, help="folder for the new label files (resumes)")
-    r.add_argument("--features", default="all",
-                   help="first, all (ALL_FEATURES, default) or names joined by commas")
-    r.add_argument("--replace", action="append", default=[], metavar="OLD=NEW",
-                   help="rewrite a path in the files' acting and teacher specs (a moved "
-                        "policy file); repeatable")
-    r.add_argument("--workers", type=int, default=1, help="worker processes")
