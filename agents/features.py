@@ -43,7 +43,8 @@ decision to the linear student's ~19 s (docs/results.md); on the built-in floor 
 and tail never separate candidates (every task of a type has the same work).
 
 ``FloorFacts`` holds what depends on the case only (computed once per case);
-``candidate_features`` reads the state at a decision. Features are scaled to about [0, 1].
+``candidate_features`` reads the state at a decision. The first fifteen are scaled to about
+[0, 1]; the state features are in hours and hectometres.
 """
 
 from __future__ import annotations
@@ -225,8 +226,6 @@ def _first_features(facts: FloorFacts, crew, site, position, targets: list[int],
 
 # -- state features (issue 32): absolute units and the floor's state ---------------------------
 
-
-
 def load_shares(facts: FloorFacts, site) -> dict[str, float]:
     """Per crew type, its remaining expected work per crew (tasks not ended; a running task by
     its progress) over the largest among the types: 1 for the type that binds the rest of the
@@ -283,4 +282,3 @@ def state_features(facts: FloorFacts, site, crew, position, targets: list[int]) 
                      work(other, lambda ct: float(ct in idle)),
                      work(own), work(pending), tail * progress))
     return np.array(rows, dtype=np.float64).reshape(len(tasks), len(STATE_FEATURES))
-

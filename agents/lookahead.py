@@ -213,9 +213,11 @@ class LookaheadEvaluator(Evaluator):
         self._held[i] = (decision.choice, crew.stats.reaches)
         return promote(values, decision.choice)
 
-    def _decide(self, engine, i: int, values: dict[int, float]) -> Decision | None:
-        """Branch the base's best candidates for crew i and record the decision (None where
-        there is nothing to choose: not a task scope, or a single target)."""
+    def decision_candidates(self, engine, i: int, values: dict[int, float]) \
+            -> tuple[list[int], list[int]] | None:
+        """The base's order of crew i's targets and the candidates tried at its decision; None
+        where there is nothing to decide: not a task scope, a single target, or not yet the
+        endgame (``from_share``)."""
         site = engine.site
         order = ranked(values)
         candidates = order[:self.settings.candidates]
@@ -223,6 +225,16 @@ class LookaheadEvaluator(Evaluator):
             return None
         if site.tasks_ended < self.settings.from_share * len(site.tasks):
             return None  # not yet the endgame: the base decides
+        return order, candidates
+
+    def _decide(self, engine, i: int, values: dict[int, float]) -> Decision | None:
+        """Branch the base's best candidates for crew i and record the decision (None where
+        there is nothing to choose: not a task scope, or a single target)."""
+        site = engine.site
+        tried = self.decision_candidates(engine, i, values)
+        if tried is None:
+            return None
+        order, candidates = tried
         start = time.perf_counter()
         seen = None
         if self.settings.race:

@@ -356,6 +356,15 @@ def test_relabel_replays_the_acting_floor_and_adds_features(tmp_path, capsys):
         assert np.array_equal(old[key], new[key], equal_nan=True)
     assert np.allclose(new["features"][..., :len(FEATURE_NAMES)], old["features"])
     assert new["acting"] == old["acting"] == ["nearest", "nearest"]
+    # an endgame teacher (from=SHARE; the tiny floor's one decision of seed 0 comes before
+    # 90 % of its tasks end): the replay skips what the teacher skipped
+    late, late_wide = tmp_path / "late", tmp_path / "late_wide"
+    assert distill.main(["label", "--case", tiny, "--seeds", "0", "--acting", "nearest",
+                         "--teacher", "candidates=2+futures=expected+from=0.9",
+                         "--out", str(late)]) == 0
+    assert np.sum(old["row_seed"] == 0) > 0 == len(np.load(late / "seed-0.npz")["choice"])
+    assert distill.main(["relabel", str(late), "--case", tiny, "--out", str(late_wide)]) == 0
+    assert len(np.load(late_wide / "seed-0.npz")["choice"]) == 0
     # a label file of the lookahead's own floor: nothing to replay without it
     own = tmp_path / "own"
     assert distill.main(["label", "--case", tiny, "--seeds", "0", "--candidates", "2",

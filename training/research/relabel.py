@@ -47,13 +47,12 @@ def relabel_floor(path: str, features: tuple[str, ...],
     elsewhere. ``case_path``: the case the labels were made on (None: the built-in one)."""
     import cmdp_pymunk
     from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
-    from agents.lookahead import Decision, LookaheadEvaluator, ranked
+    from agents.lookahead import Decision, LookaheadEvaluator
     from agents.navigator import Navigator
     from agents.specs import make_evaluator, make_lookahead
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
-    from cmdp_pymunk.state import ScopeKind
 
     old = dict(np.load(path))
     acting = replace_specs(str(old.get("acting", "")), replace)
@@ -72,10 +71,10 @@ def relabel_floor(path: str, features: tuple[str, ...],
         branches."""
 
         def _decide(self, engine, i, values):
-            order = ranked(values)
-            chosen = order[:self.settings.candidates]
-            if engine.site.crews[i].scope_kind != ScopeKind.TASKS or len(chosen) < 2:
+            tried = self.decision_candidates(engine, i, values)
+            if tried is None:
                 return None
+            order, chosen = tried
             decision = Decision(engine.site.time_s, i, chosen, [np.nan] * len(chosen),
                                 order[0], order[0], 0.0, None)
             self.decisions.append(decision)

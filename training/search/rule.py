@@ -91,7 +91,7 @@ class RuleSearchConfig(BaseModel):
     calibration: str | None = None  # the event floor's file; None: the case's, beside it
     # Start from a student (a ``distill fit`` or earlier search's JSON) instead of Eq. 9: the
     # search vector is then an offset on its weights (``rule_weights``), one for every crew type
-    # or, with ``per_type``, one block of ``features`` per crew type of the case.
+    # or, with ``per_type``, one block of ``features`` per crew type the student has weights for.
     start: str | None = None
     per_type: bool = False
 
