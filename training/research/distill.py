@@ -686,6 +686,8 @@ def student_model(args) -> int:
 def relabel(args) -> int:
     """``relabel`` (``training.research.relabel``): the label folders' floors replayed, with
     other features, into ``--out`` (resumes; each file written whole)."""
+    import io
+
     from tqdm import tqdm
 
     import cmdp_pymunk
@@ -711,11 +713,9 @@ def relabel(args) -> int:
           f"({len(features)} features, {args.workers} worker(s))", flush=True)
     out.mkdir(parents=True, exist_ok=True)
     jobs = [(str(f), features, replace, args.case) for f in todo]
-    with tqdm(total=len(jobs), unit="floor", desc="relabel") as bar, \
+    with tqdm(total=len(jobs), unit="floor", desc="relabel", file=sys.stderr) as bar, \
             open_backend(_relabel_job, None, args.workers or None) as pool:
         for _, result in pool.as_completed(jobs):
-            import io
-
             blob = io.BytesIO()
             np.savez_compressed(blob, **result["arrays"])
             write_atomic(out / Path(result["path"]).name, blob.getvalue())
