@@ -2,7 +2,8 @@
 fitted to (issue 32): seed-fold cross-validation of ``distill.fit_weights``.
 
     python -m training.research.label_cv LABELS [LABELS ...] [--folds 5] [--fractions 0.25,0.5,1]
-        [--features first|all|NAMES] [--pooled] [--mlp HIDDEN] [--out report.json]
+        [--features first|all|NAMES] [--pooled] [--mlp HIDDEN] [--base STUDENT [--prior]]
+        [--out report.json]
 
 The label floors are split by seed into ``--folds`` folds; for each fold the student is fitted
 (gap-weighted, ``distill.FIT_DEFAULTS``) on the others, or on the first ``fraction`` of their
@@ -17,6 +18,13 @@ printed for scale) is biased low by that noise.
 can hold); ``--mlp H`` adds a small per-type network (tanh, H units) in place of the linear
 residual (torch, full-batch Adam), to ask whether the labels hold more than a linear student
 can take.
+
+``--base STUDENT`` (a student file, ``agents/student.py``) measures every pick against that
+student's pick instead of Eq. 9's: on labels of the student's own floors (``distill label
+--acting student:FILE``) this is the question that matters, whether a refit would choose
+better than the policy that made the states. ``--prior`` then fits the student as a residual
+over the base student's scores (its penalty pulls towards the base's weights, not towards
+Eq. 9): a refit that can only move away from the base where the labels say so.
 """
 
 from __future__ import annotations
@@ -115,21 +123,45 @@ def picked_makespan(scores: np.ndarray, data: dict) -> np.ndarray:
     return data["makespan_s"][np.arange(len(pick)), pick]
 
 
+def base_scores(data: dict, path: str | Path) -> np.ndarray:
+    """A student file's scores of the labels' candidates, V' + w_type . phi (its own features,
+    taken from the labels' columns by name; a crew type it has no weights for scores V'),
+    NaN where the candidate is padding. ValueError naming the file and the missing columns."""
+    from agents.student import StudentEvaluator
+
+    student = StudentEvaluator.load(path)
+    have = list(data["feature_names"])
+    missing = [n for n in student.features if n not in have]
+    if missing:
+        raise ValueError(f"--base {path}: its features {', '.join(missing)} are not in the "
+                         f"labels ({', '.join(have)}); fix: relabel with --features all "
+                         "(`distill relabel`)")
+    phi = data["features"][..., [have.index(n) for n in student.features]]
+    scores = np.array(data["values"], dtype=np.float64)
+    for crew_type, w in student.weights.items():
+        rows = data["crew_type"] == crew_type
+        scores[rows] = scores[rows] + phi[rows] @ w
+    return np.where(np.isnan(data["values"]), np.nan, scores)
+
+
 def floor_gains(data: dict, folds: list[np.ndarray], make_scorer, fraction: float = 1.0,
-                pooled: bool = False) -> dict[int, float]:
+                pooled: bool = False, reference: np.ndarray | None = None) -> dict[int, float]:
     """Per held-out label floor: mean over its decisions of (pick's estimated makespan -
-    Eq. 9 pick's), the student fitted on the other folds' first ``fraction`` of seeds."""
+    the reference's pick's), the student fitted on the other folds' first ``fraction`` of
+    seeds. ``reference``: scores per candidate (``base_scores``); default V', Eq. 9."""
     gains = {}
     for k, fold in enumerate(folds):
         others = np.concatenate([f for j, f in enumerate(folds) if j != k])
         fitted_seeds = others[:max(1, int(round(fraction * len(others))))]
         train = rows_of(data, np.isin(data["row_seed"], fitted_seeds), pooled)
-        test = rows_of(data, np.isin(data["row_seed"], fold))
-        eq9 = picked_makespan(np.nan_to_num(test["values"]), test)
+        on_fold = np.isin(data["row_seed"], fold)
+        test = rows_of(data, on_fold)
+        ref = np.nan_to_num(test["values"] if reference is None else reference[on_fold])
+        base = picked_makespan(ref, test)
         student = picked_makespan(make_scorer(train)(test), test)
         for seed in fold:
             on = test["row_seed"] == seed
-            gains[int(seed)] = float(np.mean(student[on] - eq9[on]))
+            gains[int(seed)] = float(np.mean(student[on] - base[on]))
     return gains
 
 
@@ -141,10 +173,12 @@ def summary(gains: dict[int, float]) -> dict:
             "floors": len(g)}
 
 
-def noisy_best(data: dict) -> dict:
-    """The teacher's own pick (the lowest estimate), against Eq. 9's: biased low (module doc)."""
+def noisy_best(data: dict, reference: np.ndarray | None = None) -> dict:
+    """The teacher's own pick (the lowest estimate), against the reference's (Eq. 9's by
+    default): biased low (module doc)."""
     m = np.where(np.isnan(data["makespan_s"]), np.inf, data["makespan_s"])
-    eq9 = picked_makespan(np.nan_to_num(data["values"]), data)
+    eq9 = picked_makespan(np.nan_to_num(data["values"] if reference is None else reference),
+                          data)
     diff = m.min(axis=1) - eq9
     return summary({int(s): float(np.mean(diff[data["row_seed"] == s]))
                     for s in sorted(set(data["row_seed"]))})
@@ -165,6 +199,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pooled", action="store_true", help="one weight vector for every type")
     p.add_argument("--mlp", type=int, default=0, metavar="HIDDEN",
                    help="a per-type tanh network of HIDDEN units instead of the linear term")
+    p.add_argument("--base", default="", metavar="STUDENT",
+                   help="measure against this student file's pick, not Eq. 9's")
+    p.add_argument("--prior", action="store_true",
+                   help="fit a residual over --base's scores (penalty towards its weights)")
     p.add_argument("--seed", type=int, default=CV_DEFAULTS["seed"], help="fold shuffle")
     p.add_argument("--out", default="", help="also write the report (JSON) here")
     args = p.parse_args(argv)
@@ -174,10 +212,15 @@ def main(argv: list[str] | None = None) -> int:
             raise ValueError
     except ValueError:
         p.error(f"--fractions {args.fractions!r}: give shares in (0, 1], e.g. 0.25,0.5,1")
+    if args.prior and not args.base:
+        p.error("--prior fits a residual over a student: give it with --base STUDENT")
     try:
         data = distill.load_labels([Path(f) for f in args.labels])
+        reference = base_scores(data, args.base) if args.base else None
         if args.features != "all":  # all: the labels' own columns
             data = distill.select_features(data, distill.features_option(args.features))
+        if args.prior:  # the student's scores as V': the fit is a residual over them
+            data = {**data, "values": reference}
         if args.folds < 2 or args.folds > len(set(data["row_seed"])):
             raise ValueError(f"--folds {args.folds}: give 2 to {len(set(data['row_seed']))} "
                              "(the label floors)")
@@ -194,16 +237,20 @@ def main(argv: list[str] | None = None) -> int:
             return linear_scorer(train, args.pooled)
     kind = (f"mlp {args.mlp}" if args.mlp else "linear") + (", pooled" if args.pooled else
                                                              ", per type")
+    if args.prior:
+        kind += f", a residual over {args.base}"
+    against = f"{args.base}'s pick" if args.base else "Eq. 9's pick"
     report = {"labels": args.labels, "decisions": int(len(data["choice"])),
               "floors": len(set(data["row_seed"])), "features": wanted, "student": kind,
-              "folds": args.folds, "noisy_best": noisy_best(data), "curve": []}
+              "folds": args.folds, "against": against,
+              "noisy_best": noisy_best(data, reference), "curve": []}
     print(f"label_cv: {report['decisions']} decisions on {report['floors']} label floors, "
           f"{args.folds} folds by seed; student {kind} on {len(wanted)} features")
     for fraction in fractions:
         row = {"fraction": fraction, **summary(floor_gains(data, folds, make, fraction,
-                                                           args.pooled))}
+                                                           args.pooled, reference))}
         report["curve"].append(row)
-        print(f"label_cv: fitted on {fraction:.0%} of the training seeds: pick - Eq. 9's pick "
+        print(f"label_cv: fitted on {fraction:.0%} of the training seeds: pick - {against} "
               f"{row['mean_s']:+.1f} ± {row['ci95_s']:.1f} s a decision", flush=True)
     nb = report["noisy_best"]
     print(f"label_cv: the teacher's own noisy best, for scale: {nb['mean_s']:+.1f} ± "
