@@ -101,6 +101,11 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
             _fetch(site, positions, crew, dt, invaded)
     if not (now and now.crane_stopped()):  # broken down or weather: its queue waits
         _serve_crane(site, log, dt)
+    # after the crane's step: a lift asked for at the end of this step starts counting down in
+    # the next, on the pymunk floor (dt 1) and on the event floor (dt many seconds) alike
+    for crew in site.crews:
+        if crew.status == FETCHING and not (disrupted and (now.weather or crew.absent)):
+            reorder(site, log, crew)
 
 
 def _work(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) -> None:
@@ -129,6 +134,25 @@ def _fetch(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) 
                  storage.stock, crew.capacity - crew.load)
     crew.load += amount
     storage.stock -= amount
+
+
+def reorder_due(site: Site, storage: StorageState) -> bool:
+    """A storage's stock has fallen to its material's reorder point (``Material.reorder_at``,
+    above 0) with stock left and no lift asked for yet: the fetching crew asks for one now
+    and goes on loading, instead of finding the storage empty and waiting (c7)."""
+    at = site.case.materials[storage.material].reorder_at
+    return at > 0.0 and not storage.lift_pending and EPS < storage.stock <= at + EPS
+
+
+def reorder(site: Site, log: events.EventLog, crew: CrewState) -> None:
+    """Ask the crane for a storage's next lift on the fetching ``crew``'s behalf when the
+    storage reached its reorder point (``reorder_due``); the crew keeps fetching. When the
+    stock runs out before the lift lands, c7 finds the lift pending and the crew waits for it
+    as for any lift."""
+    storage = site.storages[crew.storage]
+    if reorder_due(site, storage):
+        storage.lift_pending = True
+        request_crane(site, log, CraneRequest(crew.index, "material", storage=storage.index))
 
 
 def request_crane(site: Site, log: events.EventLog, request: CraneRequest) -> None:

@@ -416,6 +416,12 @@ def _semantic_problems(parts: _Parts) -> list[str]:
         if unknown("materials", st.material):
             problems.append(f'{where}: material "{st.material}" is not in [materials]'
                             f"{_did_you_mean(st.material, names['materials'])}")
+        elif (mat := parts.materials.get(st.material)) is not None and \
+                mat.reorder_at >= st.capacity:
+            problems.append(f"{where}: its capacity ({st.capacity:g}) is at most "
+                            f"materials.{st.material}.reorder_at ({mat.reorder_at:g}), so it "
+                            "would be re-ordered on every fetch; fix: set reorder_at below "
+                            "the capacity (0: order when empty)")
         if plane is not None and outside(*_rect(st)):
             problems.append(f"{where}: lies outside the plane {bounds}; fix: move it inside")
 

@@ -174,11 +174,18 @@ class CrewType(_Model):
 
 
 class Material(_Model):
-    """A material of Table 2 with its acquisition efficiency and the crane's lift batch."""
+    """A material of Table 2 with its acquisition efficiency and the crane's lift batch.
+
+    ``reorder_at``: the stock (in ``unit``) at or below which a crew that fetches from a
+    storage asks the crane for the next lift while it goes on loading (a reorder point). The
+    default 0 is Table 1's c7 as the paper's case reads it: a lift is asked for only when a
+    crew finds the storage empty, and the crew waits for it (docs/case-study.md).
+    """
 
     unit: str
     acquire_per_min: Positive
     crane_lift_quantity: Positive
+    reorder_at: NonNegative = 0.0
 
 
 class Crane(_Model):

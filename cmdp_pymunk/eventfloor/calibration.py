@@ -88,6 +88,10 @@ UNCALIBRATED = CrewTypeCalibration()
 def fingerprint(case: Case) -> str:
     """A short hash of the floor a calibration is fitted on (``FLOOR_PARTS`` of the case)."""
     data = case.model_dump(mode="json", include=set(FLOOR_PARTS))
+    for material in data.get("materials", {}).values():
+        # a reorder point is the site's logistics, not what walks and invasion are fitted on:
+        # a calibration holds for the same floor ordering earlier (and keeps its fingerprint)
+        material.pop("reorder_at", None)
     text = json.dumps(data, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

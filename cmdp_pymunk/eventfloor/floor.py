@@ -15,7 +15,8 @@ end of a second: P_cons for the seconds jumped (``construct.advance`` with ``dt`
 seconds), disruptions, the decision table, the target evaluation, the event log. Events:
 
 - a task ends, or its crew's load runs out (c9, c3); a load is full, or the storage empty (c6,
-  c7); the crane's lift or assistance is done;
+  c7), or down to its material's reorder point (``construct.reorder``); the crane's lift or
+  assistance is done;
 - a walk arrives (c1, c4, c5, c7, the outlet);
 - a disruption starts or ends (``disruptions.Timeline``), and a walker's re-evaluation is due
   (``reevaluate_after_steps`` seconds without a reach, section 3.6);
@@ -319,7 +320,11 @@ class EventFloor(Engine):
                 every = site.case.simulation.reevaluate_after_steps
                 soonest = min(soonest, every - crew.steps_since_reach % every)
         for s, rate in drain.items():
-            soonest = min(soonest, site.storages[s].stock / rate)
+            storage = site.storages[s]
+            soonest = min(soonest, storage.stock / rate)
+            at = site.case.materials[storage.material].reorder_at
+            if at > 0.0 and not storage.lift_pending and storage.stock > at + construct.EPS:
+                soonest = min(soonest, (storage.stock - at) / rate)  # its reorder point
         crane = site.crane
         if crane.current is not None and not (disrupted and disrupted.crane_stopped()):
             soonest = min(soonest, crane.remaining_s)
