@@ -123,3 +123,15 @@ def test_a_reorder_point_at_or_above_a_storage_capacity_is_refused():
     data["materials"]["bars"]["reorder_at"] = -0.1
     with pytest.raises(CaseError, match="reorder_at"):
         case_from_dict(data, "tiny.toml")
+
+
+def test_the_reorder_floor_is_the_built_in_floor_with_reorder_points_at_half_a_lift():
+    from cmdp_pymunk.cases.load import BUILTIN_CASE, REORDER_CASE
+
+    plain, reorder = cmdp_pymunk.load_case(BUILTIN_CASE), cmdp_pymunk.load_case(REORDER_CASE)
+    assert {m: x.reorder_at for m, x in reorder.materials.items()} == {
+        m: x.crane_lift_quantity / 2 for m, x in plain.materials.items()}
+    materials = {m: x.model_copy(update={"reorder_at": 0.0})
+                 for m, x in reorder.materials.items()}
+    assert reorder.model_copy(update={"materials": materials, "case": plain.case}) == plain
+    assert calibration_for(reorder, REORDER_CASE).calibrated  # the built-in floor's serves it

@@ -52,6 +52,8 @@ BUILTIN_CASE = Path(__file__).parent / "precast_floor.toml"
 TINY_CASE = Path(__file__).parent / "tiny_floor.toml"
 # the built-in case with the documented disruption profile (docs/disruptions.md)
 DISRUPTED_CASE = Path(__file__).parent / "precast_floor_disrupted.toml"
+# the built-in case with a reorder point at half a crane lift per material (docs/results.md)
+REORDER_CASE = Path(__file__).parent / "precast_floor_reorder.toml"
 
 
 @dataclass
