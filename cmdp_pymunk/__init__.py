@@ -8,7 +8,15 @@ installed, importing the package registers the env's variants (``pettingzoo.make
 ``env`` load the adapter on use.
 """
 
-from .cases.load import BUILTIN_CASE, DISRUPTED_CASE, TINY_CASE, Case, CaseError, load_case
+from .cases.load import (
+    BUILTIN_CASE,
+    DISRUPTED_CASE,
+    REORDER_CASE,
+    TINY_CASE,
+    Case,
+    CaseError,
+    load_case,
+)
 
 __version__ = "0.2.0"
 ENV_NAME = "cmdp_pymunk_v1"  # the PettingZoo env's name and version (CMDPEnv.metadata)
@@ -55,4 +63,5 @@ else:
 
 
 __all__ = ["parallel_env", "env", "add_version_flag", "__version__", "CMDPEnv", "Case", "CaseError",
-           "load_case", "BUILTIN_CASE", "TINY_CASE", "DISRUPTED_CASE", "ENV_NAME"]
+           "load_case", "BUILTIN_CASE", "TINY_CASE", "DISRUPTED_CASE", "REORDER_CASE",
+           "ENV_NAME"]

@@ -135,3 +135,11 @@ def test_the_reorder_floor_is_the_built_in_floor_with_reorder_points_at_half_a_l
                  for m, x in reorder.materials.items()}
     assert reorder.model_copy(update={"materials": materials, "case": plain.case}) == plain
     assert calibration_for(reorder, REORDER_CASE).calibrated  # the built-in floor's serves it
+
+
+def test_the_reorder_variant_is_registered():
+    import pettingzoo
+
+    env = pettingzoo.make("parallel", "cmdp/PrecastFloor-reorder-v1")
+    assert env.case == cmdp_pymunk.load_case(cmdp_pymunk.REORDER_CASE)
+    assert env.case.materials["rebars"].reorder_at == 0.75

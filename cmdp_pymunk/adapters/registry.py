@@ -7,8 +7,9 @@
 
 ``cmdp/PrecastFloor-v1`` (the paper's floor, full CMDP), ``cmdp/PrecastFloor-stage1-v1``
 (section 4.2's stage 1 on it), ``cmdp/PrecastFloor-disrupted-v1`` (the paper's floor with the
-disruption profile of docs/disruptions.md), ``cmdp/TinyFloor-v1`` (the tiny case of the docs
-and tests),
+disruption profile of docs/disruptions.md), ``cmdp/PrecastFloor-reorder-v1`` (the paper's floor
+with reorder points for its materials, beyond the paper), ``cmdp/TinyFloor-v1`` (the tiny case
+of the docs and tests),
 and the generated layouts' split ``cmdp/GeneratedFloor-train0-v1`` ... and
 ``cmdp/GeneratedFloor-test0-v1`` ... (``cmdp_pymunk.cases.generated``).
 
@@ -36,7 +37,7 @@ from pettingzoo import register
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from ..cases.generated import layout_files
-from ..cases.load import DISRUPTED_CASE, TINY_CASE
+from ..cases.load import DISRUPTED_CASE, REORDER_CASE, TINY_CASE
 from .env import CMDPEnv
 
 STAGE1_EPISODE_S = 3000.0  # stage-1 episodes are cut here, as in training/configs/stage1.toml
@@ -50,6 +51,9 @@ VARIANTS: dict[str, dict] = {
     # the paper's floor with crane breakdowns, late deliveries, absences and weather stops
     # (the profile of docs/disruptions.md, cases/precast_floor_disrupted.toml)
     "cmdp/PrecastFloor-disrupted-v1": {"stage": 2, "case": str(DISRUPTED_CASE)},
+    # the paper's floor with a reorder point at half a lift for every material (beyond the
+    # paper: a lift asked for before the storage runs dry; cases/precast_floor_reorder.toml)
+    "cmdp/PrecastFloor-reorder-v1": {"stage": 2, "case": str(REORDER_CASE)},
 }
 # the published split of generated layouts (cmdp_pymunk.cases.generated): train on the first,
 # measure generalisation to an unseen floor on the second
