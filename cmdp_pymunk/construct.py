@@ -92,6 +92,7 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
     now = site.disrupted
     disrupted = bool(now)  # once, not per crew
     invaded = invasion if invasion_of is None else invasion_of
+    fetching = []
     for crew in site.crews:
         if disrupted and (now.weather or crew.absent):
             continue
@@ -99,13 +100,13 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
             _work(site, positions, crew, dt, invaded)
         elif crew.status == FETCHING:
             _fetch(site, positions, crew, dt, invaded)
+            fetching.append(crew)
     if not (now and now.crane_stopped()):  # broken down or weather: its queue waits
         _serve_crane(site, log, dt)
     # after the crane's step: a lift asked for at the end of this step starts counting down in
     # the next, on the pymunk floor (dt 1) and on the event floor (dt many seconds) alike
-    for crew in site.crews:
-        if crew.status == FETCHING and not (disrupted and (now.weather or crew.absent)):
-            reorder(site, log, crew)
+    for crew in fetching:
+        reorder(site, log, crew)
 
 
 def _work(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) -> None:
