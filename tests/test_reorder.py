@@ -1,8 +1,6 @@
 """A material's reorder point (``Material.reorder_at``): the crane's next lift asked for while a
 crew still loads, on both floors, and its validation."""
 
-import copy
-
 import pytest
 from conftest import place, tiny_dict
 
@@ -114,7 +112,7 @@ def test_the_event_floor_stops_at_each_reorder_point(monkeypatch):
 
 
 def test_a_reorder_point_at_or_above_a_storage_capacity_is_refused():
-    data = copy.deepcopy(tiny_dict())
+    data = tiny_dict()  # a copy
     data["materials"]["bars"]["reorder_at"] = 1.0  # the storage holds 1.0
     with pytest.raises(CaseError) as err:
         case_from_dict(data, "tiny.toml")
