@@ -50,7 +50,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cmdp_pymunk.evaluate import Evaluator
-from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+from cmdp_pymunk.eventfloor import WalkMotion, calibration_for
 from cmdp_pymunk.observe import ReachingObservations
 from cmdp_pymunk.rollout import play
 from cmdp_pymunk.state import ScopeKind
@@ -75,7 +75,7 @@ class LookaheadSettings:
             process); the choices are the same for any number.
         think_on: "same" branches the floor itself (``Engine.clone``); "event" branches an
             event floor built from its state at the decision
-            (``cmdp_pymunk.eventfloor.EventFloor.from_engine``, the case's calibration): the
+            (``engine.clone(motion=WalkMotion(...))``, the case's calibration): the
             lookahead thinks on the event floor, some 50 times cheaper a branch, and acts on
             the floor it values (the pymunk one).
         from_share: the lookahead decides once this share of the floor's tasks has ended
@@ -187,8 +187,8 @@ class LookaheadEvaluator(Evaluator):
     def thinking_floor(self, engine):
         """What the branches of this decision are cloned from: the floor itself, or an
         event floor at its state (``think_on``)."""
-        if self.settings.think_on == "event" and engine.fidelity != "event":
-            return EventFloor.from_engine(engine, self.calibration)
+        if self.settings.think_on == "event" and engine.motion.name != "event":
+            return engine.clone(keep_log=False, motion=WalkMotion(self.calibration))
         return engine
 
     def values_for(self, engine, i: int) -> dict[int, float]:

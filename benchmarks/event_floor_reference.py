@@ -9,8 +9,8 @@ built-in, the disrupted and the tiny case, and prints per floor a hash of its ev
 kind, crew, subject and detail of every event), its makespan, events run and a hash of every
 crew's ``stats``. Then the paths that branch and feed the floor: position events (trajectories),
 values from outside (``pending``), clones continued (the floor's own future and a sampled
-one) and ``EventFloor.from_engine`` (from an event floor, and from the pymunk floor on the tiny
-case). Speed is not measured here (``bench_event_floor.py``): any line that changes means a
+one) and clones onto the walk motion (``clone(motion=WalkMotion(...))``: from an event floor,
+and from the pymunk floor on the tiny case). Speed is not measured here (``bench_event_floor.py``): any line that changes means a
 result changed.
 """
 
@@ -25,7 +25,7 @@ from agents.navigator import Navigator
 from agents.specs import make_evaluator
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import PriorityEvaluator
-from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+from cmdp_pymunk.eventfloor import EventFloor, WalkMotion, calibration_for
 
 SEEDS = range(10)
 EVALUATORS = ("priority", "nearest", "student:models/searched_rule.json")
@@ -44,7 +44,7 @@ def fingerprint(floor: EventFloor, total=None) -> str:
     log = "\n".join(repr(tuple(e)) for e in floor.log.events)
     stats = repr([(c.id, c.status.name, dataclasses.astuple(c.stats)) for c in floor.site.crews])
     return (f"t={floor.site.time_s!r} makespan={floor.makespan_s!r} "
-            f"events={floor.events_run} log={len(floor.log.events)}:{_hash(log)} "
+            f"events={floor.spans_run} log={len(floor.log.events)}:{_hash(log)} "
             f"stats={_hash(stats)} stalled={floor.stalled!r}"
             + (f" terms={_hash(repr(total.terms))}" if total is not None else ""))
 
@@ -95,7 +95,7 @@ def main() -> int:
                 terms.append((part.elapsed, tuple(part.terms.values()), floor.metrics.window))
             branch = floor.clone()
             sampled = floor.clone(scenario=seed + 1)  # another future: paces, disruptions
-            rebuilt = EventFloor.from_engine(floor, calibration, keep_log=True)
+            rebuilt = floor.clone(motion=WalkMotion(calibration))
             for f in (floor, branch, sampled, rebuilt):
                 f.run()
             out.write(f"{name} branch seed {seed}: terms={_hash(repr(terms))} "
@@ -110,7 +110,7 @@ def main() -> int:
         navigator.reset(seed)
         while engine.site.tasks_ended == 0:
             engine.advance(navigator.actions(engine, None), until=engine.decision_due)
-        floor = EventFloor.from_engine(engine, calibration_for(case), keep_log=True)
+        floor = engine.clone(motion=WalkMotion(calibration_for(case)))
         floor.run()
         out.write(f"tiny from pymunk seed {seed}: {fingerprint(floor)}\n")
     return 0

@@ -8,6 +8,7 @@ average Table 3's spread away.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -109,6 +110,49 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
         reorder(site, log, crew)
 
 
+def next_change_in(site: Site, positions, invasion_of=invasion) -> float:
+    """Seconds (not rounded) until P_cons next changes anything a rule reads, with every rate
+    held as it is now (what the event floor jumps by; inf: nothing of P_cons will change).
+    One term per rule, each beside the rule it times: a task ends or its crew's load runs out
+    (``_work_left_s``), a load is full (``_fetch_left_s``), a storage is empty or down to its
+    reorder point (``_stock_left_s``), the crane's lift or assistance is done
+    (``_crane_left_s``). A weather stop halts every rate but the crane's stop."""
+    now = site.disrupted
+    weather = bool(now) and now.weather
+    soonest = _crane_left_s(site)
+    if weather:
+        return soonest
+    drain: dict[int, float] = {}  # storage -> loading rate of the crews at it
+    for crew in site.crews:
+        if crew.absent:
+            continue
+        if crew.status == TASKING:
+            soonest = min(soonest, _work_left_s(site, positions, crew, invasion_of))
+        elif crew.status == FETCHING:
+            left, rate = _fetch_left_s(site, positions, crew, invasion_of)
+            if rate > 0.0:
+                soonest = min(soonest, left)
+                drain[crew.storage] = drain.get(crew.storage, 0.0) + rate
+    for s, rate in drain.items():
+        soonest = min(soonest, _stock_left_s(site, site.storages[s], rate))
+    return soonest
+
+
+def _work_left_s(site: Site, positions, crew: CrewState, invaded) -> float:
+    """Seconds until the crew's task ends or its load runs out (``_work``'s rates)."""
+    task = site.tasks[crew.task]
+    if not (crane_ready(task) and material_sufficient(crew, task)) or \
+            task.progress >= task.work - EPS:
+        return math.inf
+    rate = invaded_efficiency(task.pace, invaded(site, positions, crew, task.area))
+    if rate <= 0.0:
+        return math.inf
+    left = (task.work - task.progress) / rate
+    if task.material_per_work > 0.0:
+        left = min(left, crew.load / (task.material_per_work * rate))
+    return left
+
+
 def _work(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) -> None:
     task = site.tasks[crew.task]
     if not crane_ready(task) or not material_sufficient(crew, task):
@@ -135,6 +179,26 @@ def _fetch(site: Site, positions, crew: CrewState, dt: float, invaded=invasion) 
                  storage.stock, crew.capacity - crew.load)
     crew.load += amount
     storage.stock -= amount
+
+
+def _fetch_left_s(site: Site, positions, crew: CrewState, invaded) -> tuple[float, float]:
+    """Seconds until the crew's load is full, and its loading rate (``_fetch``'s)."""
+    storage = site.storages[crew.storage]
+    rate = invaded_efficiency(site.case.materials[storage.material].acquire_per_min / 60.0,
+                              invaded(site, positions, crew, storage.rect))
+    if rate <= 0.0:
+        return math.inf, 0.0
+    return (crew.capacity - crew.load) / rate, rate
+
+
+def _stock_left_s(site: Site, storage: StorageState, rate: float) -> float:
+    """Seconds until a storage drawn at ``rate`` is empty (c7), or down to its material's
+    reorder point with no lift asked for (``reorder_due``)."""
+    left = storage.stock / rate
+    at = site.case.materials[storage.material].reorder_at
+    if at > 0.0 and not storage.lift_pending and storage.stock > at + EPS:
+        left = min(left, (storage.stock - at) / rate)
+    return left
 
 
 def reorder_due(site: Site, storage: StorageState) -> bool:
@@ -185,6 +249,15 @@ def start_next(site: Site) -> None:
     cfg = site.case.crane
     crane.remaining_s = cfg.lift_time_s if crane.current.kind == "material" \
         else cfg.assist_time_s
+
+
+def _crane_left_s(site: Site) -> float:
+    """Seconds until the crane's lift or assistance under way is done (``_serve_crane``);
+    inf with none under way or the crane stopped."""
+    crane, now = site.crane, site.disrupted
+    if crane.current is None or (now and now.crane_stopped()):
+        return math.inf
+    return crane.remaining_s
 
 
 def _serve_crane(site: Site, log: events.EventLog, dt: float) -> None:

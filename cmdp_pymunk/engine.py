@@ -16,7 +16,7 @@ level's name), so that ``clone`` carries it and a branch continues as the origin
 
 ``reset(seed)`` starts an episode (its random streams, ``streams``, keyed here: a task's pace
 by seed and task); ``step(actions)`` runs one simulated second and returns what happened
-(``Second``); ``advance(actions, until)`` runs seconds until a condition holds, the episode
+(``motion.Span``, a second on the physics motion); ``advance(actions, until)`` runs seconds until a condition holds, the episode
 ends or it is cut (the idle jump, generalised), and counts them for metrics
 (``metrics.Counters``, beside the dynamics). Observations are the adapters' business
 (``observe``): the PettingZoo env (``env.CMDPEnv``) casts the rays, the stage-2 env
@@ -55,22 +55,10 @@ from . import construct, decide, disruptions, events, move, reward
 from .cases.model import Case
 from .evaluate import TargetEvaluator, crews_needing_values, make_evaluator
 from .metrics import Counters
+from .motion import Motion, PhysicsMotion, Second, Span
 from .physics import Physics
-from .state import CrewState, CrewStatus, Site, activity
+from .state import CrewState, Site, activity
 from .streams import RandomStreams
-from .world import World
-
-
-@dataclass
-class Second:
-    """What one simulated second did, per crew: for rewards' and metrics' sake."""
-
-    moving: list[bool]  # moving (reaching or deregistered) when the second began
-    had_target: list[bool]  # moving with a target scope when the second began
-    contacts: list  # per crew, collisions and entries by object kind; None: none taken
-    distance_m: list[float]  # walked this second
-    rewards: list[float]  # R_r, Eqs. 6-7
-    terms: dict[str, float]  # R_e's terms, Eq. 5
 
 
 @dataclass
@@ -85,26 +73,31 @@ class Advance:
     terminated: bool = False  # every task has ended
     truncated: bool = False  # the time limit or the stall guard cut the episode
 
-    def add(self, second: Second) -> None:
-        self.elapsed += 1
-        for i, r in enumerate(second.rewards):
+    def add(self, span: Span) -> None:
+        """One span: its seconds, R_r, and R_e's terms, held through all but its last
+        second (nothing changes between the spans' ends) and as they stand at its end."""
+        k = span.seconds
+        self.elapsed += k
+        for i, r in enumerate(span.rewards):
             self.rewards[i] += r
-        for k, v in second.terms.items():
-            self.terms[k] += v
+        if k == 1:
+            for name, v in span.terms.items():
+                self.terms[name] += v
+        else:
+            for name, v in span.terms_before.items():
+                self.terms[name] += v * (k - 1) + span.terms[name]
 
 
 class Engine:
     """One episode of the CMDP (see the module doc)."""
-
-    fidelity = "pymunk"  # the paper's floor; ``eventfloor.EventFloor`` is "event"
-    needs_low_level = True  # reaching actions move its crews (the event floor's walk alone)
 
     def __init__(self, case: Case, stage: int = 2,
                  evaluator: TargetEvaluator | str | None = None,
                  seed: int | None = None, max_time_s: float | None = None,
                  park_idle: bool = False, stall_s: float | None = None,
                  position_log_every_s: float | None = None, *,
-                 physics: Callable[[Case, Site], Physics] = World):
+                 physics: Callable[[Case, Site], Physics] | None = None,
+                 motion: Motion | None = None):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -127,7 +120,11 @@ class Engine:
         self.eta = reward.eta_by_kind(case.reaching_reward)
         self.streams = RandomStreams(seed)  # a task's pace by (seed, task): streams.py
         self.timeline: disruptions.Timeline | None = None  # the case's, drawn in reset
-        self.physics = physics
+        if motion is not None and physics is not None:
+            raise ValueError("give the plane either as physics= (the physics motion's plane) "
+                             "or inside motion=, not both")
+        self.motion: Motion = motion if motion is not None else PhysicsMotion(physics)
+        self.motion.check(self)
         # The episode's state: set by ``reset``, None or empty before the first one.
         self.site: Site | None = None
         self.world: Physics | None = None
@@ -140,10 +137,12 @@ class Engine:
         self.positions: list[tuple[float, float]] = []  # every crew's (x, y), crew order
         self.activities: list[str] = []  # every crew's Gantt category (Fig. 9), as logged
         self.steps = 0  # simulated seconds (steps) run this episode
+        self.spans_run = 0  # spans run this episode (seconds on the physics motion, events
+        # on the walk motion: the speed benchmarks' count)
         self.memory: dict[str, Any] = {}  # the low levels' per-episode state (module doc)
         self._last_logged: list = []
         self._no_rewards: list[float] = []
-        self._progress_mark: tuple = (0.0, (0, 0.0))
+        self.progress_mark: tuple = (0.0, (0, 0.0))
         self._terms: dict[str, float] = dict.fromkeys(reward.EVALUATION_TERMS, 0.0)
         self._construct_logged = False
 
@@ -169,7 +168,9 @@ class Engine:
         self.streams = RandomStreams(seed) if seed is not None else \
             self.streams.with_scenario(None)
         self.site = Site(self.case, self.stage)
-        self.world = self.physics(self.case, self.site)
+        self.world = self.motion.plane(self.case, self.site)
+        self.spans_run = 0
+        self.motion.begin(self)
         self.log = events.EventLog()
         self.metrics = Counters(self.site)
         # Disruptions (their own streams): none in the case, no timeline, nothing changes.
@@ -188,10 +189,10 @@ class Engine:
         self.memory = {}
         self.steps = 0
         self.stalled = None
-        self._progress_mark = (0.0, self._task_progress())
+        self.progress_mark = (0.0, self.task_progress())
         if self.timeline is not None:  # one at time 0 strikes before the first decisions
             disruptions.update(self.site, self.world, self.log, self.timeline)
-        decide.apply_decision_table(self._context())
+        decide.apply_decision_table(self.context())
         self.pending = []
         self.making_way = {}
         self._evaluate()
@@ -202,22 +203,38 @@ class Engine:
         self.action_needed = any(self.needs_action(c) for c in self.site.crews)
         self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
         self._value_between_seconds()
+        self.motion.replan(self)
 
-    def step(self, actions) -> Second:
-        """One simulated second in the paper's order (see the module doc); ``actions[i]``:
-        crew i's reaching action, used only if it moves."""
+    def step(self, actions=None) -> Span:
+        """One span in the paper's order (see the module doc): one second on the physics
+        motion, to the next event on the walk motion. ``actions[i]``: crew i's reaching
+        action, used only if it moves (ignored by a motion that takes none)."""
         if self.site is None:
             raise RuntimeError("step: the engine has no episode yet; call reset(seed) first")
-        crews = self.site.crews
-        if len(actions) != len(crews):
-            raise ValueError(f"step: {len(actions)} reaching actions for {len(crews)} crews; "
-                             "fix: give one action per crew, in the case's crew order (a crew "
-                             f"that does not move ignores its own, e.g. {move.STAND_STILL})")
-        moving = [c.moving for c in crews]
-        had_target = [c.moving and bool(c.scope) for c in crews]
-        quiet = self.quiet()
-        distance = self._move(actions, moving) if not quiet else [0.0] * len(crews)  # P_phy
-        ctx = self._construct()                                         # P_cons, Eq. 2
+        if self.motion.takes_actions:
+            crews = self.site.crews
+            if actions is None or len(actions) != len(crews):
+                given = "no" if actions is None else len(actions)
+                raise ValueError(f"step: {given} reaching actions for {len(crews)} crews; "
+                                 "fix: give one action per crew, in the case's crew order (a "
+                                 "crew that does not move ignores its own, e.g. "
+                                 f"{move.STAND_STILL})")
+        return self._span(actions, self.motion.span_s(self))
+
+    def _span(self, actions, k: int) -> Span:
+        """``k`` seconds: P_phy by the motion, P_cons for the span, disruptions, Table 1 and
+        the evaluation, the log, R_r and R_e's terms; written once for every motion."""
+        site, motion = self.site, self.motion
+        crews = site.crews
+        n = len(crews)
+        self.spans_run += 1
+        span = Span(k, [c.moving for c in crews], [c.moving and bool(c.scope) for c in crews],
+                    [0.0] * n, [None] * n, self._no_rewards, terms_before=self._terms,
+                    timeouts=[0] * n, disrupted=bool(site.disrupted))
+        quiet = motion.quiet(self)
+        if not quiet:
+            self._move(actions, span)                                   # P_phy, Eq. 1
+        ctx = self._construct(k)                                        # P_cons, Eq. 2
         disrupted = self._disrupt()           # disruptions starting or ending (not the paper's)
         # A quiet second where no row but c2 (tasks progress) would fire: the decisions, the
         # evaluation and R_r would change nothing, so they are skipped.
@@ -227,14 +244,16 @@ class Engine:
         # What the activities and R_e read (statuses, scopes, idle causes, tasks ended) changed
         # only if the table ran or P_cons logged a change (the crane wakes a waiting crew).
         changed = not skip or self._construct_logged
-        if self.timeline is not None and disruptions.refresh_causes(self.site):
+        if self.timeline is not None and disruptions.refresh_causes(site):
             changed = True
-        self._log_events(moving, changed)
-        contacts, rewards = self._reaching_rewards(ctx, moving, had_target, skip)  # Eqs. 6-7
+        self._log_events(span.moving, changed)
+        if motion.takes_actions:
+            span.contacts, span.rewards = self._reaching_rewards(ctx, span, skip)  # Eqs. 6-7
         if changed:                                                     # R_e's terms, Eq. 5
-            self._terms = reward.evaluation_reward_terms(self.site, self.case.evaluation_reward)
-        self._tick_reach_clocks(moving, had_target)                     # section 3.6's clock
-        return Second(moving, had_target, contacts, distance, rewards, self._terms)
+            self._terms = reward.evaluation_reward_terms(site, self.case.evaluation_reward)
+        span.terms = self._terms
+        motion.end_span(self, span, ctx)          # section 3.6's clocks; the walks
+        return span
 
     def advance(self, actions, until: Callable[[], bool] | None = None) -> Advance:
         """Run seconds with ``actions`` until ``until()`` holds after one (None: one
@@ -243,34 +262,63 @@ class Engine:
         if self.pending:
             raise RuntimeError(f"crews {self.pending} wait for target values; call "
                                "set_target_values for each first")
-        out = Advance(rewards=[0.0] * len(self.site.crews))
+        site, motion = self.site, self.motion
+        out = Advance(rewards=[0.0] * len(site.crews))
         self.metrics.open_window()
+        motion.replan(self)  # values may have come from outside
         while True:
-            second = self.step(actions)
-            self.metrics.count(second)
-            out.add(second)
-            truncated = self.site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
-            if self.site.done or truncated or until is None or until() or self.pending:
+            span = self.step(actions)
+            self.metrics.count(span)
+            out.add(span)
+            truncated = site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
+            if site.done or truncated or until is None or until() or self.pending:
                 break  # pending: an evaluator asked between seconds values them
         self.metrics.close_window()
-        out.terminated = self.site.done
+        out.terminated = site.done
         out.truncated = truncated
         if not (out.terminated or out.truncated):
             self._value_between_seconds()
+            motion.replan(self)
         return out
 
-    def clone(self, scenario: int | None = None, keep_log: bool = True) -> Engine:
+    def run(self) -> Advance:
+        """To the end of the episode (every task ended, the time limit or the stall guard) on
+        a motion that takes no reaching actions (the walk motion), valuing between spans if
+        the evaluator asks so. A motion with actions needs its low level:
+        ``rollout.play(engine, low_level)``."""
+        if self.motion.takes_actions:
+            raise ValueError(f"run: the {self.motion.name} motion moves crews by reaching "
+                             "actions; fix: drive it with a low level, "
+                             "rollout.play(engine, low_level)")
+        total = Advance(rewards=[0.0] * len(self.site.crews))
+        while True:
+            part = self.advance(None, until=_never)
+            total.elapsed += part.elapsed
+            for k, v in part.terms.items():
+                total.terms[k] += v
+            if part.terminated or part.truncated:
+                total.terminated, total.truncated = part.terminated, part.truncated
+                return total
+
+    def clone(self, scenario: int | None = None, keep_log: bool = True,
+              motion: Motion | None = None) -> Engine:
         """An independent episode at the same second: a branch of the floor.
 
-        Everything is copied (site, world, event log, counters, streams, the low levels'
-        ``memory``) but the case and the injected evaluator, which are shared (an evaluator
-        must keep no state of its own per episode). ``scenario``: None keeps the floor's own
-        future (the clone, given the same actions and values, runs exactly as the original);
-        an int draws the paces of tasks not yet started from that sampled future
-        (``streams``), keeping those already drawn. A low level that keeps its per-episode
-        state in ``memory`` drives the clone as it would the original. ``keep_log`` False:
-        the clone starts an empty event log (a lookahead branch needs only the makespan;
-        copying a long log costs more than the rest).
+        Everything is copied (site, world, event log, counters, streams, the motion and its
+        per-episode state, the low levels' ``memory``) but the case and the injected
+        evaluator, which are shared (an evaluator must keep no state of its own per
+        episode). ``scenario``: None keeps the floor's own future (the clone, given the same
+        actions and values, runs exactly as the original); an int draws the paces of tasks
+        not yet started from that sampled future (``streams``), keeping those already drawn.
+        A low level that keeps its per-episode state in ``memory`` drives the clone as it
+        would the original. ``keep_log`` False: the clone starts an empty event log and logs
+        no positions (a lookahead branch needs only the makespan; copying a long log costs
+        more than the rest).
+
+        ``motion``: the branch moves its crews by this motion from here on (e.g. the walk
+        motion, ``eventfloor.WalkMotion``: a planner thinks on the event floor and acts on the
+        pymunk one): its plane is built anew from the site with the crews where they stand;
+        the low levels' memory is left behind.
 
         pymunk's contact cache cannot be copied, so the original's world is rebuilt from
         the same data as the clone's: both continue identically, and the original may
@@ -286,18 +334,46 @@ class Engine:
             memo[id(self.log)] = events.EventLog()
         if self.evaluator is not None:
             memo[id(self.evaluator)] = self.evaluator
+        if motion is not None:  # neither the plane nor the motion's state is carried
+            memo[id(self.world)] = None
+            memo[id(self.motion)] = motion
+            memo[id(self.memory)] = {}
         branch = copy.deepcopy(self, memo)
-        self.world.rebuild()
+        if not keep_log:
+            branch.position_log_every_s = None
+        if motion is None:
+            self.world.rebuild()
+        else:
+            branch._join(motion, self)
         branch.streams.with_scenario(scenario if scenario is not None
                                      else self.streams.scenario)
         if scenario is not None and branch.timeline is not None:  # its own future's
             branch.timeline.resample(branch.streams, self.site.time_s)  # disruptions
         return branch
 
+    def _join(self, motion: Motion, source: Engine) -> None:
+        """This branch of ``source`` goes on by ``motion``: a new plane, crews placed where
+        they stand, the motion's per-episode state begun and its first plan made."""
+        motion.check(self)
+        self.world = motion.plane(self.case, self.site)
+        place = getattr(self.world, "place", None)  # not every plane takes crews mid-episode
+        if place is None:
+            raise ValueError(f"clone: the {motion.name} motion's plane cannot place crews in an "
+                             "episode under way; fix: branch onto it from reset, or give its "
+                             "plane a place(i, xy, heading)")
+        for i in range(len(self.site.crews)):
+            x, y, heading = source.pose(i)
+            place(i, (x, y), heading)
+        self.spans_run = 0
+        self.making_way = {}
+        self.action_needed = any(self.needs_action(c) for c in self.site.crews)
+        motion.begin(self)
+        motion.replan(self)
+
     def quiet(self) -> bool:
-        """The plane is at rest and no crew needs a movement decision: P_phy is void in the
-        coming second."""
-        return self.world.at_rest and not self.action_needed
+        """Nothing moves in the coming second and no crew needs a movement decision: P_phy
+        is void in it (``Motion.quiet``)."""
+        return self.motion.quiet(self)
 
     def decision_due(self) -> bool:
         """A crew needs a movement decision or target values: where the idle jump stops."""
@@ -306,13 +382,9 @@ class Engine:
     # -- what the engine needs from outside ---------------------------------------------------
 
     def needs_action(self, crew: CrewState) -> bool:
-        """Whether the crew's reaching action is used this step (section 3.6.2)."""
-        if not crew.moving:
-            return False
-        if self.park_idle and not crew.scope and crew.status == CrewStatus.REACHING:
-            return self.site.in_congestion_area(*self.positions[crew.index]) or \
-                self.making_way.get(crew.index, -math.inf) > self.site.time_s
-        return True
+        """Whether the crew's reaching action is used in the coming span (section 3.6.2;
+        the motion's rule: ``Motion.needs_action``)."""
+        return self.motion.needs_action(self, crew)
 
     def make_way(self, i: int, until_s: float) -> None:
         """Let crew i, parked (``park_idle``: no target, standing still), take reaching
@@ -355,37 +427,24 @@ class Engine:
 
     # -- the stages ---------------------------------------------------------------------------
 
-    def _context(self) -> decide.Context:
+    def context(self) -> decide.Context:
         return decide.Context(self.site, self.world, self.positions, self.streams, self.log)
 
-    def _move(self, actions, moving: list[bool]) -> list[float]:
-        """P_phy: the moving crews' reaching actions through Eq. 1, then the physics; returns
-        the distance each crew walked."""
-        site, world, sim = self.site, self.world, self.case.simulation
-        distance = [0.0] * len(moving)
-        if self.park_idle:  # a parked crew stands still whatever its action
-            actions = [a if self.needs_action(c) else move.STAND_STILL
-                       for a, c in zip(actions, site.crews, strict=True)]
-        move.apply_reaching_actions(world, site, actions)
-        if any(moving):
-            world.step(sim.step_s, sim.physics_substeps)
-            for i in range(len(moving)):
-                if moving[i]:
-                    x, y, _ = world.pose(i)
-                    px, py = self.positions[i]
-                    distance[i] = math.hypot(x - px, y - py)
-                    self.positions[i] = (x, y)
-        return distance
+    def _move(self, actions, span: Span) -> None:
+        """P_phy over the span, by the motion (``Motion.move``)."""
+        self.motion.move(self, actions, span)
 
-    def _construct(self) -> decide.Context:
-        """The clock moves on one step and P_cons advances the tasks, fetches and the crane;
-        returns the context the decision table will read."""
+    def _construct(self, k: int = 1) -> decide.Context:
+        """The clock moves on ``k`` steps and P_cons advances the tasks, fetches and the crane
+        through them (every rate is constant within a span); returns the context the decision
+        table will read."""
         logged = len(self.log.events)
-        self.site.time_s += self.case.simulation.step_s
-        self.steps += 1
-        construct.advance(self.site, self.positions, self.log, self.case.simulation.step_s)
+        dt = k * self.case.simulation.step_s
+        self.site.time_s += dt
+        self.steps += k
+        construct.advance(self.site, self.positions, self.log, dt, self.motion.invasion_of)
         self._construct_logged = len(self.log.events) != logged
-        return self._context()
+        return self.context()
 
     def _disrupt(self) -> bool:
         """Disruptions for the second that starts now (``disruptions.update``): whether one
@@ -428,11 +487,12 @@ class Engine:
             i = self.pending[0]
             self.set_target_values(i, self.evaluator.values_for(self, i))
 
-    def _reaching_rewards(self, ctx: decide.Context, moving, had_target,
+    def _reaching_rewards(self, ctx: decide.Context, span: Span,
                           skip: bool) -> tuple[list, list[float]]:
         """Every crew's contacts and R_r this second, Eqs. 6-7 (0 for a crew that did not
         move); then who needs a movement decision next. In a skipped second nothing moved
         (no contacts), nothing was reached and no crew held a target: R_r is 0."""
+        moving, had_target = span.moving, span.had_target
         if skip:
             return [None] * len(moving), self._no_rewards
         contacts = [self.world.take_contacts(c.index) for c in self.site.crews]
@@ -443,20 +503,9 @@ class Engine:
         self.action_needed = any(self.needs_action(c) for c in self.site.crews)
         return contacts, rewards
 
-    def _tick_reach_clocks(self, moving, had_target) -> None:
-        """Steps since the last reach, per crew still after a target (section 3.6 re-values
-        a scope every ``reevaluate_after_steps`` of them); a crew without a target has none."""
-        for crew in self.site.crews:
-            if moving[crew.index]:
-                if had_target[crew.index]:
-                    if crew.moving and crew.scope:
-                        crew.steps_since_reach += 1
-                else:
-                    crew.steps_since_reach = 0
-
     # -- the stall guard ----------------------------------------------------------------------
 
-    def _task_progress(self) -> tuple[int, float]:
+    def task_progress(self) -> tuple[int, float]:
         """What the stall guard watches: tasks ended and the progress of those on."""
         site = self.site
         return site.tasks_ended, sum(site.tasks[t].progress for t in site.active_areas)
@@ -466,15 +515,15 @@ class Engine:
         if self.stall_s is None or self.site.done:
             return False
         now = self.site.time_s
-        progress = self._task_progress()
+        progress = self.task_progress()
         # A disruption under way (a long repair, a weather stop) is no stall: its time is not
         # counted, and the guard starts again once it is over.
-        if progress != self._progress_mark[1] or self.site.disrupted:
-            self._progress_mark = (now, progress)
+        if progress != self.progress_mark[1] or self.site.disrupted:
+            self.progress_mark = (now, progress)
             return False
-        if now - self._progress_mark[0] < self.stall_s - 1e-9:
+        if now - self.progress_mark[0] < self.stall_s - 1e-9:
             return False
-        self.stalled = {"after_s": now - self._progress_mark[0], "time_s": now}
+        self.stalled = {"after_s": now - self.progress_mark[0], "time_s": now}
         return True
 
     # -- the event log ------------------------------------------------------------------------
@@ -488,15 +537,15 @@ class Engine:
                 self.log.add(self.site.time_s, "activity", crew.id, now)
 
     def _log_positions(self) -> None:
-        """``position`` events (subject "x,y,heading_deg") of crews that moved, for trajectories.
-
-        Every ``position_log_every_s`` (in whole steps); a crew standing still logs nothing.
-        """
-        every = self.position_log_every_s
-        if every is None or self.steps % max(1, round(every / self.case.simulation.step_s)):
+        """``position`` events (subject "x,y,heading_deg") of crews that moved, for
+        trajectories: when the motion says one is due (every ``position_log_every_s`` on the
+        physics motion, at each event on the walk motion); a crew standing still logs
+        nothing."""
+        if self.position_log_every_s is None:
             return
+        due = self.motion.position_due
         for crew in self.site.crews:
-            if crew.moving:
+            if crew.moving and due(self, crew):
                 self._log_position(crew)
 
     def _log_position(self, crew: CrewState) -> None:
@@ -509,3 +558,10 @@ class Engine:
         self._last_logged[crew.index] = (x, y)
         self.log.add(self.site.time_s, "position", crew.id,
                      f"{x:.2f},{y:.2f},{math.degrees(heading) % 360:.0f}")
+
+
+def _never() -> bool:
+    return False
+
+
+__all__ = ["Engine", "Advance", "Second", "Span"]

@@ -1,7 +1,8 @@
 """Counting for metrics, beside the dynamics (as Mesa's DataCollector sits beside a model).
 
-The engine's ``step`` returns what happened in one simulated second (``engine.Second``);
-``Counters.count`` turns it into the per-crew counters of the episode (``crew.stats``: the
+The engine's ``step`` returns what happened in one span (``motion.Span``: a simulated second
+on the physics motion, the seconds to the next event on the walk motion); ``Counters.count``
+turns it into the per-crew counters of the episode (``crew.stats``: the
 summaries of ``rollout.crew_summary`` and the evaluation chapters) and into the counts of the
 current call (``window``: ``infos[agent]["step_stats"]``, the training metrics). Nothing here
 changes what the simulation does next.
@@ -15,7 +16,7 @@ from .physics import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
 from .state import CrewStatus, Site
 
 if TYPE_CHECKING:
-    from .engine import Second
+    from .motion import Span
 
 # per-agent counts of one call (one adapter step, however many seconds it ran), for training
 STEP_STATS = ("reaches", "timeouts", "reaching", "collisions", "congestion")
@@ -51,32 +52,38 @@ class Counters:
             self.window[crew.index]["reaches"] = crew.stats.reaches - \
                 self._reaches_before[crew.index]
 
-    def count(self, second: Second) -> None:
-        """Add one simulated second: reaching and idle steps, reach time-outs (a step cap
-        held without reaching), collisions, congestion entries, crane waits, distance."""
+    def count(self, span: Span) -> None:
+        """Add one span (``motion.Span``, ``span.seconds`` of them): reaching and idle
+        seconds, re-evaluation time-outs (a step cap held without reaching), collisions,
+        congestion entries, crane waits, distance. A crew's status, disruption and idle cause
+        are read from ``span.states`` where the motion took them, else as the crew stands
+        now (a second is counted by the state it ends in)."""
+        k = span.seconds
+        states = span.states
         for crew in self.site.crews:
             i = crew.index
             stats, window = crew.stats, self.window[i]
-            if crew.disruption:  # kept from working by a disruption, whatever it does
-                stats.idle_steps[crew.disruption] += 1
-            if second.moving[i]:
-                stats.distance_m += second.distance_m[i]
-                if second.had_target[i]:
-                    stats.reaching_steps += 1
-                    window["reaching"] += 1
-                    # still after it, and one more step cap without a reach (engine's clock)
-                    if crew.moving and crew.scope and \
-                            crew.steps_since_reach % self.reach_cap == 0:
-                        stats.reach_timeouts += 1
-                        window["timeouts"] += 1
-                elif crew.status == CrewStatus.REACHING and crew.idle_cause:
-                    stats.idle_steps[crew.idle_cause] += 1
-                contacts = second.contacts[i]
+            disruption, status, idle_cause = states[i] if states is not None else \
+                (crew.disruption, crew.status, crew.idle_cause)
+            if disruption:  # kept from working by a disruption, whatever it does
+                stats.idle_steps[disruption] += k
+            if span.moving[i]:
+                stats.distance_m += span.distance_m[i]
+                if span.had_target[i]:
+                    stats.reaching_steps += k
+                    window["reaching"] += k
+                    timeouts = span.timeouts[i]  # still after it past a step cap (its clock)
+                    if timeouts:
+                        stats.reach_timeouts += timeouts
+                        window["timeouts"] += timeouts
+                elif status == CrewStatus.REACHING and idle_cause:
+                    stats.idle_steps[idle_cause] += k
+                contacts = span.contacts[i]
                 if contacts is not None:
                     hits, entries = collisions(contacts), congestion_entries(contacts)
                     stats.collisions += hits
                     stats.congestion_entries += entries
                     window["collisions"] += hits
                     window["congestion"] += entries
-            elif crew.status == CrewStatus.WAITING:
-                stats.crane_wait_steps += 1
+            elif status == CrewStatus.WAITING:
+                stats.crane_wait_steps += k

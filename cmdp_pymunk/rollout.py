@@ -98,7 +98,7 @@ def play(engine: Engine, low_level: LowLevel, reaching: ReachingObservations | N
     ``pause``, stops after the first event at which ``pause()`` holds (a frame is due) to
     call ``before_step`` again."""
     n = len(engine.site.crews)
-    if not engine.needs_low_level:  # the event floor: crews walk, no low level acts
+    if not engine.motion.takes_actions:  # the walk motion: crews walk, no low level acts
         until = pause or _never
         while True:
             if before_step is not None:
@@ -149,13 +149,13 @@ def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float |
     if frame_every_s is not None and render is None:
         raise ValueError("run_episode: frame_every_s needs render(engine), e.g. "
                          "media.render.draw_frame")
-    if engine.needs_low_level:
+    acts = engine.motion.takes_actions  # the walk motion needs no low level
+    if acts:
         low_level.bind(engine)
     engine.reset(seed)
-    if engine.needs_low_level:
+    if acts:
         low_level.reset(seed)
-    reaching = ReachingObservations(engine.case) \
-        if engine.needs_low_level and low_level.reads_rays else None
+    reaching = ReachingObservations(engine.case) if acts and low_level.reads_rays else None
     site = engine.site
     frames: list = []
     keep = frames.append if on_frame is None else on_frame

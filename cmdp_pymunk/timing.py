@@ -1,7 +1,8 @@
 """Wall time per simulation stage, for benchmarks: a wrapper around an engine, not probes in it.
 
 ``clocked(engine, clock)`` turns an engine into a ``ClockedEngine`` (the same object, its class
-swapped for a subclass that laps the clock around each stage of the second), so the engine's
+swapped for a subclass that laps the clock around each stage of the span), on either motion:
+the motion is the engine's member, not its class, so the engine's
 own step carries no timing code. A clone of a clocked engine is clocked too (into a copy of
 the clock).
 """
@@ -41,13 +42,13 @@ class ClockedEngine(Engine):
         self.clock.lap("rewards and logs")
         return second
 
-    def _move(self, actions, moving):
-        out = super()._move(actions, moving)
-        self.clock.lap("physics (P_phy, Eq. 1)")
-        return out
+    def _move(self, actions, span):
+        super()._move(actions, span)
+        self.clock.lap("motion (P_phy, Eq. 1)" if self.motion.takes_actions
+                       else "motion (the walks)")
 
-    def _construct(self):
-        out = super()._construct()
+    def _construct(self, k=1):
+        out = super()._construct(k)
         self.clock.lap("construction (P_cons, Eq. 2)")
         return out
 

@@ -324,7 +324,7 @@ class _Renderer:
         header = (f"t {format_clock(site.time_s)}   tasks {site.tasks_ended}/{len(site.tasks)}"
                   f"   stage {engine.stage}   {engine.case.case.name}"
                   # the event floor's crews jump along their walks: say whose frame this is
-                  + ("   event floor" if engine.fidelity == "event" else ""))
+                  + ("   event floor" if engine.motion.name == "event" else ""))
         disrupted = disruption_text(site)
         if disrupted:
             header += "   " + disrupted

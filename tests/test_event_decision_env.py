@@ -47,10 +47,10 @@ def test_both_ids_are_in_gymnasiums_registry():
     assert isinstance(env.unwrapped, TargetEvaluationEnv)
     floor = env.unwrapped.floor
     assert isinstance(floor.engine, EventFloor) and floor.fidelity == "event"
-    assert floor.low_level is None and not floor.engine.needs_low_level
+    assert floor.low_level is None and not floor.engine.motion.takes_actions
     assert floor.engine.evaluator is None  # values come from the env's actions
     pymunk = gymnasium.make(PYMUNK_ID, case=cmdp_pymunk.TINY_CASE).unwrapped.floor
-    assert pymunk.fidelity == "pymunk" and pymunk.engine.needs_low_level
+    assert pymunk.fidelity == "pymunk" and pymunk.engine.motion.takes_actions
     assert type(pymunk.low_level).__name__ == "Navigator"  # the default low level
 
 
@@ -146,7 +146,7 @@ def test_no_low_level_is_made_on_the_event_floor_and_rewards_add_up():
 def test_the_calibration_is_the_cases_unless_given(tmp_path):
     case = cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE)
     floor = DecisionLoop(cmdp_pymunk.TINY_CASE, fidelity="event")
-    assert floor.engine.calibration == calibration_for(case, cmdp_pymunk.TINY_CASE)
+    assert floor.engine.motion.calibration == calibration_for(case, cmdp_pymunk.TINY_CASE)
     fitted = uncalibrated(case).model_copy(update={
         "fitted_on": "a test", "crew_types": {t: CrewTypeCalibration(walk_factor=2.0)
                                               for t in case.crew_types}})
@@ -154,4 +154,4 @@ def test_the_calibration_is_the_cases_unless_given(tmp_path):
     assert load_calibration(path, case) == fitted
     for given in (fitted, path, str(path)):
         env = gymnasium.make(EVENT_ID, case=cmdp_pymunk.TINY_CASE, calibration=given)
-        assert env.unwrapped.floor.engine.calibration == fitted
+        assert env.unwrapped.floor.engine.motion.calibration == fitted

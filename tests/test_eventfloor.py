@@ -11,7 +11,7 @@ from agents.navigator import Navigator
 from cmdp_pymunk import move
 from cmdp_pymunk.cases.load import CaseError, case_from_dict
 from cmdp_pymunk.engine import Engine
-from cmdp_pymunk.eventfloor import EventFloor, make_floor
+from cmdp_pymunk.eventfloor import EventFloor, WalkMotion, make_floor
 from cmdp_pymunk.eventfloor.calibration import (
     Calibration,
     CrewTypeCalibration,
@@ -142,7 +142,7 @@ def test_a_floor_built_from_a_pymunk_floor_at_a_decision_continues_and_finishes(
     while engine.site.tasks_ended == 0:  # a task ends: a decision (the crews re-acquire)
         engine.advance(navigator.actions(engine, None), until=engine.decision_due)
     started = {t.id for t in engine.site.tasks if t.started_s >= 0 or t.ended_s >= 0}
-    floor = EventFloor.from_engine(engine)
+    floor = engine.clone(keep_log=False, motion=WalkMotion())
     assert floor.site is not engine.site and floor.site.time_s == engine.site.time_s
     assert [floor.pose(i)[:2] for i in range(2)] == [engine.pose(i)[:2] for i in range(2)]
     floor.run()

@@ -242,4 +242,4 @@ def test_the_workers_get_the_floor(tmp_path):
     runner = make_runner(pickle.loads(pickle.dumps((case, 3600.0, None, False, None,
                                                     *floor.runner_args))))
     engine, _ = runner.play("priority", "scripted", 0)
-    assert engine.fidelity == "event" and engine.calibration.of("RC").walk_factor == 1.5
+    assert engine.motion.name == "event" and engine.motion.calibration.of("RC").walk_factor == 1.5

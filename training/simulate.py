@@ -275,7 +275,7 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         "stage": engine.stage,
         # the floor it ran on: "pymunk" (the paper's) or "event" (calibration: its file,
         # fingerprint and numbers, filled in by ``write_outputs``; None on the pymunk floor)
-        "fidelity": engine.fidelity, "calibration": None,
+        "fidelity": engine.motion.name, "calibration": None,
         "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
         "makespan_s": makespan,

@@ -136,7 +136,7 @@ class DecisionLoop:
                                  max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s)
         self.fidelity = fidelity
         self.low_level: LowLevel | None = None  # the event floor has none: crews walk
-        if self.engine.needs_low_level:
+        if self.engine.motion.takes_actions:
             self.low_level = (make_low_level or default_low_level())()
             self.low_level.bind(self.engine)
         self.rays = observe.ReachingObservations(case) \

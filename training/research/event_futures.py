@@ -5,7 +5,7 @@
 
 On Eq. 9's pymunk floors of the seeds, at every ``every``-th decision with two or more
 candidates (a task scope), an event floor is built from the pymunk floor's state
-(``EventFloor.from_engine``, the case's calibration) and each of Eq. 9's ``candidates`` best
+(``engine.clone(motion=WalkMotion(...))``, the case's calibration) and each of Eq. 9's ``candidates`` best
 targets is played to the end on ``futures`` sampled futures, the same for every candidate
 (paired, as the lookahead's). Per decision and future, each candidate's makespan minus the
 first's (Eq. 9's choice) is split as ``training.research.label_noise`` splits a label run's:
@@ -29,7 +29,7 @@ import cmdp_pymunk
 from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
 from cmdp_pymunk.evaluate import Evaluator
-from cmdp_pymunk.eventfloor import EventFloor, calibration_for
+from cmdp_pymunk.eventfloor import WalkMotion, calibration_for
 from cmdp_pymunk.rollout import run_episode
 from cmdp_pymunk.state import ScopeKind
 
@@ -61,7 +61,7 @@ class FutureProbe(Evaluator):
         if self.decisions % self.every:
             return values
         start = time.process_time()
-        floor = EventFloor.from_engine(engine, self.calibration)
+        floor = engine.clone(keep_log=False, motion=WalkMotion(self.calibration))
         floor.evaluator = self.base
         makespans = []
         for k in range(self.futures):
