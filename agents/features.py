@@ -39,7 +39,7 @@ types with an idle crew), the queued work of other types its area blocks (the sa
 ways), of its own type, the successors' work it does not release alone, and the tail
 weighted by the floor's progress. Measured on 11,569 policy-iteration labels (relabelled by
 ``distill relabel``, seed-fold CV with ``training.research.label_cv``): they add about 1 s a
-decision to the linear student's ~19 s (docs/results.md); on the built-in floor duration
+decision to the linear student's ~19 s (docs/research-log.md); on the built-in floor duration
 and tail never separate candidates (every task of a type has the same work).
 
 ``FloorFacts`` holds what depends on the case only (computed once per case);

@@ -5,7 +5,7 @@ floor's end, and the tasks of the type after it (F) that were left for that time
         --seeds 140-159 [--last R] [--then F] [--case FILE] [--out report.json]
 
 The last R task's own F successor cannot start before it ends, so about one F task's duration
-of the time after it is unavoidable; the rest is formwork left behind (issue 32: results.md,
+of the time after it is unavoidable; the rest is formwork left behind (issue 32: research-log.md,
 "The student's ceiling"). Each seed's floor is played on the pymunk floor with the scripted
 navigator; the means over the seeds are printed (and written with ``--out``).
 """
