@@ -679,6 +679,8 @@ class ImportReport:
     crews_left_out: dict[str, int] = field(default_factory=dict)  # crew type -> crews, no work
     # IFC class -> elements that carry the floor from below its level (not components)
     supports_by_class: dict[str, int] = field(default_factory=dict)
+    level_m: float | None = None  # the storey's working level; None: it has none
+    level_route: str = "none"  # where it came from (``ifc_levels.ROUTES``)
 
 
 def crew_types_with_work(elements: Sequence[Element], recipe: Recipe,
@@ -1016,4 +1018,6 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
         carried[e.ifc_class] = carried.get(e.ifc_class, 0) + 1
     return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes,
                               overlay.provenance(), crews_left_out(elements, overlay),
-                              dict(sorted(carried.items())))
+                              dict(sorted(carried.items())),
+                              *((storey_span.level_m, storey_span.route) if storey_span
+                                else ()))
