@@ -183,7 +183,7 @@ def test_a_wrong_elevation_is_refused_by_the_command_naming_level_and_route(tmp_
             "correct its placement in the model (its elevation, or its unit), or take the "
             "storey's elements as assigned with [import] check_storey = false in the overlay; "
             f"if the storey's level is wrong, {ELEVATION_FIX}") in err
-    assert err.count(f"level 0.00 m from the storey's Elevation") == 9
+    assert err.count("level 0.00 m from the storey's Elevation") == 9
     overlay = tmp_path / "o.toml"
     overlay.write_text("[import]\nlevel_m = 3.0\n")
     assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(out),

@@ -12,8 +12,11 @@ degrees) is reported, not silently boxed, and so is an element that does not sit
 the bottom of its body lies outside the storey's range, from halfway down to the storey below
 to halfway up to the one above (:class:`StoreyRange`). What blocks walking is decided by
 elevation: elements of the ``[import] supports`` classes whose body lies wholly below the
-storey's level (beams and columns under the slabs, walls of the storey below) carry the floor
-and are no components (:func:`split_supports`). Footprints may touch and cross by
+storey's working level (beams and columns under the slabs, walls of the storey below) carry the
+floor and are no components (:func:`split_supports`). That level comes from the overlay's
+``[import] level_m``, else the storey's Elevation, its placement or its slabs' tops
+(``ifc_levels.working_level``); the notes and every refusal that depends on it name it and
+its route. Footprints may touch and cross by
 ``GEOMETRY_TOLERANCE_M``, the case check's tolerance too. Tasks come from the recipe's chains:
 JC -> HI -> G on a precast component, R -> F on a cast-in-place one, R waiting for HI on the
 components beside it (``neighbour_gap_m``).
