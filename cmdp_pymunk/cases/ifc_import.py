@@ -1022,5 +1022,5 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes,
                               overlay.provenance(), crews_left_out(elements, overlay),
                               dict(sorted(carried.items())),
-                              *((storey_span.level_m, storey_span.route) if storey_span
-                                else ()))
+                              level_m=storey_span.level_m if storey_span else None,
+                              level_route=storey_span.route if storey_span else "none")
