@@ -185,6 +185,12 @@ def test_a_wrong_elevation_is_refused_by_the_command_naming_level_and_route(tmp_
             f"if the storey's level is wrong, {ELEVATION_FIX}") in err
     assert err.count("level 0.00 m from the storey's Elevation") == 9
     overlay = tmp_path / "o.toml"
+    overlay.write_text('[import]\nlevel_m = "3 m"\n')
+    assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(out),
+                            "--overlay", str(overlay)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("cmdp-import-ifc: o.toml: 1 problem(s)") and not out.exists()
+    assert "import.level_m = '3 m': write the storey's level in metres" in err
     overlay.write_text("[import]\nlevel_m = 3.0\n")
     assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(out),
                             "--overlay", str(overlay)]) == 0
