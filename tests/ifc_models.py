@@ -33,6 +33,10 @@ through it. The model at x 300..320.32, y 200..212.2.
 from x 0 (the L's foot, y 0..6) and four "H-9".."H-12" from x 0 on them (its leg, y 6.02 ..
 12.02); beams 0.4 m wide under the slabs' ends (z -0.5..0) at y 0 and 6.01 (the foot's
 width) and 12.02 (the leg's), columns 0.4 x 0.4 m (z -3..0) at the L's six corners.
+
+``raised_storey(schema, elevation_m, placement_m, building_z_m)``: ``slabs_on_beams``' storey
+3 m up (slabs z 3..3.3 on crossing beams and columns), the building's only storey, its level
+stated by an Elevation, a placement (relative to the building's), both, or neither.
 """
 
 from __future__ import annotations
@@ -52,8 +56,12 @@ BEAMS = {"B-H1": (105.0, 60.0, 2.0, 1.2), "B-H2": (105.0, 50.0, 2.0, 1.2),
          "B-V1": (100.0, 55.0, 1.2, 2.0), "B-V2": (110.0, 55.0, 1.2, 2.0)}
 
 
-def new_model(schema: str = "IFC4"):
-    """A project, site, building and storeys "Level 1" (z 0) and "Level 2" (z 3.5)."""
+def new_model(schema: str = "IFC4", levels=(("Level 1", 0.0), ("Level 2", 3.5)),
+              building_z_m: float | None = None):
+    """A project, site, building and storeys "Level 1" (z 0) and "Level 2" (z 3.5);
+    ``levels``: other storeys, (name, the world z of its placement, None: no placement);
+    ``building_z_m``: the building placed at this height (the storeys' placements are
+    written relative to it)."""
     import ifcopenshell.api.aggregate
     import ifcopenshell.api.context
     import ifcopenshell.api.geometry
@@ -78,10 +86,16 @@ def new_model(schema: str = "IFC4"):
     building = api.root.create_entity(f, ifc_class="IfcBuilding", name="Building")
     api.aggregate.assign_object(f, products=[site], relating_object=project)
     api.aggregate.assign_object(f, products=[building], relating_object=site)
+    if building_z_m is not None:
+        matrix = np.eye(4)
+        matrix[2, 3] = building_z_m
+        api.geometry.edit_object_placement(f, product=building, matrix=matrix)
     storeys = {}
-    for name, z in (("Level 1", 0.0), ("Level 2", 3.5)):
+    for name, z in levels:
         storeys[name] = api.root.create_entity(f, ifc_class="IfcBuildingStorey", name=name)
         api.aggregate.assign_object(f, products=[storeys[name]], relating_object=building)
+        if z is None:
+            continue
         matrix = np.eye(4)
         matrix[2, 3] = z
         api.geometry.edit_object_placement(f, product=storeys[name], matrix=matrix)
@@ -235,10 +249,10 @@ def slabs_on_beams(schema: str = "IFC4"):
     return storey_of_boxes(BEARING, schema)
 
 
-def storey_of_boxes(elements: dict, schema: str):
+def storey_of_boxes(elements: dict, schema: str, **levels):
     """A model whose "Level 1" holds ``elements``: (IFC class, name) -> (x0, y0, x1, y1,
-    z bottom, depth), metres; returns (file, {name: element})."""
-    f, body, storeys = new_model(schema)
+    z bottom, depth), metres; returns (file, {name: element}). ``levels``: new_model's."""
+    f, body, storeys = new_model(schema, **levels)
     made = {}
     for (ifc_class, name), (x0, y0, x1, y1, z, depth) in elements.items():
         made[name] = add_element(f, body, storeys["Level 1"], ifc_class, name,
@@ -282,3 +296,24 @@ def l_storey(schema: str = "IFC4"):
     """The L-shaped storey of hollow-core slabs (module doc); returns (file, {name:
     element})."""
     return storey_of_boxes(L_STOREY, schema)
+
+
+# the structural storey 3 m up: BEARING's elements raised by 3 m (slabs z 3..3.3)
+BEARING_UP = {key: (x0, y0, x1, y1, z + 3.0, depth)
+              for key, (x0, y0, x1, y1, z, depth) in BEARING.items()}
+
+
+def raised_storey(schema: str = "IFC4", elevation_m: float | None = None,
+                  placement_m: float | None = None, building_z_m: float | None = None):
+    """``BEARING_UP``: four slabs on the level, z 3..3.3, on crossing beams (z 2.4..3) and
+    columns (z -0.5..3) and a wall of the storey below (z 0..3), a wall standing on the floor
+    (z 3..6), all on "Level 1", the building's only storey, with its level stated as asked:
+    its ``Elevation`` (written in the model's millimetres), its placement's world z
+    (relative to the building's at ``building_z_m``), or neither (the storey the issue names:
+    an IFC4 storey with neither an Elevation nor a placement). Returns (file, {name:
+    element})."""
+    f, made = storey_of_boxes(BEARING_UP, schema, levels=(("Level 1", placement_m),),
+                              building_z_m=building_z_m)
+    if elevation_m is not None:
+        f.by_type("IfcBuildingStorey")[0].Elevation = elevation_m * 1000.0
+    return f, made

@@ -72,7 +72,7 @@ def test_row_zero_on_the_event_floor_plays_eq9s_event_schedule():
     eq9.reset(3)
     eq9.run()
     assert played[-1].info["makespan_s"] == eq9.makespan_s
-    assert floor.engine.motion.calibration.fitted_on == eq9.calibration.fitted_on != ""
+    assert floor.engine.motion.calibration.fitted_on == eq9.motion.calibration.fitted_on != ""
 
 
 def test_untrained_policy_chooses_eq9_on_recorded_states():

@@ -262,17 +262,19 @@ def test_elements_off_their_storey_are_reported_and_nothing_is_written(tmp_path,
     assert import_ifc.main([str(path), "--storey", "Level 1", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("cmdp-import-ifc: storey.ifc: 2 problem(s)")
-    level_1 = ('outside storey "Level 1" (level 0.00 m: its elements start from -1.75 m up to '
-               "1.75 m)")
+    level_1 = ('outside storey "Level 1" (level 0.00 m from the storey\'s placement: its '
+               "elements start from -1.75 m up to 1.75 m)")
+    set_level = ("; if the storey's level is wrong, set [import] level_m = ... (metres) in the "
+                 "overlay, or give the storey an Elevation in the model")
     assert (f'IfcSlab "S-UP" ({up.GlobalId}): sits at z 3.50 m (the bottom of its body), '
             f'{level_1}, nearer storey "Level 2" (level 3.50 m) than its own; fix: assign it '
             'to "Level 2" in the model (IfcRelContainedInSpatialStructure) or correct its '
             "placement, or take the storey's elements as assigned with [import] check_storey "
-            "= false in the overlay") in err
+            f"= false in the overlay{set_level}") in err
     assert (f'IfcBeam "B-HIGH" ({high.GlobalId}): sits at z 20.00 m (the bottom of its body), '
             f"{level_1}, on no storey of the building; fix: correct its placement in the "
             "model (its elevation, or its unit), or take the storey's elements as assigned "
-            "with [import] check_storey = false in the overlay") in err
+            f"with [import] check_storey = false in the overlay{set_level}") in err
     assert "overlap" not in err  # S-UP lies over S-11 in plan: its storey is the cause
     assert not out.exists()
     # taken as assigned, S-UP is a footprint over S-11's
@@ -317,16 +319,33 @@ def test_the_storeys_ranges_by_hand():
     assert span(alone, lone["Level 1"]) == (0.0, -2.0, 2.0)
 
 
-def test_a_storey_without_a_level_is_noted(tmp_path):
+def test_a_storey_without_a_level_takes_its_slabs_tops_and_says_so(tmp_path):
+    """two_by_two's storeys without placements (IFC2X3: no Elevation either): the level is
+    the slabs' tops, 0.30 m (z 0..0.3), stated in the notes; the beams (z 0..0.5) rise above
+    it and stay components. Without slabs in the recipe (beams only, as precast) the storey
+    has no level at all: heights unchecked, no supports, a note that says how to set one."""
     f, _ = ifc_models.two_by_two("IFC2X3")
     for storey in f.by_type("IfcBuildingStorey"):
         storey.ObjectPlacement = None
     path = tmp_path / "nolevel.ifc"
     f.write(str(path))
-    _, report = import_storey(path, "Level 1")
-    assert report.notes == ['storey "Level 1" has no level (neither a placement nor an '
-                            "Elevation): its elements' heights are not checked, and none is "
-                            "taken as a support under its floor ([import] supports)"]
+    data, report = import_storey(path, "Level 1")
+    assert report.notes == ['storey "Level 1": level 0.30 m from the slabs\' tops (the storey '
+                            "has neither an Elevation nor a placement): supports lie below it "
+                            "and its elements' heights are checked against it; if that is not "
+                            "the storey's level, set [import] level_m = ... (metres) in the "
+                            "overlay, or give the storey an Elevation in the model"]
+    assert report.components_by_class == {"IfcSlab": 4, "IfcBeam": 4}
+    assert report.supports_by_class == {}
+    overlay = tmp_path / "beams.toml"
+    overlay.write_text('[recipe.classes]\nIfcBeam = "precast"\n[recipe.chains]\n'
+                       'precast = [{type = "JC"}, {type = "HI"}, {type = "G"}]\n')
+    _, report = import_storey(path, "Level 1", load_overlay(overlay))
+    assert report.notes[0] == (
+        'storey "Level 1" has no level (neither an Elevation nor a placement, no slabs to take '
+        "it from, no [import] level_m in the overlay): its elements' heights are not checked, "
+        "and none is taken as a support under its floor ([import] supports); fix: set [import] "
+        "level_m = ... (metres) in the overlay, or give the storey an Elevation in the model")
 
 
 def test_a_fixed_plane_too_small_is_reported(two_by_two, tmp_path):

@@ -12,8 +12,11 @@ degrees) is reported, not silently boxed, and so is an element that does not sit
 the bottom of its body lies outside the storey's range, from halfway down to the storey below
 to halfway up to the one above (:class:`StoreyRange`). What blocks walking is decided by
 elevation: elements of the ``[import] supports`` classes whose body lies wholly below the
-storey's level (beams and columns under the slabs, walls of the storey below) carry the floor
-and are no components (:func:`split_supports`). Footprints may touch and cross by
+storey's working level (beams and columns under the slabs, walls of the storey below) carry the
+floor and are no components (:func:`split_supports`). That level comes from the overlay's
+``[import] level_m``, else the storey's Elevation, its placement or its slabs' tops
+(``ifc_levels.working_level``); the notes and every refusal that depends on it name it and
+its route. Footprints may touch and cross by
 ``GEOMETRY_TOLERANCE_M``, the case check's tolerance too. Tasks come from the recipe's chains:
 JC -> HI -> G on a precast component, R -> F on a cast-in-place one, R waiting for HI on the
 components beside it (``neighbour_gap_m``).
@@ -60,6 +63,7 @@ from .floorplan import (
     overlapping_pairs,
     plan_case,
 )
+from .ifc_levels import describe, how_to_set, slabs_top_m, stated_levels, working_level
 from .load import BUILTIN_CASE, CaseError, _did_you_mean, case_from_dict
 
 # the package is installed from a checkout (it is not on a package index): the extra from there
@@ -78,6 +82,8 @@ DEFAULT_OVERLAY: dict = {
                # slabs side by side with joints this narrow form a deck, walked on once
                # laid (:func:`deck_slabs`)
                "deck_joint_max_m": 0.1},
+               # no "level_m": the storey's level comes from the model unless the overlay
+               # gives one (``ifc_levels.working_level``)
     "crews": {"JCC": 1, "HIC": 1, "GC": 1, "RC": 2, "FC": 2},
     "crane": {"lift_time_s": 240.0, "assist_time_s": 180.0},
     # x_frac: where along the edge, -1 (left wall) to 1 (right wall)
@@ -94,7 +100,7 @@ _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", 
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
 _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
                  "import": ("min_fill", "neighbour_gap_m", "check_storey", "supports",
-                            "deck_joint_max_m"),
+                            "deck_joint_max_m", "level_m"),
                  "crane": ("lift_time_s", "assist_time_s")}
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
                  "edge", "x_frac")
@@ -237,6 +243,11 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             elif key == "check_storey":
                 if not isinstance(value[key], bool):
                     problems.append(f"{section}.{key} = {value[key]!r}: write true or false")
+            elif key == "level_m":  # a height, below the model's origin too (a basement)
+                if not _is_number(value[key]):
+                    problems.append(f"{section}.{key} = {value[key]!r}: write the storey's "
+                                    "level in metres, a number (e.g. 3.0, or -3.0 below the "
+                                    "model's origin)")
             elif key == "supports":
                 classes = value[key]
                 if not isinstance(classes, list) or not all(
@@ -366,6 +377,12 @@ class StoreyRange:
     low_m: float
     high_m: float
     others: tuple[StoreyRange, ...] = ()  # the building's other storeys with a level
+    route: str = "placement"  # where level_m came from (``ifc_levels.ROUTES``)
+
+    @property
+    def level(self) -> str:
+        """"level 3.00 m from the storey's placement", for notes and refusals."""
+        return describe(self.level_m, self.route)
 
     def holds(self, z_m: float) -> bool:
         return self.low_m - 1e-6 <= z_m < self.high_m - 1e-6
@@ -375,16 +392,11 @@ class StoreyRange:
         return next((s for s in self.others if s.holds(z_m)), None)
 
 
-def _storey_level_m(storey, scale: float) -> float | None:
-    """A storey's level in metres: its placement's world z, else its Elevation; None: neither."""
-    import ifcopenshell.util.placement
-
-    if storey.ObjectPlacement is not None and storey.ObjectPlacement.is_a("IfcLocalPlacement"):
-        matrix = ifcopenshell.util.placement.get_local_placement(storey.ObjectPlacement)
-        return float(matrix[2][3]) * scale
-    if storey.Elevation is not None:
-        return float(storey.Elevation) * scale
-    return None
+def _stated_level(storey, scale: float) -> tuple[float | None, str]:
+    """The level the model states for a storey, in metres, and its route: its Elevation,
+    else its placement's world z (``ifc_levels.working_level`` without the overlay and the
+    slabs); (None, "none"): neither."""
+    return working_level(None, *stated_levels(storey, scale), None)
 
 
 def storey_ranges(levels: Sequence[tuple[str, float]]) -> list[StoreyRange]:
@@ -402,28 +414,30 @@ def storey_ranges(levels: Sequence[tuple[str, float]]) -> list[StoreyRange]:
     return [StoreyRange(name, lv, *spans[round(lv, 3)]) for name, lv in levels]
 
 
-def storey_range(model, storey) -> StoreyRange | None:
+def storey_range(model, storey, level: tuple[float, str] | None = None
+                 ) -> StoreyRange | None:
     """The storey's :class:`StoreyRange` among the storeys of its building (of the model when
-    it is in none), with the others; None when the storey has neither a placement nor an
-    Elevation."""
+    it is in none), with the others (each at the level the model states for it). ``level``:
+    the storey's own level in metres and its route (``ifc_levels.working_level``), else the
+    level the model states; None when it has none (neither an Elevation nor a placement)."""
     import ifcopenshell.util.element
     import ifcopenshell.util.unit
 
     scale = ifcopenshell.util.unit.calculate_unit_scale(model)
-    if _storey_level_m(storey, scale) is None:
+    level_m, route = level if level is not None else _stated_level(storey, scale)
+    if level_m is None:
         return None
     parent = ifcopenshell.util.element.get_aggregate(storey)
     peers = ([p for p in ifcopenshell.util.element.get_parts(parent)
               if p.is_a("IfcBuildingStorey")] if parent is not None
              else model.by_type("IfcBuildingStorey"))
-    if storey not in peers:
-        peers.append(storey)
-    with_level = [(p, lv) for p in peers if (lv := _storey_level_m(p, scale)) is not None]
+    peers = [p for p in peers if p != storey]
+    with_level = [(storey, level_m)] + [(p, lv) for p in peers
+                                        if (lv := _stated_level(p, scale)[0]) is not None]
     ranges = storey_ranges([(p.Name or p.GlobalId, lv) for p, lv in with_level])
-    own = next(r for (p, _), r in zip(with_level, ranges, strict=True) if p == storey)
-    others = tuple(r for (p, _), r in zip(with_level, ranges, strict=True)
-                   if p != storey and abs(r.level_m - own.level_m) > 1e-3)
-    return StoreyRange(own.name, own.level_m, own.low_m, own.high_m, others)
+    own = ranges[0]
+    others = tuple(r for r in ranges[1:] if abs(r.level_m - own.level_m) > 1e-3)
+    return StoreyRange(own.name, own.level_m, own.low_m, own.high_m, others, route)
 
 
 def _class_chain(element) -> list[str]:
@@ -668,6 +682,8 @@ class ImportReport:
     crews_left_out: dict[str, int] = field(default_factory=dict)  # crew type -> crews, no work
     # IFC class -> elements that carry the floor from below its level (not components)
     supports_by_class: dict[str, int] = field(default_factory=dict)
+    level_m: float | None = None  # the storey's working level; None: it has none
+    level_route: str = "none"  # where it came from (``ifc_levels.ROUTES``)
 
 
 def crew_types_with_work(elements: Sequence[Element], recipe: Recipe,
@@ -701,10 +717,31 @@ def _off_storey(e: Element, storey: StoreyRange) -> str:
         where = "on no storey of the building"
         fix = "correct its placement in the model (its elevation, or its unit)"
     return (f'{e.label}: sits at z {bottom:.2f} m (the bottom of its body), outside storey '
-            f'"{storey.name}" (level {storey.level_m:.2f} m: its elements start from '
+            f'"{storey.name}" ({storey.level}: its elements start from '
             f"{storey.low_m:.2f} m up to {storey.high_m:.2f} m), {where}; fix: {fix}, or take "
             "the storey's elements as assigned with [import] check_storey = false in the "
-            "overlay")
+            f"overlay; if the storey's level is wrong, {how_to_set(storey.route)}")
+
+
+def _overlap(a: Element, b: Element, size: tuple[float, float],
+             storey: StoreyRange | None) -> str:
+    """The message for two footprints that overlap: whether one carries the other (a
+    support) is decided against the storey's level, so it names that level, its route and
+    how to set it."""
+    if storey is None:
+        carried = (f"the storey has {describe(None, 'none')}, so nothing is taken as a "
+                   f"support: {how_to_set('none')}, with the carrying one below it and its "
+                   "class in [import] supports in the overlay")
+    else:
+        carried = (f"model it below the storey's level ({storey.level}; its top at most "
+                   f"{GEOMETRY_TOLERANCE_M * 1000:g} mm above it) and list its class in "
+                   f"[import] supports in the overlay; if the level is wrong, "
+                   f"{how_to_set(storey.route)}")
+    w, h = size
+    return (f"{a.label} and {b.label}: footprints overlap by {w:.3f} x {h:.3f} m (components "
+            "are obstacles side by side on the floor); fix: correct the model so that they "
+            f"only touch; if one carries the other, {carried}; or leave one of the classes "
+            "out of the recipe ([recipe.classes] in the overlay)")
 
 
 def is_support(e: Element, storey: StoreyRange | None, classes: Sequence[str]) -> bool:
@@ -784,13 +821,8 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         raise CaseError(source, problems)
     rects = [e.rect for e in elements]
     for i, j in overlapping_pairs(rects):  # beyond GEOMETRY_TOLERANCE_M, as the case check
-        w, h = rects[i].overlap(rects[j])
-        problems.append(f"{elements[i].label} and {elements[j].label}: footprints overlap "
-                        f"by {w:.3f} x {h:.3f} m (components are obstacles side by side "
-                        "on the floor); fix: correct the model so that they only touch; "
-                        "if one carries the other, model it below the storey's level and "
-                        "list its class in [import] supports in the overlay; or leave one of "
-                        "the classes out of the recipe ([recipe.classes] in the overlay)")
+        problems.append(_overlap(elements[i], elements[j], rects[i].overlap(rects[j]),
+                                 storey))
     box = bounding_rect(rects)
     cx, cy = box.centre
     plane_cfg = overlay.data["plane"]
@@ -895,6 +927,40 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     return data, notes, "model" if use_model else "recipe"
 
 
+def _working_level(model, storey, elements: Sequence[Element], overlay: Overlay
+                   ) -> tuple[StoreyRange | None, list[str]]:
+    """The storey's range about its working level (``ifc_levels.working_level``: the
+    overlay's ``[import] level_m``, its Elevation, its placement, its slabs' tops), and the
+    notes that state a level the model does not (the slabs' tops, the overlay's) or a model
+    that states two."""
+    import ifcopenshell.util.unit
+
+    scale = ifcopenshell.util.unit.calculate_unit_scale(model)
+    elevation_m, placement_m = stated_levels(storey, scale)
+    tops = slabs_top_m((e.z_m[1], e.rect.area) for e in elements
+                       if "IfcSlab" in e.classes and e.z_m is not None and e.rect is not None)
+    level_m, route = working_level(overlay.data["import"].get("level_m"), elevation_m,
+                                   placement_m, tops)
+    span = storey_range(model, storey, (level_m, route))
+    if span is None:
+        return None, []
+    name = f'storey "{storey.Name or storey.GlobalId}"'
+    stated = [f"its {what} says {m:.2f} m" for what, m in
+              (("Elevation", elevation_m), ("placement", placement_m))
+              if m is not None and abs(m - level_m) > GEOMETRY_TOLERANCE_M]
+    if route == "slabs":
+        return span, [f"{name}: {span.level}: supports lie below it and its elements' "
+                      "heights are checked against it; if that is not the storey's level, "
+                      f"{how_to_set(route)}"]
+    if route == "overlay":
+        return span, [f"{name}: {span.level}" + (f" ({', '.join(stated)}; the overlay's "
+                                                  "is taken)" if stated else "")]
+    if stated:  # an Elevation and a placement that disagree: the Elevation is taken
+        return span, [f"{name}: {span.level} ({stated[0]}; the Elevation is taken); if the "
+                      f"storey is at {placement_m:.2f} m, {how_to_set(route)}"]
+    return span, []
+
+
 def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None = None
                   ) -> tuple[dict, ImportReport]:
     """A storey of an IFC model as case data, checked by ``case_from_dict``.
@@ -907,13 +973,14 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
     source = Path(model_path).name
     level = find_storey(model, storey, source)
     elements, skipped = storey_elements(model, level, overlay.recipe)
-    storey_span = storey_range(model, level)
+    storey_span, level_notes = _working_level(model, level, elements, overlay)
     elements, supports = split_supports(elements, storey_span,
                                         overlay.data["import"]["supports"])
     if not elements:
         found = ", ".join(f"{n} {c}" for c, n in sorted(skipped.items())) or "no elements"
-        held = (f"; {len(supports)} element(s) of it lie below its level and carry it "
-                "([import] supports)" if supports else "")
+        held = (f"; {len(supports)} element(s) of it lie below its {storey_span.level} and "
+                "carry it ([import] supports; if the level is wrong, "
+                f"{how_to_set(storey_span.route)})" if supports else "")
         raise CaseError(source, [f'storey "{storey}" has no elements of the recipe\'s classes '
                                  f"({', '.join(overlay.recipe.classes)}) on its floor; it holds "
                                  f"{found}{held}; fix: pick another storey, or map its classes "
@@ -932,8 +999,9 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
         ("none is taken as a support under its floor ([import] supports)",
          bool(overlay.data["import"]["supports"]))) if on]
     if storey_span is None and unchecked:
-        notes.insert(0, f'storey "{level.Name or level.GlobalId}" has no level (neither a '
-                        "placement nor an Elevation): " + ", and ".join(unchecked))
+        notes.insert(0, f'storey "{level.Name or level.GlobalId}" has {describe(None, "none")}: '
+                        + ", and ".join(unchecked) + f"; fix: {how_to_set('none')}")
+    notes[:0] = level_notes
     from_parts: dict[str, tuple[int, set[str]]] = {}
     for e in elements:
         if e.parts_from:
@@ -953,4 +1021,6 @@ def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None =
         carried[e.ifc_class] = carried.get(e.ifc_class, 0) + 1
     return data, ImportReport(by_class, skipped, len(data["tasks"]), precedences, notes,
                               overlay.provenance(), crews_left_out(elements, overlay),
-                              dict(sorted(carried.items())))
+                              dict(sorted(carried.items())),
+                              level_m=storey_span.level_m if storey_span else None,
+                              level_route=storey_span.route if storey_span else "none")
