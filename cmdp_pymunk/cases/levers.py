@@ -304,7 +304,12 @@ def _apply(base: Case, changes: tuple[Change, ...], data: dict) -> None:
             data["crews"] = [crew for i, crew in enumerate(data["crews"])
                              if crew["type"] != c.name or i in keep]
         elif want > now:
-            data["crews"] += _added_crews(base, data, c.name, want - now)
+            added = _added_crews(base, data, c.name, want - now)
+            data["crews"] += added
+            lever = (data.get("levers") or {}).get("crews", {}).get(c.name)
+            if lever and lever.get("starts"):  # a start taken is no longer free to take
+                used = {(a["start_x_m"], a["start_y_m"]) for a in added}
+                lever["starts"] = [p for p in lever["starts"] if tuple(p) not in used]
 
 
 def _added_crews(base: Case, data: dict, crew_type: str, k: int) -> list[dict]:
