@@ -120,7 +120,9 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
     jsonl = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert all(r["seed_bound_s"] == pytest.approx(bounds[r["seed"]], abs=1e-3) for r in jsonl)
     # appended after it: the floor the episode ran on (--fidelity; tests/test_fidelity_cli.py)
-    assert list(rows[0])[-2:] == ["seed_bound_s", "fidelity"]
+    assert list(rows[0])[-5:-3] == ["seed_bound_s", "fidelity"]
+    # then what each episode cost (docs/levers.md; tests/test_whatif.py)
+    assert list(rows[0])[-3:] == ["crane_lifts", "cost", "cost_crew_rates_x2"]
     assert {r["fidelity"] for r in rows} == {"pymunk"}
     assert prio["seed_bound_mean_s"] == pytest.approx((bounds[0] + bounds[1]) / 2, abs=1e-3)
     mine = [r for r in jsonl if r["strategy"] == "priority"]

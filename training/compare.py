@@ -52,6 +52,14 @@ continues a run only on the floor and calibration it started on. Writes into DIR
   versions and the command; ``resume.json``, what ``--resume`` checks; with the ``cpsat``
   strategy ``cpsat_plan.json``, the plan replayed.
 
+A what-if (docs/levers.md): ``--case`` given several times, or ``--variant NAME=CHANGES``
+(repeatable, e.g. ``more_rc=crews.RC+1``; ``cmdp_pymunk.cases.levers``), plays every case and
+variant on the same seeds and writes ``whatif.md``, ``whatif.csv``, ``whatif.json`` (paired
+differences of makespan and cost against the first, P50/P80, time use per crew type),
+``episodes.jsonl``, ``episodes.csv``, ``time_use.csv``, ``variants/NAME.toml`` and
+``settings.json`` (``training.whatif``). Every run costs its episodes (``cmdp_pymunk.cost``:
+``cost`` in the rows, a "Cost" table in ``summary.md``).
+
 ``resume.json`` and ``cpsat_plan.json`` are written before the first episode; ``episodes.csv``,
 the summaries, the figures and ``settings.json`` at the end, each atomically: a stopped run
 leaves none of them half-written. Exit status 1 if any episode stalled, timed out or was lost
