@@ -176,8 +176,8 @@ def test_histogram_and_s_curve_inputs_match_the_episodes(tmp_path):
 
     assert [entry[f"finish_{k}"] for k in ("mean", "p50", "p80", "p90")] == [by_hand(
         entry[f"makespan_{k}_s"]) for k in ("mean", "p50", "p80", "p90")]
-    finishes = {int(line.split(",")[2]): line.rsplit(",", 1)[1]
-                for line in (out / "episodes.csv").read_text().splitlines()[1:]}
+    finishes = {int(r["seed"]): r["finish"]  # by name: the cost columns follow it
+                for r in csv.DictReader((out / "episodes.csv").open())}
     assert finishes == {r["seed"]: by_hand(r["makespan_s"]) for r in rows}
     assert f"| priority | scripted | {by_hand(entry['makespan_mean_s']).replace('T', ' ')}" in \
         (out / "summary.md").read_text()
