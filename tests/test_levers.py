@@ -88,8 +88,10 @@ def test_levers_bound_what_a_variant_may_change():
     moved = make_variant(case, "ST-rebars.spot=1, RC+1")
     assert (moved.case.storages[0].x_m, moved.case.storages[0].y_m) == (6.0, -4.5)
     for changes, words in (("RC+2", ["gives 3 RC crew(s), outside", "max = 2"]),
-                           ("rebars.reorder_at=0.8", ["0.8 is outside", "reorder_at = [0, 0.5]"]),
-                           ("HIC+1", ["names no crews lever for HIC", "fix: add [levers.crews.HIC]"]),
+                           ("rebars.reorder_at=0.8",
+                            ["0.8 is outside", "reorder_at = [0, 0.5]"]),
+                           ("HIC+1", ["names no crews lever for HIC",
+                                      "fix: add [levers.crews.HIC]"]),
                            ("ST-rebars.spot=2", ["has 2 spot(s)", "fix: give spot=0 to 1"]),
                            ("ST-rebars.x_m=5", ["gives no region", "fix:"])):
         with pytest.raises(CaseError) as err:
