@@ -242,7 +242,7 @@ def test_evaluate_rows_and_summaries_carry_the_cost(tmp_path, disrupted_file):
                            "late_delivery_count,late_delivery_downtime_s,absence_count,"
                            "absence_downtime_s,weather_count,weather_downtime_s,"
                            "undisrupted_makespan_s,disruption_delay_s,disruption_delay_pct,seed_bound_s,"
-                           "fidelity")
+                           "fidelity,crane_lifts,cost,cost_crew_rates_x2")  # cost: docs/levers.md
     summary = json.loads((out / "summary.json").read_text())
     mine = [float(r["disruption_delay_s"]) for r in rows if r["strategy"] == "priority"]
     assert summary[0]["disruption_cost_seeds"] == 2

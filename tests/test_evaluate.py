@@ -120,7 +120,9 @@ def test_evaluate_writes_every_file(tmp_path, capsys):
     jsonl = [json.loads(line) for line in (out / "episodes.jsonl").read_text().splitlines()]
     assert all(r["seed_bound_s"] == pytest.approx(bounds[r["seed"]], abs=1e-3) for r in jsonl)
     # appended after it: the floor the episode ran on (--fidelity; tests/test_fidelity_cli.py)
-    assert list(rows[0])[-2:] == ["seed_bound_s", "fidelity"]
+    assert list(rows[0])[-5:-3] == ["seed_bound_s", "fidelity"]
+    # then what each episode cost (docs/levers.md; tests/test_whatif.py)
+    assert list(rows[0])[-3:] == ["crane_lifts", "cost", "cost_crew_rates_x2"]
     assert {r["fidelity"] for r in rows} == {"pymunk"}
     assert prio["seed_bound_mean_s"] == pytest.approx((bounds[0] + bounds[1]) / 2, abs=1e-3)
     mine = [r for r in jsonl if r["strategy"] == "priority"]
@@ -174,8 +176,8 @@ def test_histogram_and_s_curve_inputs_match_the_episodes(tmp_path):
 
     assert [entry[f"finish_{k}"] for k in ("mean", "p50", "p80", "p90")] == [by_hand(
         entry[f"makespan_{k}_s"]) for k in ("mean", "p50", "p80", "p90")]
-    finishes = {int(line.split(",")[2]): line.rsplit(",", 1)[1]
-                for line in (out / "episodes.csv").read_text().splitlines()[1:]}
+    finishes = {int(r["seed"]): r["finish"]  # by name: the cost columns follow it
+                for r in csv.DictReader((out / "episodes.csv").open())}
     assert finishes == {r["seed"]: by_hand(r["makespan_s"]) for r in rows}
     assert f"| priority | scripted | {by_hand(entry['makespan_mean_s']).replace('T', ' ')}" in \
         (out / "summary.md").read_text()

@@ -52,6 +52,14 @@ continues a run only on the floor and calibration it started on. Writes into DIR
   versions and the command; ``resume.json``, what ``--resume`` checks; with the ``cpsat``
   strategy ``cpsat_plan.json``, the plan replayed.
 
+A what-if (docs/levers.md): ``--case`` given several times, or ``--variant NAME=CHANGES``
+(repeatable, e.g. ``more_rc=crews.RC+1``; ``cmdp_pymunk.cases.levers``), plays every case and
+variant on the same seeds and writes ``whatif.md``, ``whatif.csv``, ``whatif.json`` (paired
+differences of makespan and cost against the first, P50/P80, time use per crew type),
+``episodes.jsonl``, ``episodes.csv``, ``time_use.csv``, ``variants/NAME.toml`` and
+``settings.json`` (``training.whatif``). Every run costs its episodes (``cmdp_pymunk.cost``:
+``cost`` in the rows, a "Cost" table in ``summary.md``).
+
 ``resume.json`` and ``cpsat_plan.json`` are written before the first episode; ``episodes.csv``,
 the summaries, the figures and ``settings.json`` at the end, each atomically: a stopped run
 leaves none of them half-written. Exit status 1 if any episode stalled, timed out or was lost
@@ -102,6 +110,7 @@ from training.runs.runner import (
     cost_fields,
 )
 from training.runs.runner import check_specs as check_episode_specs
+from training.whatif import MONEY_FIELDS, cost_note, money_summary, money_table, played_row
 
 DEFAULT_STRATEGIES = ("priority", "nearest")  # CP-SAT (about 20 s on the built-in floor) on request
 
@@ -157,6 +166,14 @@ class EvaluateArgs:
     working_hours: str | None = None
     working_days: str | None = None
     holidays: str | None = None
+    # a what-if (docs/levers.md): every --case (the first is ``case``) and --variant NAME=CHANGES
+    cases: tuple[Path, ...] = ()
+    variants: tuple[str, ...] = ()
+
+    @property
+    def whatif(self) -> bool:
+        """Several cases or variants compared on the same seeds (``whatif``)."""
+        return len(self.cases) > 1 or bool(self.variants)
 
     @property
     def solves_cpsat(self) -> bool:
@@ -178,7 +195,13 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
         "Exit status 1 if an episode stalled, timed out or was lost, 2 for bad options, 130 "
         "on Ctrl-C. docs/comparing.md"))
     cmdp_pymunk.add_version_flag(p)
-    p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
+    p.add_argument("--case", type=Path, action="append", default=None,
+                   help="case file (default: built-in); give it several times to compare "
+                        "cases on the same seeds (a what-if: whatif.md, docs/levers.md)")
+    p.add_argument("--variant", action="append", default=None, metavar="NAME=CHANGES",
+                   help="a variant of the (first) case compared with it on the same seeds, "
+                        "e.g. more_rc=crews.RC+1 or early=rebars.reorder_at=0.5,crews.FC-1; "
+                        "repeatable (a what-if: whatif.md, docs/levers.md)")
     p.add_argument("--seeds", type=seed_list, default=list(range(20)),
                    help="seeds, e.g. 0-19 (default) or 0,3,5")
     p.add_argument("--strategies", type=spec_list, default=list(DEFAULT_STRATEGIES),
@@ -229,18 +252,32 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
     for name, specs in (("--strategies", a.strategies), ("--navigators", a.navigators)):
         if len(set(specs)) != len(specs):
             p.error(f"{name} names one twice")
-    return EvaluateArgs(a.case, a.seeds, a.strategies, a.navigators, a.workers, a.out,
+    cases, variants = tuple(a.case or ()), tuple(a.variant or ())
+    if len(set(cases)) != len(cases):
+        p.error("--case names one file twice")
+    if len(cases) > 1 or variants:  # a what-if: what it cannot do, before anything runs
+        for flag, given in (("--resume", a.resume), ("--cpsat-bound", a.cpsat_bound),
+                            ("the cpsat strategy", "cpsat" in a.strategies),
+                            ("--calendar and its options", any(
+                                (a.calendar, a.start, a.working_hours, a.working_days,
+                                 a.holidays)))):
+            if given:
+                p.error(f"{flag} does not go with a what-if (several --case or --variant); "
+                        "fix: run it on one case without --variant")
+    return EvaluateArgs(cases[0] if cases else None, a.seeds, a.strategies, a.navigators,
+                        a.workers, a.out,
                         a.stall_s, a.max_time_s, a.cpsat_s, a.deterministic,
                         not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
                         a.per_seed, not a.no_disruption_cost, a.fidelity, a.calibration,
-                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays)
+                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays,
+                        cases, variants)
 
 
 def _episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int,
                  cost: bool = False) -> dict:
     """One episode's row; ``cost``: the same seed also on the case without its disruptions,
     in the same worker, for what they cost (``cost_fields``)."""
-    row = runner.run(spec, navigator, seed)
+    row = played_row(runner, spec, navigator, seed)
     undisrupted = runner.run(spec, navigator, seed, undisrupted=True) if cost else None
     return {**row, **cost_fields(row, undisrupted)}
 
@@ -373,6 +410,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
         with sigint_guard():
+            if args.whatif:
+                return _whatif_main(args)
             return _main(args)
     except KeyboardInterrupt:
         kept = len(read_log(args.out / LOG))
@@ -476,12 +515,17 @@ def _main(args: EvaluateArgs) -> int:
     if calendar is not None:  # appended: older columns keep their places
         rows, summary = date_finishes(calendar, rows, summary)
         fields.append("finish")
+    fields += MONEY_FIELDS  # appended too
+    summary = [{**e, **money_summary([r for r in rows if (r["strategy"], r["navigator"])
+                                      == (e["strategy"], e["navigator"])], rows, e)}
+               for e in summary]
     time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
     if floor.fidelity == "event":  # no event-floor table may pass for the pymunk floor's
         table = f"On the {floor.label()}, not the pymunk floor.\n\n" + table
     if calendar is not None:
         table += "\n" + finish_dates_table(calendar, summary)
+    table += "\n" + money_table(summary, case)
     if time_use:
         table += "\n" + time_use_table(time_use)
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
@@ -519,6 +563,128 @@ def _main(args: EvaluateArgs) -> int:
     print(table, end="")
     print(f"cmdp-evaluate: {ran} episodes in {wall:.0f} s "
           f"({ran / max(wall, 1e-9):.2f} episodes/s) -> {args.out}")
+    return 1 if any(not r["finished"] for r in rows) else 0
+
+
+def whatif_entries(args: EvaluateArgs) -> list:
+    """The cases and variants of a what-if (``training.whatif.Entry``), the base first, each
+    validated and with its floor, before anything runs; ValueError (a ``CaseError`` for a bad
+    case or variant) naming the option, the entry and the fix. A variant runs on its base's
+    floor: on the event floor, with the base case's calibration (crew-type numbers fitted on
+    the base floor; the output says so)."""
+    from cmdp_pymunk.cases.levers import make_variant, parse_variant_option
+    from training.whatif import Entry
+
+    paths = list(args.cases) or [None]
+    entries: list[Entry] = []
+    for i, path in enumerate(paths):
+        case = cmdp_pymunk.load_case(path)
+        floor = resolve_floor(case, path, args.fidelity, args.calibration if i == 0 else None,
+                              {"--navigators": args.navigators})
+        name = case.case.name
+        if any(e.name == name for e in entries):
+            name = Path(path).stem if path is not None else "built-in"
+        entries.append(Entry(name, "", case, str(path) if path else "built-in", floor))
+    base = entries[0]
+    for text in args.variants:
+        name, changes = parse_variant_option(text)
+        if any(e.name == name for e in entries):
+            raise ValueError(f"--variant {text!r}: the name {name!r} is taken; fix: give each "
+                             "case and variant its own name")
+        variant = make_variant(base.case, changes, name, source=f"--variant {name}")
+        entries.append(Entry(name, variant.label, variant.case, f"--variant {text}",
+                             base.floor))
+    return entries
+
+
+def _whatif_main(args: EvaluateArgs) -> int:
+    """The what-if (``training.whatif``): every case and variant x strategy x low level x
+    seed; writes episodes.jsonl, episodes.csv, whatif.md, whatif.csv, whatif.json,
+    time_use.csv, variants/NAME.toml (each variant as a case file) and settings.json."""
+    from tqdm import tqdm
+
+    from cmdp_pymunk import interrupt
+    from cmdp_pymunk.cases.levers import variant_toml
+    from training.whatif import PAIRING_NOTE, whatif_job, whatif_summary, whatif_table
+
+    try:
+        entries = whatif_entries(args)
+        for e in entries:
+            check_specs(e.case, args.strategies, args.navigators, args.deterministic)
+    except ValueError as err:  # CaseError is a ValueError
+        raise _Stop(str(err)) from None
+    args.out.mkdir(parents=True, exist_ok=True)
+    tail = (args.stall_s, args.max_time_s, args.deterministic, None)
+    labels = [(e, s, n, seed) for e in entries for n in args.navigators
+              for s in args.strategies for seed in args.seeds]
+    jobs = [(e.name, e.case.model_dump(mode="json"), (*tail, *e.floor.runner_args), s, n,
+             seed) for e, s, n, seed in labels]
+    print(f"cmdp-evaluate: what-if of {len(entries)} cases and variants against "
+          f"{entries[0].name!r} on the {entries[0].floor.label()}: {len(jobs)} episodes "
+          f"({len(args.strategies)} strategies x {len(args.navigators)} low level(s) x "
+          f"{len(args.seeds)} seeds each)", flush=True)
+    note = entries[0].floor.uncalibrated_note(args.case)
+    if note:
+        print(f"cmdp-evaluate: {note}", file=sys.stderr, flush=True)
+    rows: list[dict | None] = [None] * len(jobs)
+    start = time.perf_counter()
+    bar = tqdm(total=len(jobs), unit="episode", disable=not args.progress, mininterval=1.0,
+               desc="cmdp-evaluate")
+    try:
+        with (args.out / LOG).open("w") as log, \
+                open_backend(whatif_job, None, args.workers, args.ray) as pool:
+            for i, row in pool.as_completed(jobs):
+                e, strategy, navigator, seed = labels[i]
+                rows[i] = {"variant": e.name, "strategy": strategy, "navigator": navigator,
+                           "seed": seed, "fidelity": e.floor.fidelity, **row}
+                log.write(json.dumps(rows[i]) + "\n")
+                log.flush()
+                bar.update(1)
+    except WorkerLost as err:
+        print(f"cmdp-evaluate: {err}; the finished episodes are in {args.out / LOG}",
+              file=sys.stderr)
+        return 1
+    finally:
+        bar.close()
+    wall = time.perf_counter() - start
+    summary = whatif_summary(rows, entries)
+    notes = [cost_note(entries[0].case)]
+    if any(e.changes and e.floor.fidelity == "event" for e in entries):
+        notes.append(f"On the {entries[0].floor.label()}, not the pymunk floor; each variant "
+                     "runs on its base's calibration (crew-type numbers fitted on the base "
+                     "floor).")
+    time_use = time_use_summary([{**r, "strategy": f"{r['variant']} / {r['strategy']}"}
+                                 for r in rows])
+    table = whatif_table(summary, entries, notes)
+    if time_use:
+        table += "\n" + time_use_table(time_use)
+    fields = ["variant", "strategy", "navigator", "seed", *ROW_FIELDS, *SEED_BOUND_FIELDS,
+              "fidelity", *MONEY_FIELDS]
+    settings = {**asdict(args), "backend": pool.label, "episodes": len(rows),
+                "entries": [{"name": e.name, "changes": e.changes, "source": e.source,
+                             "case": e.case.case.name, **e.floor.record()} for e in entries],
+                "pairing": PAIRING_NOTE, "wall_s": round(wall, 1), "command": sys.argv,
+                "versions": versions()}
+    interrupt.enter()  # a Ctrl-C while the results are written is held until all are
+    try:
+        write_atomic(args.out / "episodes.csv", csv_text(rows, fields))
+        write_atomic(args.out / "whatif.csv", csv_text(summary, list(summary[0])))
+        write_atomic(args.out / "whatif.md", table)
+        write_atomic(args.out / "whatif.json", json.dumps(summary, indent=1) + "\n")
+        if time_use:
+            write_atomic(args.out / "time_use.csv", csv_text(time_use, list(time_use[0])))
+        for e in entries:
+            if e.changes:
+                (args.out / "variants").mkdir(exist_ok=True)
+                write_atomic(args.out / "variants" / f"{e.name}.toml", variant_toml(
+                    e.case, f"Variant {e.name!r} of {entries[0].name!r}: {e.changes}\n"
+                    f"(cmdp-evaluate {e.source}; docs/levers.md)"))
+        write_atomic(args.out / "settings.json",
+                     json.dumps(settings, indent=2, default=str) + "\n")
+    finally:
+        interrupt.leave()
+    print(table, end="")
+    print(f"cmdp-evaluate: {len(rows)} episodes in {wall:.0f} s -> {args.out}")
     return 1 if any(not r["finished"] for r in rows) else 0
 
 

@@ -22,6 +22,7 @@ from typing import Union, get_args, get_origin
 from pydantic import BaseModel, ValidationError
 
 from .floorplan import GEOMETRY_TOLERANCE_M, Rect
+from .lever_checks import cost_problems, lever_problems
 from .model import (  # noqa: F401  (re-exported: the models are part of this API)
     Calendar,
     Case,
@@ -662,6 +663,8 @@ def case_from_dict(data: dict, source: str = "<case>") -> Case:
     parts = _parts(data, case)
     problems += [p for p in _semantic_problems(parts) if p not in problems]
     problems += [p for p in _disruption_problems(data, case, parts) if p not in problems]
+    if case is not None:  # beyond the paper: [cost] and [levers] against the case
+        problems += _cost_and_lever_problems(case)
     if case is not None and not problems:
         problems = _time_problems(case)
     if case is not None and not problems:  # the crews can reach their work: reach.py
@@ -670,6 +673,12 @@ def case_from_dict(data: dict, source: str = "<case>") -> Case:
         raise CaseError(source, problems)
     assert case is not None
     return case
+
+
+def _cost_and_lever_problems(case: Case) -> list[str]:
+    """``[cost]`` naming crew types the case lacks, and a bad ``[levers]`` section
+    (``lever_checks``)."""
+    return cost_problems(case) + lever_problems(case)
 
 
 def _toml_problem(err: tomllib.TOMLDecodeError, text: str) -> str:

@@ -503,6 +503,111 @@ class Calendar(_Model):
         return parse_working_hours(self.working_hours)[1]
 
 
+# -- beyond the paper: what a run costs, and what a planner may change (docs/levers.md) -------
+
+Count = Annotated[int, Strict(), Field(ge=0)]
+Bounds = tuple[NonNegative, NonNegative]
+
+
+class Cost(_Model):
+    """``[cost]``: what a floor costs per hour, beside its makespan (``cmdp_pymunk.cost``).
+
+    Every crew is paid from the floor's start to its makespan (``crew_rate_per_h`` per crew
+    of a type; a type not named there costs ``default_crew_rate_per_h``); the crane is hired
+    per hour and optionally per lift (``crane_per_lift``: each crane lift or hoisting
+    assistance); the site's time-related overhead runs per hour; past ``due_s`` (simulated,
+    i.e. working, seconds) ``penalty_per_day`` is charged per working day of ``day_s``
+    seconds, pro rata. The defaults are assumptions, not sourced rates (docs/levers.md).
+    """
+
+    currency: str = "EUR"
+    crew_rate_per_h: dict[str, NonNegative] = {}
+    default_crew_rate_per_h: NonNegative = 200.0
+    crane_per_h: NonNegative = 150.0
+    crane_per_lift: NonNegative = 0.0
+    overhead_per_h: NonNegative = 250.0
+    due_s: Positive | None = None
+    penalty_per_day: NonNegative = 0.0
+    day_s: Positive = 28800.0
+
+    @model_validator(mode="after")
+    def _penalty_needs_due(self) -> Cost:
+        if self.penalty_per_day > 0 and self.due_s is None:
+            raise ValueError("penalty_per_day is charged past a due date, and there is none; "
+                             "fix: add due_s = <simulated seconds> or remove penalty_per_day")
+        return self
+
+    def crew_rate(self, crew_type: str) -> float:
+        """A crew of ``crew_type``'s rate per hour."""
+        return self.crew_rate_per_h.get(crew_type, self.default_crew_rate_per_h)
+
+
+class CrewLever(_Model):
+    """How many crews of one type a variant may have (``min`` to ``max``), and optionally the
+    start points added crews take, in order (``starts``, [x, y] in metres); without them an
+    added crew starts at the free point nearest its type's starts (``levers.free_starts``)."""
+
+    min: Count = 0
+    max: Count
+    starts: tuple[tuple[Number, Number], ...] = ()
+
+    @model_validator(mode="after")
+    def _ordered(self) -> CrewLever:
+        if self.min > self.max:
+            raise ValueError(f"min = {self.min} is above max = {self.max}; fix: give the "
+                             "fewest crews as min and the most as max")
+        return self
+
+
+def _ordered_bounds(bounds: tuple[float, float] | None, name: str) -> None:
+    if bounds is not None and bounds[0] > bounds[1]:
+        raise ValueError(f"{name} = [{bounds[0]:g}, {bounds[1]:g}] runs backwards; fix: give "
+                         "[lowest, highest]")
+
+
+class MaterialLever(_Model):
+    """Within which bounds a material's reorder point (``reorder_at``) and crane lift batch
+    (``crane_lift_quantity``) may move, each ``[lowest, highest]`` in the material's unit."""
+
+    reorder_at: Bounds | None = None
+    crane_lift_quantity: tuple[Positive, Positive] | None = None
+
+    @model_validator(mode="after")
+    def _ordered(self) -> MaterialLever:
+        _ordered_bounds(self.reorder_at, "reorder_at")
+        _ordered_bounds(self.crane_lift_quantity, "crane_lift_quantity")
+        return self
+
+
+class StorageLever(_Model):
+    """Where a storage may move (``spots``: candidate centres [x, y]; or ``region``: [x0, y0,
+    x1, y1], the rectangle its centre may lie in) and within which bounds its capacity may
+    change (``capacity``: [lowest, highest])."""
+
+    spots: tuple[tuple[Number, Number], ...] = ()
+    region: tuple[Number, Number, Number, Number] | None = None
+    capacity: tuple[Positive, Positive] | None = None
+
+    @model_validator(mode="after")
+    def _ordered(self) -> StorageLever:
+        _ordered_bounds(self.capacity, "capacity")
+        if self.region is not None and (self.region[0] > self.region[2]
+                                        or self.region[1] > self.region[3]):
+            raise ValueError("region runs backwards; fix: give [x0, y0, x1, y1] with x0 <= x1 "
+                             "and y0 <= y1")
+        return self
+
+
+class Levers(_Model):
+    """``[levers]``: what a variant of the case may change, and within which bounds
+    (``cmdp_pymunk.cases.levers``). A case without it may change any of these levers; a case
+    with it only those it names."""
+
+    crews: dict[str, CrewLever] = {}
+    materials: dict[str, MaterialLever] = {}
+    storages: dict[str, StorageLever] = {}
+
+
 class Case(_Model):
     """A whole case, validated. Build one with :func:`load_case` or :func:`case_from_dict`."""
 
@@ -521,11 +626,16 @@ class Case(_Model):
     tasks: Annotated[tuple[Task, ...], Field(min_length=1)]
     disruptions: Disruptions = Disruptions()
     calendar: Calendar | None = None
+    cost: Cost | None = None
+    levers: Levers | None = None
 
     @model_serializer(mode="wrap")
-    def _without_absent_calendar(self, handler):
-        # A case without a calendar dumps as before it had one (case.json, run records).
+    def _without_absent_sections(self, handler):
+        # A case without a calendar, a cost model or levers dumps as before they existed
+        # (case.json, run records, the event floor's calibration fingerprint).
         data = handler(self)
-        if isinstance(data, dict) and data.get("calendar") is None:
-            data.pop("calendar", None)
+        if isinstance(data, dict):
+            for section in ("calendar", "cost", "levers"):
+                if data.get(section) is None:
+                    data.pop(section, None)
         return data
