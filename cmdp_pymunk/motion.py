@@ -124,6 +124,28 @@ class Motion(Protocol):
         """Values may have changed (from outside, between seconds): the crews follow."""
 
 
+# motions beyond the two shipped, by the name ``--fidelity`` and ``make_floor`` take
+_REGISTERED: dict[str, Callable] = {}
+
+
+def register_motion(name: str, factory: Callable) -> None:
+    """Make a motion available by ``name`` to ``eventfloor.make_floor`` and so to every
+    command's ``--fidelity`` (``cmdp-simulate``, ``cmdp-evaluate``...): ``factory(calibration)``
+    returns a new ``Motion`` (one per engine; ``calibration`` is the event floor's, None
+    unless ``--calibration`` was given). The shipped names cannot be taken."""
+    if name in ("pymunk", "event"):
+        raise ValueError(f"motion name {name!r} is taken by a shipped motion; fix: another name")
+    if not name.isidentifier():
+        raise ValueError(f"motion name {name!r} is not an identifier; fix: letters, digits and "
+                         "underscores, e.g. 'teleport'")
+    _REGISTERED[name] = factory
+
+
+def registered_motions() -> dict[str, Callable]:
+    """The motions registered beyond the shipped two (``register_motion``), by name."""
+    return dict(_REGISTERED)
+
+
 class PhysicsMotion:
     """The paper's P_phy (see the module doc): one second a span, the low level's reaching
     actions through Eq. 1 on a ``physics.Physics`` plane. ``plane_factory(case, site)``
@@ -201,4 +223,4 @@ class PhysicsMotion:
         """The low level reads the values in the next second's observations."""
 
 
-__all__ = ["Motion", "PhysicsMotion", "Span", "Second", "crew_states", "tick_reach_clock"]
+__all__ = ["Motion", "PhysicsMotion", "register_motion", "registered_motions", "Span", "Second", "crew_states", "tick_reach_clock"]

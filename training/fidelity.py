@@ -28,10 +28,12 @@ CALIBRATION_HELP = ("with --fidelity event: the event floor's calibration (a .ev
 
 
 def add_fidelity_options(parser) -> None:
-    """``--fidelity {pymunk,event}`` and ``--calibration PATH`` (module doc)."""
-    from cmdp_pymunk.eventfloor import FIDELITIES
+    """``--fidelity {pymunk,event}`` and ``--calibration PATH`` (module doc); a motion
+    registered before the parser is made (``cmdp_pymunk.motion.register_motion``) is a choice
+    too."""
+    from cmdp_pymunk.eventfloor import fidelities
 
-    parser.add_argument("--fidelity", choices=FIDELITIES, default="pymunk", help=FIDELITY_HELP)
+    parser.add_argument("--fidelity", choices=fidelities(), default="pymunk", help=FIDELITY_HELP)
     parser.add_argument("--calibration", type=Path, default=None, metavar="PATH",
                         help=CALIBRATION_HELP)
 
@@ -92,10 +94,10 @@ def resolve_floor(case, case_path: Path | None, fidelity: str, calibration: Path
     with a trained navigator (``navigators``: the command's option -> its specs; the event floor
     has no low level), and a calibration file that is bad or fitted on another floor."""
     from cmdp_pymunk.cases.load import CaseError
-    from cmdp_pymunk.eventfloor import FIDELITIES, calibration_for
+    from cmdp_pymunk.eventfloor import calibration_for, fidelities
 
-    if fidelity not in FIDELITIES:
-        raise ValueError(f"--fidelity {fidelity!r} is not one of {', '.join(FIDELITIES)}; fix: "
+    if fidelity not in fidelities():
+        raise ValueError(f"--fidelity {fidelity!r} is not one of {', '.join(fidelities())}; fix: "
                          "pymunk (the paper's floor, the default) or event")
     if fidelity != "event":
         if calibration is not None:

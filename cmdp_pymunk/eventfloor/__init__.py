@@ -9,7 +9,7 @@ data beside the case (``calibration``). ``make_floor(case, fidelity)`` builds ei
 """
 
 from .calibration import Calibration, calibration_for, load_calibration, uncalibrated
-from .floor import FIDELITIES, EventFloor, WalkMotion, make_floor
+from .floor import FIDELITIES, EventFloor, WalkMotion, fidelities, make_floor
 
-__all__ = ["EventFloor", "WalkMotion", "make_floor", "FIDELITIES", "Calibration", "calibration_for",
+__all__ = ["EventFloor", "WalkMotion", "make_floor", "FIDELITIES", "fidelities", "Calibration", "calibration_for",
            "load_calibration", "uncalibrated"]

@@ -47,14 +47,20 @@ from .. import construct, decide
 from ..cases.model import Case
 from ..engine import Engine
 from ..evaluate import TargetEvaluator
-from ..motion import Span, crew_states, tick_reach_clock
+from ..motion import Span, crew_states, registered_motions, tick_reach_clock
 from ..physics import N_KINDS
 from ..policy import best_target
 from ..state import TASKING, CrewState, Site
 from .calibration import Calibration, uncalibrated
 from .walks import Walk, WalkPlanner
 
-FIDELITIES = ("pymunk", "event")  # the motions ``make_floor`` builds: the paper's, this one
+FIDELITIES = ("pymunk", "event")  # the motions shipped: the paper's, this one
+
+
+def fidelities() -> tuple[str, ...]:
+    """The names ``make_floor`` (and ``--fidelity``) takes: the shipped motions, then those
+    registered (``motion.register_motion``)."""
+    return FIDELITIES + tuple(registered_motions())
 
 
 class EventPlane:
@@ -315,9 +321,12 @@ def make_floor(case: Case, fidelity: str = "pymunk", calibration: Calibration | 
     if fidelity == "event":
         kwargs.pop("park_idle", None)
         return EventFloor(case, calibration=calibration, **kwargs)
-    raise ValueError(f"fidelity {fidelity!r} is not one of {', '.join(FIDELITIES)}; fix: "
+    factory = registered_motions().get(fidelity)
+    if factory is not None:
+        return Engine(case, motion=factory(calibration), **kwargs)
+    raise ValueError(f"fidelity {fidelity!r} is not one of {', '.join(fidelities())}; fix: "
                      "'pymunk' (the paper's floor, the default) or 'event' (the event floor, "
                      "fast, calibrated on pymunk)")
 
 
-__all__ = ["EventFloor", "EventPlane", "WalkMotion", "make_floor", "FIDELITIES"]
+__all__ = ["EventFloor", "EventPlane", "WalkMotion", "make_floor", "FIDELITIES", "fidelities"]
