@@ -100,6 +100,7 @@ from training.cli import (
 )
 
 DEFAULT_IFC_START = "2026-01-05T08:00:00"  # second 0 of the 4D export without a calendar
+MSPDI_FILE = "schedule.xml"  # the schedule as MS Project XML (cmdp_pymunk.exchange.mspdi)
 GIF_SECONDS = 30.0
 GIF_FPS = 10
 POSITION_LOG_EVERY_S = 5.0
@@ -257,6 +258,20 @@ def calendar_line(calendar) -> str:
     return f"calendar {describe(calendar)}, second 0 = {zero:%a %Y-%m-%d %H:%M}{moved}"
 
 
+def mspdi_dates(calendar) -> str:
+    """Where ``schedule.xml``'s dates come from, for the console: the run's calendar, or
+    the documented default when it has none."""
+    from cmdp_pymunk.exchange.mspdi import default_calendar
+    from cmdp_pymunk.workcalendar import describe, first_working_moment
+
+    if calendar is not None:
+        return f"dated from {first_working_moment(calendar):%a %Y-%m-%d %H:%M} by the calendar"
+    default = default_calendar()
+    return (f"no --start given: dated from the default start "
+            f"{first_working_moment(default):%a %Y-%m-%d %H:%M}, working "
+            f"{describe(default)} (--start gives the site's)")
+
+
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
     from cmdp_pymunk.rollout import (
         crew_summary,
@@ -358,6 +373,7 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     ``summary.json`` beside the fidelity the episode ran at. Returns ``summary.json``'s
     data."""
     from cmdp_pymunk.events import EventLog, write_atomic
+    from cmdp_pymunk.exchange.mspdi import write_mspdi
     from cmdp_pymunk.schedule import schedule_csv
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -380,6 +396,8 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     log.write_csv(folder / "events.csv")
     write_atomic(folder / "schedule.csv",
                  schedule_csv(run.events, case, data.get("simulated_s")))
+    # the same schedule for MS Project and the tools that read its XML (module doc)
+    write_mspdi(folder / MSPDI_FILE, run.events, case, data.get("simulated_s"))
     write_json(folder / "summary.json", data)
     if args.ifc is not None:
         import datetime
@@ -606,6 +624,13 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
+    where = "" if args.episodes == 1 else " in each seed-K/"
+    print(f"cmdp-simulate: MS Project schedule (MSPDI XML) {MSPDI_FILE}{where}, "
+          f"{mspdi_dates(case.calendar)}")
+    if args.ifc is not None:
+        print(f"cmdp-simulate: 4D model (IFC) {args.ifc.stem}-4d.ifc{where}, "
+              + ("dated by the calendar" if case.calendar is not None else
+                 f"elapsed time from {(args.ifc_start or DEFAULT_IFC_START).replace('T', ' ')}"))
     what = ("charts, summary" if args.charts and (args.seed_charts or args.episodes > 1)
             else "summary")
     print(f"cmdp-simulate: {what}, schedule.csv and events.csv in {args.out}")
