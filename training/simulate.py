@@ -620,7 +620,7 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         if args.charts:
             from media.episodes import draw_episodes
 
-            draw_episodes(args.out, stats, finishes, len(case.tasks))
+            draw_episodes(args.out, stats, finishes, len(case.tasks), case.calendar)
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
