@@ -7,13 +7,18 @@
                   [--calendar FILE.toml] [--start ISO-DATETIME] [--working-hours HH:MM-HH:MM]
                   [--working-days DAYS] [--holidays DATES]
 
-Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
-by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
-seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.py),
-``events.csv`` (the event log), ``schedule.csv`` (every task of the case: its type, component,
-crew, status, start, end, duration, pauses; unstarted ones with empty times),
-``gantt_agents.png``, ``gantt_tasks.png``, ``trajectories.png`` (an episode that stalled or
-reached the time limit says so on its charts instead of a makespan), with ``--gif``
+Writes into DIR: ``summary.json`` (makespan, tasks finished, per crew the simulated seconds
+it spent reaching and idle by cause (its keys ``reaching_steps`` and ``idle_steps`` count
+steps of the case's ``step_s``, 1 s by default), distance, material trips, crane waits, the
+makespan lower bound and the ratio to it, seed, case, versions; with ``--cpsat-s`` CP-SAT's
+schedule bound, agents/cpsat.py), ``events.csv`` (the event log), ``schedule.csv`` (every task
+of the case: its type, component, crew, status, start, end, duration, pauses; unstarted ones
+with empty times), ``schedule.xml`` (the same schedule as MS Project XML, MSPDI, with the
+precedences as finish-to-start links and the crews as resources:
+``cmdp_pymunk.exchange.mspdi``; dated by the working calendar, else from Mon 2026-01-05 08:00
+on 08:00-16:00 Mon-Fri), ``gantt_agents.png``, ``gantt_tasks.png``, ``resource_profile.png``
+(crews busy per type and the crane's lifts over time), ``trajectories.png`` (an episode that
+stalled or reached the time limit says so on its charts instead of a makespan), with ``--gif``
 ``rollout.gif``, and ``case.json`` (the resolved case). With ``--episodes N`` each episode
 (seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and DIR gets ``makespans.csv``,
 ``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
@@ -145,8 +150,9 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     from training.fidelity import add_fidelity_options
 
     p = OneLineParser(prog="cmdp-simulate", description=plain(__doc__), epilog=(
-        "Writes into --out: summary.json, events.csv, schedule.csv, case.json, "
-        "gantt_agents.png, gantt_tasks.png, trajectories.png (--gif: rollout.gif); with "
+        "Writes into --out: summary.json, events.csv, schedule.csv, schedule.xml (MS "
+        "Project XML), case.json, gantt_agents.png, gantt_tasks.png, resource_profile.png, "
+        "trajectories.png (--gif: rollout.gif); with "
         "--episodes N each seed in seed-K/, and makespans.csv, makespans.json, "
         "makespan_histogram.png and s_curve.png in --out. Disruptions (crane breakdowns, "
         "late deliveries, absences, weather stops) strike with a case that has a "
