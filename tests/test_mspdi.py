@@ -141,6 +141,33 @@ def test_written_whole_and_the_same_bytes_twice(tmp_path, tiny_case):
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+def test_cmdp_simulate_writes_it_and_says_where_its_dates_come_from(tmp_path, capsys):
+    """Without --start the file is dated from the default start, Mon 2026-01-05 08:00, and
+    the console says so; each task starts that plus its schedule.csv start (the tiny floor
+    ends within the first working day)."""
+    import csv
+
+    import cmdp_pymunk
+    from training import simulate
+
+    out = tmp_path / "run"
+    assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),
+                          "--no-progress", "--no-charts"]) == 0
+    assert ("MS Project schedule (MSPDI XML) schedule.xml, no --start given: dated from the "
+            "default start Mon 2026-01-05 08:00, working 08:00-16:00 Mon-Fri") \
+        in capsys.readouterr().out
+    with open(out / "schedule.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    tasks = tasks_of(parsed((out / "schedule.xml").read_bytes()))
+    assert list(tasks) == [r["task"] for r in rows]
+    zero = dt.datetime(2026, 1, 5, 8)
+    for row in rows:
+        assert float(row["end_s"]) < 8 * 3600
+        start = zero + dt.timedelta(seconds=round(float(row["start_s"])))
+        assert tasks[row["task"]].findtext("p:Start", namespaces=NS) == \
+            start.isoformat(timespec="seconds")
+
+
 # -- read back by MPXJ -------------------------------------------------------------------------
 
 
