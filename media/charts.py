@@ -12,7 +12,11 @@
 - :func:`stall_picture`: the floor where a run stalled (``rollout.stall_report``): every crew
   where it stands, drawn to its size, a walking crew's target and the way it means to walk,
   and its last minutes of path from the log.
-- :func:`draw_run` draws all three into a run folder; :class:`GifStream` writes frames as a GIF
+- :func:`resource_profile`: the resources over time, counted from the log: crews busy per
+  crew type (tasking, fetching material, waiting for the crane; :func:`crews_busy`), stacked,
+  and the crane's lifts landed per hour (per 15 minutes in a run under 4 h) with its busy
+  share (:func:`crane_per_bin`).
+- :func:`draw_run` draws all four into a run folder; :class:`GifStream` writes frames as a GIF
   as they come (:func:`write_gif` for a sequence of them). A run on the event floor
   (``summary.json``'s ``fidelity``, docs/event-floor.md) says so in the Gantt charts' titles
   and gets no trajectories: its crews are where the floor has them at events only, not along
@@ -106,6 +110,11 @@ BAND_STYLE: dict[str, dict] = {
     "weather": {"color": "#17becf", "label": "weather stop"},
 }
 OTHER_ACTIVITY = {"color": "#1f77b4", "label": "other"}  # a category this module does not know
+# A crew is busy (the resource profile) while it works on its task: tasking, fetching its
+# material, or waiting for the crane; walking and idle are not busy.
+BUSY_ACTIVITIES = ("tasking", "fetching", "waiting")
+LIFT_STYLE = {"material": {"color": "#2ca02c", "label": "material lifts"},
+              "task": {"color": "#98df8a", "label": "hoisting assists"}}
 LEFT = "left"
 
 PRECAST_FILL = "#f5d742"
@@ -254,6 +263,67 @@ def _draw_bands(ax, events: Sequence[Event]) -> list:
             drawn.append(d.kind)
     return [Patch(facecolor=BAND_STYLE[k]["color"], alpha=0.18,
                   label=f"band: {BAND_STYLE[k]['label']}") for k in drawn]
+
+
+class BusyProfile(NamedTuple):
+    """Crews busy per crew type over time, a step function: ``counts[t][j]`` crews of type
+    ``t`` are busy from ``times_s[j]`` until ``times_s[j + 1]`` (the last value until the end);
+    ``crews[t]`` is how many crews the type has."""
+
+    times_s: np.ndarray
+    counts: dict[str, np.ndarray]
+    crews: dict[str, int]
+
+
+def crews_busy(events: Sequence[Event], crew_types: dict[str, str],
+               end_s: float | None = None) -> BusyProfile:
+    """How many crews of each type are busy (``BUSY_ACTIVITIES``: tasking, fetching material,
+    waiting for the crane) at every moment, counted from the ``activity`` intervals
+    (:func:`activity_intervals`, closed at ``end_s``): each busy interval adds one from its
+    start to its end. Types in ``crew_types``' order of first appearance; a crew not in
+    ``crew_types`` counts under its own id."""
+    intervals = activity_intervals(events, end_s)
+    types = list(dict.fromkeys(crew_types.values()))
+    change: dict[float, dict[str, int]] = {0.0: {}}
+    for crew, spans in intervals.items():
+        kind = crew_types.get(crew, crew)
+        if kind not in types:
+            types.append(kind)
+        for iv in spans:
+            if iv.category in BUSY_ACTIVITIES:
+                for t, step in ((iv.start_s, 1), (iv.end_s, -1)):
+                    at = change.setdefault(t, {})
+                    at[kind] = at.get(kind, 0) + step
+    times = sorted(change)
+    counts = {k: np.cumsum([change[t].get(k, 0) for t in times]).astype(int) for k in types}
+    crews = {k: sum(1 for v in crew_types.values() if v == k) or 1 for k in types}
+    return BusyProfile(np.asarray(times, dtype=float), counts, crews)
+
+
+def crane_lifts(events: Sequence[Event]) -> list[tuple[float, str]]:
+    """Every crane lift of the log as (its landing, ``crane_done``'s time in s; its kind:
+    ``material`` to a storage or ``task``, hoisting assistance), in log order."""
+    return [(e.time_s, e.detail) for e in events if e.kind == "crane_done"]
+
+
+def crane_per_bin(lifts: Sequence[tuple[float, str]], lift_s: dict[str, float], end_s: float,
+                  bin_s: float = HOUR_S) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """The crane's lifts and busy time per bin of ``bin_s`` seconds from 0 to ``end_s``.
+
+    A lift lands at its ``crane_done`` and took its kind's own time before it (``lift_s``:
+    the case's ``lift_time_s`` for ``material``, ``assist_time_s`` for ``task``; a lift that a
+    breakdown held up counts its own time only). Returns the bins' starts (s), per kind the
+    lifts landing in each bin (a landing exactly at a bin's edge counts in the later bin) and
+    each bin's busy share (0-1 of the bin's length)."""
+    n = max(1, int(np.ceil(end_s / bin_s)))
+    starts = np.arange(n) * bin_s
+    count = {kind: np.zeros(n, dtype=int) for kind in lift_s}
+    busy = np.zeros(n)
+    for landed, kind in lifts:
+        count.setdefault(kind, np.zeros(n, dtype=int))[min(int(landed // bin_s), n - 1)] += 1
+        began = max(0.0, landed - lift_s.get(kind, 0.0))
+        busy += np.clip(np.minimum(landed, starts + bin_s) - np.maximum(began, starts), 0, None)
+    return starts, count, busy / bin_s
 
 
 def crew_paths(events: Sequence[Event]) -> dict[str, np.ndarray]:
@@ -526,6 +596,83 @@ def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
     return fig
 
 
+def resource_profile(events: Sequence[Event], case: Case, path: str | Path,
+                     title: str | None = None, end: RunEnd | None = None) -> Path:
+    """The resource profile (:func:`resource_profile_figure`), written as a PNG to ``path``;
+    returns the path."""
+    return save_png(resource_profile_figure(events, case, title, end), path)
+
+
+def resource_profile_figure(events: Sequence[Event], case: Case, title: str | None = None,
+                            end: RunEnd | None = None) -> Figure:
+    """The resources over time: (top) crews busy per crew type, stacked (:func:`crews_busy`),
+    the number of crews a dotted line; (bottom) the crane's lifts landed per bin, stacked by
+    kind, and its busy share of each bin on the right axis (:func:`crane_per_bin`; bins of an
+    hour, of 15 minutes for a run under 4 h). ``end`` marks how the run ended, as on the Gantt
+    charts (default :func:`run_end` of the log and the case); a case with a working calendar
+    gets a date axis on top."""
+    if end is None:
+        end = run_end(events, len(case.tasks))
+    stop = max(log_end_s(events), _chart_end_s(events, end) or 0.0, 1.0)
+    crew_types = {c.id: c.type for c in case.crews}
+    profile = crews_busy(events, crew_types, _chart_end_s(events, end))
+    fig = Figure(figsize=(11, 6.2), layout="constrained")
+    ax, ax_crane = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    hours = np.append(profile.times_s, max(stop, profile.times_s[-1])) / HOUR_S
+    colours = _type_colours(list(profile.counts))
+    base = np.zeros(len(hours))
+    for kind, counts in profile.counts.items():
+        top = base + np.append(counts, counts[-1])
+        name = case.crew_types[kind].name if kind in case.crew_types else kind
+        n = profile.crews[kind]
+        ax.fill_between(hours, base, top, step="post", color=colours[kind], alpha=0.8,
+                        linewidth=0, label=f"{kind}: {name} ({n} crew{'s' if n > 1 else ''})")
+        base = top
+    total = sum(profile.crews.values())
+    ax.axhline(total, color="#444444", linestyle=":", linewidth=1,
+               label=f"all {total} crews")
+    ax.set_ylim(0, total * 1.08)
+    ax.yaxis.get_major_locator().set_params(integer=True)
+    ax.set_ylabel("crews busy\n(tasking, fetching,\nwaiting for the crane)", fontsize=8)
+    bin_s = HOUR_S if stop >= 4 * HOUR_S else HOUR_S / 4
+    starts, lifts, busy = crane_per_bin(
+        crane_lifts(events), {"material": case.crane.lift_time_s,
+                              "task": case.crane.assist_time_s}, stop, bin_s)
+    bottom = np.zeros(len(starts))
+    for kind, count in lifts.items():
+        style = LIFT_STYLE.get(kind, {"color": "#1f77b4", "label": kind})
+        ax_crane.bar(starts / HOUR_S, count, width=bin_s / HOUR_S, bottom=bottom, align="edge",
+                     color=style["color"], edgecolor="white", linewidth=0.5,
+                     label=style["label"])
+        bottom = bottom + count
+    ax_crane.set_ylabel(f"crane lifts\nper {bin_s / 60:.0f} min", fontsize=8)
+    ax_crane.yaxis.get_major_locator().set_params(integer=True)
+    share = ax_crane.twinx()
+    share.step(np.append(starts, starts[-1] + bin_s) / HOUR_S, np.append(busy, busy[-1]) * 100,
+               where="post", color="#444444", linewidth=1.2, label="crane busy (%)")
+    share.set_ylim(0, 105)
+    share.set_ylabel("crane busy (% of the bin)", fontsize=8)
+    for a in (ax, ax_crane):
+        a.grid(axis="x", color="#e5e5e5", linewidth=0.6)
+        a.set_axisbelow(True)
+    ax.set_xlim(0, stop / HOUR_S * 1.01)
+    calendar = case.calendar
+    _date_axis(ax, calendar, stop)
+    ax.set_xlabel("")
+    ax_crane.set_xlabel("simulated working time (h)" if calendar is not None
+                        else "simulated time (h)")
+    _mark_end(ax, events, end, calendar)
+    crane_line = _mark_end(ax_crane, events, end, calendar)
+    if crane_line is not None:  # said once, in the upper legend
+        crane_line.set_label("_nolegend_")
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
+    ax_crane.legend(handles=ax_crane.get_legend_handles_labels()[0]
+                    + share.get_legend_handles_labels()[0], loc="upper right", fontsize=7,
+                    framealpha=0.9)
+    ax.set_title(_titled(title or "Resources over time", end))
+    return fig
+
+
 def _draw_layout(ax, case: Case, faint: bool = False) -> None:
     """The plane's outline, storages, components, the outlet and the crane, equal aspect."""
     plane = case.plane
@@ -715,16 +862,18 @@ def crew_multiples(fig, paths: dict, case: Case, order: list[str]) -> list:
 # ------------------------------------------------------------------------------------------
 # A run folder, GIFs and the command line.
 
-CHART_FILES = ("gantt_agents.png", "gantt_tasks.png", "trajectories.png")
+CHART_FILES = ("gantt_agents.png", "gantt_tasks.png", "trajectories.png", "resource_profile.png")
 
 
 def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
-    """Draw Figs. 9-11 of a saved run from ``run_dir/events.csv`` into ``run_dir``.
+    """Draw Figs. 9-11 and the resource profile of a saved run from ``run_dir/events.csv``
+    into ``run_dir``.
 
     How the run ended (:func:`run_end`) comes from ``run_dir/summary.json`` when there is one,
     else from the log and the case's number of tasks; a case with a working calendar (its
-    ``case.json`` keeps the one the run used) gives both Gantt charts a date axis. Returns the
-    paths of ``gantt_agents.png``, ``gantt_tasks.png`` and ``trajectories.png`` (not drawn
+    ``case.json`` keeps the one the run used) gives both Gantt charts and the resource
+    profile a date axis. Returns the paths of ``gantt_agents.png``, ``gantt_tasks.png``,
+    ``resource_profile.png`` (:func:`resource_profile`) and ``trajectories.png`` (not drawn
     for a run on the event floor: see the module doc). Raises
     FileNotFoundError when there is no ``events.csv`` and ValueError when the log names tasks
     that ``case`` does not define (the run was made with another case).
@@ -749,6 +898,8 @@ def draw_run(run_dir: str | Path, case: Case) -> list[Path]:
                      end=end, calendar=case.calendar),
         gantt_tasks(events, run_dir / CHART_FILES[1], case=case, title=f"Tasks: {name}",
                     end=end),
+        resource_profile(events, case, run_dir / CHART_FILES[3],
+                         title=f"Resources over time: {name}", end=end),
         # paths need positions along the walks, which the event floor does not have
         *([] if event_floor else [trajectories(events, case, run_dir / CHART_FILES[2])]),
     ]
@@ -933,8 +1084,8 @@ def main(argv: list[str] | None = None) -> int:
     from cmdp_pymunk import add_version_flag
 
     parser = argparse.ArgumentParser(prog="python -m media.charts",
-                                     description="Redraw Figs. 9-11 of a saved run from its "
-                                                 "events.csv.")
+                                     description="Redraw Figs. 9-11 and the resource "
+                                                 "profile of a saved run from its events.csv.")
     add_version_flag(parser)
     parser.add_argument("run_dir", type=Path, help="run folder holding events.csv")
     parser.add_argument("--case", type=Path, default=None,

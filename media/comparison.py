@@ -198,6 +198,20 @@ def draw_comparison(rows: list[dict], folder: Path, summary: list[dict] | None =
     return out
 
 
+# time_use.png's legend: ``timeuse.CATEGORIES`` in a planner's words, not the code's names.
+CATEGORY_WORDS = {
+    "working": "working on a task",
+    "loading": "loading material at a storage",
+    "walking": "walking to a target",
+    "idle_predecessor": "idle: waiting for a predecessor",
+    "idle_area": "idle: blocked by a task area",
+    "waiting_crane": "waiting for the crane",
+    "disrupted": "idle: kept from work by a disruption",
+    "no_target": "idle: no task open for its type",
+    "gone": "gone (no work left, leaving the plane)",
+}
+
+
 def draw_time_use(entries: list[dict], path: Path) -> Path:
     """Where the time goes: for each strategy and crew type a horizontal bar of its mean
     crew-hours per floor, stacked by category (``training.runs.paired.time_use_summary``, the
@@ -215,7 +229,8 @@ def draw_time_use(entries: list[dict], path: Path) -> Path:
     left = np.zeros(len(keys))
     for k, category in enumerate(CATEGORIES):
         width = np.array([hours[(*key, category)] for key in keys])
-        ax.barh(range(len(keys)), width, left=left, color=f"C{k % 10}", label=category)
+        ax.barh(range(len(keys)), width, left=left, color=f"C{k % 10}",
+                label=CATEGORY_WORDS.get(category, category))
         left += width
     ax.set_yticks(range(len(keys)), labels, fontsize=8)
     ax.invert_yaxis()

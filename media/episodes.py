@@ -13,8 +13,11 @@
 
 Episodes of the event floor (``fidelity`` "event" in the stats or the summary entries;
 docs/event-floor.md) say so in the titles (:func:`floor_note`), so that no chart of it passes
-for the pymunk floor's. Times in seconds in, hours on the axes. Rendered off-screen and
-written atomically, like ``media.charts``.
+for the pymunk floor's. Times in seconds in, hours on the axes; the P50/P80/P90 lines are
+labelled in hours with the seconds beside them (``P80 9.17 h (33,000 s)``). With a working
+calendar (``cmdp-simulate --start``, the case's ``[calendar]``) the hours are simulated working
+hours, a date axis runs on top (``media.charts.date_ticks``) and the percentiles' labels end
+with their dates. Rendered off-screen and written atomically, like ``media.charts``.
 """
 
 from __future__ import annotations
@@ -25,9 +28,11 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from cmdp_pymunk.cases.load import Calendar
 from cmdp_pymunk.rollout import PERCENTILES
 from cmdp_pymunk.schedule import tasks_ended
-from media.charts import HOUR_S, save_png
+from cmdp_pymunk.workcalendar import calendar_datetime
+from media.charts import HOUR_S, _date_axis, save_png
 
 EPISODE_FILES = ("makespan_histogram.png", "s_curve.png")
 BAND = (10, 90)  # the S-curve's band: percentiles over episodes at each time
@@ -40,16 +45,27 @@ def floor_note(stats: dict | None) -> str:
     return " (event floor)" if (stats or {}).get("fidelity") == "event" else ""
 
 
-def _mark_percentiles(ax, stats: dict, color: str = "black") -> None:
+def percentile_label(q: int, value_s: float, calendar: Calendar | None = None) -> str:
+    """``P80 9.17 h (33,000 s)`` on an axis of hours; with a calendar, its date too:
+    ``P80 9.17 h (33,000 s), Tue 06 Jan 09:10``."""
+    label = f"P{q} {value_s / HOUR_S:.2f} h ({value_s:,.0f} s)"
+    if calendar is not None:
+        label += f", {calendar_datetime(calendar, value_s):%a %d %b %H:%M}"
+    return label
+
+
+def _mark_percentiles(ax, stats: dict, color: str = "black",
+                      calendar: Calendar | None = None) -> None:
     for q in PERCENTILES:
         value = stats.get(f"p{q}_s")
         if value is not None:
             ax.axvline(value / HOUR_S, color=color, linestyle=PERCENTILE_STYLE[q],
-                       linewidth=1.1, label=f"P{q} {value:,.0f} s")
+                       linewidth=1.1, label=percentile_label(q, value, calendar))
 
 
-def makespan_histogram(stats: dict, path: str | Path) -> Path:
-    """A histogram of the finished episodes' makespans, P50/P80/P90 as vertical lines.
+def makespan_histogram(stats: dict, path: str | Path, calendar: Calendar | None = None) -> Path:
+    """A histogram of the finished episodes' makespans, P50/P80/P90 as vertical lines; with
+    ``calendar``, a date axis of the finish on top.
 
     Args:
         stats: ``rollout.makespan_stats`` of the episodes (``makespans_s``, None for an
@@ -61,12 +77,14 @@ def makespan_histogram(stats: dict, path: str | Path) -> Path:
     ax = fig.add_subplot()
     if len(done):
         ax.hist(done / HOUR_S, bins="auto", color="#9ecae1", edgecolor="#3182bd")
-        _mark_percentiles(ax, stats)
+        _mark_percentiles(ax, stats, calendar=calendar)
         ax.legend(fontsize=8)
+        _date_axis(ax, calendar, float(done.max()))
     else:
         ax.text(0.5, 0.5, "no episode finished", ha="center", va="center",
                 transform=ax.transAxes)
-    ax.set_xlabel("makespan (h)")
+    ax.set_xlabel("makespan (h of simulated working time)" if calendar is not None
+                  else "makespan (h)")
     ax.set_ylabel("episodes")
     ax.set_title(f"Makespan over {len(stats['makespans_s'])} episodes "
                  f"({len(done)} finished){floor_note(stats)}")
@@ -75,7 +93,7 @@ def makespan_histogram(stats: dict, path: str | Path) -> Path:
 
 
 def s_curve(finishes: Sequence[Sequence[float]], total_tasks: int, path: str | Path,
-            stats: dict | None = None) -> Path:
+            stats: dict | None = None, calendar: Calendar | None = None) -> Path:
     """Tasks ended over time: each episode thin, the median thick, a 10-90 % band.
 
     Args:
@@ -83,6 +101,7 @@ def s_curve(finishes: Sequence[Sequence[float]], total_tasks: int, path: str | P
         total_tasks: the case's number of tasks (a horizontal line).
         path: the PNG to write.
         stats: ``rollout.makespan_stats`` of the same episodes, to mark P50/P80/P90.
+        calendar: the run's working calendar: a date axis on top, dated percentiles.
     """
     end_s = max((f[-1] for f in finishes if len(f)), default=1.0)
     times = np.linspace(0.0, end_s, CURVE_POINTS)
@@ -100,10 +119,11 @@ def s_curve(finishes: Sequence[Sequence[float]], total_tasks: int, path: str | P
                 label=f"median of {len(ended)} episodes")
     ax.axhline(total_tasks, color="#444444", linewidth=0.8)
     if stats is not None:
-        _mark_percentiles(ax, stats)
+        _mark_percentiles(ax, stats, calendar=calendar)
     ax.set_xlim(0, hours[-1] * 1.01)
     ax.set_ylim(0, total_tasks * 1.04)
     ax.set_xlabel("simulated time (h)")
+    _date_axis(ax, calendar, end_s)  # with a calendar: working hours below, dates on top
     ax.set_ylabel(f"tasks ended (of {total_tasks})")
     ax.set_title(s_curve_title(finishes, total_tasks, stats is not None) + floor_note(stats))
     ax.grid(alpha=0.3)
@@ -126,11 +146,12 @@ def s_curve_title(finishes: Sequence[Sequence[float]], total_tasks: int,
 
 
 def draw_episodes(folder: str | Path, stats: dict, finishes: Sequence[Sequence[float]],
-                  total_tasks: int) -> list[Path]:
-    """``makespan_histogram.png`` and ``s_curve.png`` into ``folder``; returns their paths."""
+                  total_tasks: int, calendar: Calendar | None = None) -> list[Path]:
+    """``makespan_histogram.png`` and ``s_curve.png`` into ``folder`` (dated with
+    ``calendar``); returns their paths."""
     folder = Path(folder)
-    return [makespan_histogram(stats, folder / EPISODE_FILES[0]),
-            s_curve(finishes, total_tasks, folder / EPISODE_FILES[1], stats)]
+    return [makespan_histogram(stats, folder / EPISODE_FILES[0], calendar),
+            s_curve(finishes, total_tasks, folder / EPISODE_FILES[1], stats, calendar)]
 
 
 def strategy_stats(entry: dict) -> dict:
@@ -226,7 +247,7 @@ def strategy_s_curves(rows: Sequence[dict], summary: Sequence[dict], total_tasks
         p80 = entry.get("makespan_p80_s")
         ax.plot(hours, np.median(ended, axis=0), color=colour, linewidth=2.0,
                 label=f"{label}: median of {len(finishes)} seed{'s' if len(finishes) > 1 else ''}"
-                      + (f", P80 {p80:,.0f} s" if p80 is not None else ""))
+                      + (f", {percentile_label(80, p80)}" if p80 is not None else ""))
     ax.axhline(total_tasks, color="#444444", linewidth=0.8)
     ax.set_xlim(0, hours[-1] * 1.01)
     ax.set_ylim(0, total_tasks * 1.04)

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import RUN, make_events, make_log
 
-from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.events import Event, write_atomic
 from media import charts
 
 TASKING_RED = (214, 39, 40)  # #d62728, Fig. 9's tasking colour
@@ -79,7 +79,8 @@ def test_task_types_from_case_or_prefix(tiny_case):
 
 def test_draw_run_writes_three_legible_pngs(run_dir, tiny_case):
     paths = charts.draw_run(run_dir, tiny_case)
-    assert [p.name for p in paths] == ["gantt_agents.png", "gantt_tasks.png", "trajectories.png"]
+    assert [p.name for p in paths] == ["gantt_agents.png", "gantt_tasks.png",
+                                       "resource_profile.png", "trajectories.png"]
     for p in paths:
         assert p.parent == run_dir
         image = iio.imread(p)
@@ -342,3 +343,61 @@ def test_stall_picture_draws_a_hand_made_stall_report(tmp_path, tiny_case):
                    "position_m": [6.0, 3.0], "heading_for": None}]}
     path = charts.stall_picture(report, tiny_case, tmp_path / "stall.png", make_events())
     assert path.read_bytes()[:4] == b"\x89PNG" and not list(tmp_path.glob(".*.tmp"))
+
+
+# conftest.RUN with the crane's two lifts: K-1's hoisting assist lands at 220 s (the tiny
+# case's assist_time_s 30 s: the crane busy 190-220) and M-1's material at 360 s (lift_time_s
+# 60 s: busy 300-360).
+CRANE = [Event(220.0, "crane_done", "K-1", "K-A", "task"),
+         Event(360.0, "crane_done", "M-1", "S", "material")]
+
+
+def test_crews_busy_counted_by_hand():
+    """Busy = tasking, fetching or waiting for the crane (the intervals of
+    test_activity_intervals_by_hand): X-1 (XC) tasks 10-130 and 160-280; K-1 (KC) waits
+    160-220 then tasks 220-300, busy throughout 160-300; M-1 (MC) fetches 320-350, tasks
+    370-400, fetches 400-430, tasks 440-500; M-2 (MC) is never busy. The count changes at
+    each of those times (a switch between two busy activities, at 220 and 400, changes
+    nothing); 0 is always a step."""
+    crew_types = {"X-1": "XC", "K-1": "KC", "M-1": "MC", "M-2": "MC"}
+    profile = charts.crews_busy(make_events(), crew_types)
+    times = [0, 10, 130, 160, 220, 280, 300, 320, 350, 370, 400, 430, 440, 500]
+    assert profile.times_s.tolist() == times
+    assert list(profile.counts) == ["XC", "KC", "MC"]
+    by_time = {k: dict(zip(times, v.tolist(), strict=True)) for k, v in profile.counts.items()}
+    assert [t for t in times if by_time["XC"][t]] == [10, 160, 220]  # on [10,130), [160,280)
+    assert [t for t in times if by_time["KC"][t]] == [160, 220, 280]  # on [160, 300)
+    assert [t for t in times if by_time["MC"][t]] == [320, 370, 400, 440]
+    assert max(max(v.values()) for v in by_time.values()) == 1 and profile.crews == \
+        {"XC": 1, "KC": 1, "MC": 2}
+
+
+def test_crane_lifts_and_busy_share_per_bin_by_hand():
+    """Bins of 200 s up to 540 s: [0, 200), [200, 400), [400, 600). Both lifts land in the
+    second bin; the assist's 30 s (190-220) puts 10 s in the first bin and 20 s in the
+    second, the material lift's 60 s (300-360) all in the second: shares 10/200, 80/200, 0."""
+    lifts = charts.crane_lifts(make_events() + CRANE)
+    assert lifts == [(220.0, "task"), (360.0, "material")]
+    starts, count, busy = charts.crane_per_bin(lifts, {"material": 60.0, "task": 30.0}, 540.0,
+                                               bin_s=200.0)
+    assert starts.tolist() == [0, 200, 400]
+    assert {k: v.tolist() for k, v in count.items()} == {"material": [0, 1, 0],
+                                                         "task": [0, 1, 0]}
+    assert busy.tolist() == pytest.approx([0.05, 0.4, 0.0])
+    # a lift landing on a bin's edge counts in the later bin; its time before it in the earlier
+    _, count, busy = charts.crane_per_bin([(400.0, "material")], {"material": 60.0}, 540.0,
+                                          bin_s=200.0)
+    assert count["material"].tolist() == [0, 0, 1]
+    assert busy.tolist() == pytest.approx([0.0, 0.3, 0.0])
+
+
+def test_resource_profile_chart(tmp_path, tiny_case):
+    fig = charts.resource_profile_figure(make_events() + CRANE, tiny_case)
+    texts = chart_texts(fig)
+    assert "MC: rebar crew (2 crews)" in texts and "XC: cleaning crew (1 crew)" in texts
+    assert "material lifts" in texts and "hoisting assists" in texts
+    assert "crane lifts\nper 15 min" in texts  # a run under 4 h: bins of 15 minutes
+    assert "makespan 0.14 h (500 s)" in texts
+    path = charts.resource_profile(make_events() + CRANE, tiny_case, tmp_path / "r.png")
+    image = iio.imread(path)
+    assert image.shape[1] >= 600 and len(np.unique(image[..., :3].reshape(-1, 3), axis=0)) > 20

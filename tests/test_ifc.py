@@ -91,6 +91,9 @@ def test_the_command_writes_a_case_that_simulates_and_exports_4d(tmp_path, capsy
     assert simulate.main(["--case", str(case_file), "--out", str(run), "--no-charts",
                           "--no-progress", "--ifc", str(model),
                           "--ifc-start", "2026-03-02T07:00:00"]) == 0
+    # the console names the 4D file and where its dates come from
+    assert "4D model (IFC) floor-4d.ifc, elapsed time from 2026-03-02 07:00:00" in \
+        capsys.readouterr().out
     rows = (run / "schedule.csv").read_text().splitlines()[1:]
     assert len(rows) == 20 and all(r.split(",")[6] == "true" for r in rows)  # to the end
     import json

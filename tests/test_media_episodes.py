@@ -67,6 +67,30 @@ def test_a_comparisons_histograms_and_s_curves(tmp_path, monkeypatch):
         "priority: 3 of 3 episodes finished", "nearest: 0 of 1 episodes finished"]
     # priority's 500, 610, 700: P50 610; P80 rank 1.6 -> 610 + 0.6 * 90 = 664
     labels = hist.axes[0].get_legend_handles_labels()[1]
-    assert labels[:2] == ["P50 610 s", "P80 664 s"]
+    assert labels[:2] == ["P50 0.17 h (610 s)", "P80 0.18 h (664 s)"]  # on an axis of hours
     lines = curve.axes[0].get_legend_handles_labels()[1]
-    assert lines == ["priority: median of 2 seeds, P80 664 s", "nearest: median of 1 seed"]
+    assert lines == ["priority: median of 2 seeds, P80 0.18 h (664 s)",
+                     "nearest: median of 1 seed"]
+
+
+def test_with_a_calendar_the_episode_charts_are_dated(tmp_path, monkeypatch):
+    """Second 0 Fri 2026-01-09 15:55, 08:00-16:00 Mon-Fri, Mon 12th a holiday: P50 of
+    makespans 500, 610, 700 s is 610 s = Tue 13 Jan 08:05 (300 s on Friday, 310 on Tuesday);
+    both charts get a date axis on top and hours of working time below."""
+    import media.episodes as episodes
+    from cmdp_pymunk.cases.model import Calendar
+
+    calendar = Calendar(start="2026-01-09T15:55", holidays=["2026-01-12"])
+    stats = {"makespans_s": [500.0, 610.0, 700.0], "p50_s": 610.0, "p80_s": None,
+             "p90_s": None}
+    figures = []
+    monkeypatch.setattr(episodes, "save_png", lambda fig, path: figures.append(fig) or path)
+    episodes.draw_episodes(tmp_path, stats, [[100.0, 500.0], [200.0, 610.0], [300.0, 700.0]],
+                           2, calendar)
+    for fig in figures:
+        ax = fig.axes[0]
+        assert "P50 0.17 h (610 s), Tue 13 Jan 08:05" in ax.get_legend_handles_labels()[1]
+        assert ax.child_axes and "date (second 0: Fri 2026-01-09 15:55" in \
+            ax.child_axes[0].get_xlabel()
+    assert [f.axes[0].get_xlabel() for f in figures] == [
+        "makespan (h of simulated working time)", "simulated working time (h)"]

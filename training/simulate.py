@@ -7,13 +7,18 @@
                   [--calendar FILE.toml] [--start ISO-DATETIME] [--working-hours HH:MM-HH:MM]
                   [--working-days DAYS] [--holidays DATES]
 
-Writes into DIR: ``summary.json`` (makespan, tasks finished, per-crew reaching and idle steps
-by cause, distance, material trips, crane waits, the makespan lower bound and the ratio to it,
-seed, case, versions; with ``--cpsat-s`` CP-SAT's schedule bound, agents/cpsat.py),
-``events.csv`` (the event log), ``schedule.csv`` (every task of the case: its type, component,
-crew, status, start, end, duration, pauses; unstarted ones with empty times),
-``gantt_agents.png``, ``gantt_tasks.png``, ``trajectories.png`` (an episode that stalled or
-reached the time limit says so on its charts instead of a makespan), with ``--gif``
+Writes into DIR: ``summary.json`` (makespan, tasks finished, per crew the simulated seconds
+it spent reaching and idle by cause (its keys ``reaching_steps`` and ``idle_steps`` count
+steps of the case's ``step_s``, 1 s by default), distance, material trips, crane waits, the
+makespan lower bound and the ratio to it, seed, case, versions; with ``--cpsat-s`` CP-SAT's
+schedule bound, agents/cpsat.py), ``events.csv`` (the event log), ``schedule.csv`` (every task
+of the case: its type, component, crew, status, start, end, duration, pauses; unstarted ones
+with empty times), ``schedule.xml`` (the same schedule as MS Project XML, MSPDI, with the
+precedences as finish-to-start links and the crews as resources:
+``cmdp_pymunk.exchange.mspdi``; dated by the working calendar, else from Mon 2026-01-05 08:00
+on 08:00-16:00 Mon-Fri), ``gantt_agents.png``, ``gantt_tasks.png``, ``resource_profile.png``
+(crews busy per type and the crane's lifts over time), ``trajectories.png`` (an episode that
+stalled or reached the time limit says so on its charts instead of a makespan), with ``--gif``
 ``rollout.gif``, and ``case.json`` (the resolved case). With ``--episodes N`` each episode
 (seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and DIR gets ``makespans.csv``,
 ``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
@@ -100,6 +105,7 @@ from training.cli import (
 )
 
 DEFAULT_IFC_START = "2026-01-05T08:00:00"  # second 0 of the 4D export without a calendar
+MSPDI_FILE = "schedule.xml"  # the schedule as MS Project XML (cmdp_pymunk.exchange.mspdi)
 GIF_SECONDS = 30.0
 GIF_FPS = 10
 POSITION_LOG_EVERY_S = 5.0
@@ -144,8 +150,9 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
     from training.fidelity import add_fidelity_options
 
     p = OneLineParser(prog="cmdp-simulate", description=plain(__doc__), epilog=(
-        "Writes into --out: summary.json, events.csv, schedule.csv, case.json, "
-        "gantt_agents.png, gantt_tasks.png, trajectories.png (--gif: rollout.gif); with "
+        "Writes into --out: summary.json, events.csv, schedule.csv, schedule.xml (MS "
+        "Project XML), case.json, gantt_agents.png, gantt_tasks.png, resource_profile.png, "
+        "trajectories.png (--gif: rollout.gif); with "
         "--episodes N each seed in seed-K/, and makespans.csv, makespans.json, "
         "makespan_histogram.png and s_curve.png in --out. Disruptions (crane breakdowns, "
         "late deliveries, absences, weather stops) strike with a case that has a "
@@ -257,6 +264,20 @@ def calendar_line(calendar) -> str:
     return f"calendar {describe(calendar)}, second 0 = {zero:%a %Y-%m-%d %H:%M}{moved}"
 
 
+def mspdi_dates(calendar) -> str:
+    """Where ``schedule.xml``'s dates come from, for the console: the run's calendar, or
+    the documented default when it has none."""
+    from cmdp_pymunk.exchange.mspdi import default_calendar
+    from cmdp_pymunk.workcalendar import describe, first_working_moment
+
+    if calendar is not None:
+        return f"dated from {first_working_moment(calendar):%a %Y-%m-%d %H:%M} by the calendar"
+    default = default_calendar()
+    return (f"no --start given: dated from the default start "
+            f"{first_working_moment(default):%a %Y-%m-%d %H:%M}, working "
+            f"{describe(default)} (--start gives the site's)")
+
+
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
     from cmdp_pymunk.rollout import (
         crew_summary,
@@ -358,6 +379,7 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     ``summary.json`` beside the fidelity the episode ran at. Returns ``summary.json``'s
     data."""
     from cmdp_pymunk.events import EventLog, write_atomic
+    from cmdp_pymunk.exchange.mspdi import write_mspdi
     from cmdp_pymunk.schedule import schedule_csv
 
     folder.mkdir(parents=True, exist_ok=True)
@@ -380,6 +402,8 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     log.write_csv(folder / "events.csv")
     write_atomic(folder / "schedule.csv",
                  schedule_csv(run.events, case, data.get("simulated_s")))
+    # the same schedule for MS Project and the tools that read its XML (module doc)
+    write_mspdi(folder / MSPDI_FILE, run.events, case, data.get("simulated_s"))
     write_json(folder / "summary.json", data)
     if args.ifc is not None:
         import datetime
@@ -602,10 +626,17 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
         if args.charts:
             from media.episodes import draw_episodes
 
-            draw_episodes(args.out, stats, finishes, len(case.tasks))
+            draw_episodes(args.out, stats, finishes, len(case.tasks), case.calendar)
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
+    where = "" if args.episodes == 1 else " in each seed-K/"
+    print(f"cmdp-simulate: MS Project schedule (MSPDI XML) {MSPDI_FILE}{where}, "
+          f"{mspdi_dates(case.calendar)}")
+    if args.ifc is not None:
+        print(f"cmdp-simulate: 4D model (IFC) {args.ifc.stem}-4d.ifc{where}, "
+              + ("dated by the calendar" if case.calendar is not None else
+                 f"elapsed time from {(args.ifc_start or DEFAULT_IFC_START).replace('T', ' ')}"))
     what = ("charts, summary" if args.charts and (args.seed_charts or args.episodes > 1)
             else "summary")
     print(f"cmdp-simulate: {what}, schedule.csv and events.csv in {args.out}")
