@@ -15,9 +15,10 @@ scope needs values: inside the second, or once it is whole for one that branches
 level's name), so that ``clone`` carries it and a branch continues as the original would.
 
 ``reset(seed)`` starts an episode (its random streams, ``streams``, keyed here: a task's pace
-by seed and task); ``step(actions)`` runs one simulated second and returns what happened
-(``motion.Span``, a second on the physics motion); ``advance(actions, until)`` runs seconds until a condition holds, the episode
-ends or it is cut (the idle jump, generalised), and counts them for metrics
+by seed and task); ``step(actions)`` runs one span and returns what happened (``motion.Span``:
+one simulated second on the physics motion, the seconds to the next event on the walk motion);
+``advance(actions, until)`` runs spans until a condition holds, the episode ends or it is cut
+(the idle jump, generalised), and counts them for metrics
 (``metrics.Counters``, beside the dynamics). Observations are the adapters' business
 (``observe``): the PettingZoo env (``env.CMDPEnv``) casts the rays, the stage-2 env
 (``adapters.decision_loop``) builds O^e.

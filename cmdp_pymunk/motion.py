@@ -223,4 +223,5 @@ class PhysicsMotion:
         """The low level reads the values in the next second's observations."""
 
 
-__all__ = ["Motion", "PhysicsMotion", "register_motion", "registered_motions", "Span", "Second", "crew_states", "tick_reach_clock"]
+__all__ = ["Motion", "PhysicsMotion", "register_motion", "registered_motions", "Span", "Second",
+           "crew_states", "tick_reach_clock"]

@@ -1,4 +1,4 @@
-"""One loop, many motions (issue 43): a third motion written from docs/architecture.md's recipe
+"""One loop, many motions (issue 43): a third motion, docs/architecture.md's recipe as written,
 runs the tiny case through the commands and a lookahead branch without touching the engine;
 a clone put on a motion continues to the same schedule."""
 
@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 
@@ -13,97 +14,23 @@ import cmdp_pymunk
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.eventfloor import EventFloor, WalkMotion, calibration_for, make_floor
-from cmdp_pymunk.eventfloor.floor import EventPlane
-from cmdp_pymunk.motion import (
-    Motion,
-    PhysicsMotion,
-    Span,
-    register_motion,
-    registered_motions,
-    tick_reach_clock,
-)
-from cmdp_pymunk.move import congested_velocity
-from cmdp_pymunk.policy import best_target
-from cmdp_pymunk.state import Site
+from cmdp_pymunk.motion import Motion, PhysicsMotion, register_motion, registered_motions
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 
 
-class TeleportMotion:
-    """The recipe's example: a crew that holds target values stands still for the time Eq. 1
-    gives over the straight line to its best target (its nominal forward velocity, no
-    congestion) and is then at the target's centre. Spans of one second."""
-
-    name = "teleport"
-    takes_actions = False  # no low level: crews are placed
-    invasion_of = None  # Eq. 2 with the crews standing in the area
-
-    def plane(self, case, site: Site):
-        return EventPlane(case, site)  # points on a plane: pose, place, nothing collides
-
-    def check(self, engine) -> None:
-        if engine.stage != 2:
-            raise ValueError("teleport: stage 2 only")
-
-    def begin(self, engine) -> None:
-        self.trips = [None] * len(engine.case.crews)  # (target, arrival second, x, y)
-
-    def span_s(self, engine) -> int:
-        return 1
-
-    def quiet(self, engine) -> bool:
-        return False
-
-    def needs_action(self, engine, crew) -> bool:
-        return False
-
-    def position_due(self, engine, crew) -> bool:
-        return self.trips[crew.index] is not None
-
-    def move(self, engine, actions, span: Span) -> None:
-        site, then = engine.site, engine.site.time_s + span.seconds
-        cap = site.case.simulation.reevaluate_after_steps
-        for crew in site.crews:
-            trip = self.trips[crew.index]
-            if not crew.moving or trip is None:
-                span.had_target[crew.index] = False
-                continue
-            if crew.scope:
-                span.timeouts[crew.index] = tick_reach_clock(crew, span.seconds, cap)
-            if then >= trip[1]:
-                px, py = engine.positions[crew.index]
-                span.distance_m[crew.index] = math.hypot(trip[2] - px, trip[3] - py)
-                engine.positions[crew.index] = (trip[2], trip[3])
-                engine.world.place(crew.index, (trip[2], trip[3]))
-
-    def end_span(self, engine, span: Span, ctx) -> None:
-        self.replan(engine)
-
-    def replan(self, engine) -> None:
-        site = engine.site
-        for crew in site.crews:
-            target = best_target(crew) if crew.moving else -1
-            trip = self.trips[crew.index]
-            if target < 0:
-                self.trips[crew.index] = None
-            elif trip is None or trip[0] != target:
-                x, y = _centre(site, crew, target)
-                px, py = engine.positions[crew.index]
-                v = congested_velocity(crew.spec.velocity_m_s, 1.0, 1.0, 0.0)  # Eq. 1, open
-                self.trips[crew.index] = (target, site.time_s + math.ceil(
-                    math.hypot(x - px, y - py) / v), x, y)
+def _recipe() -> dict:
+    """docs/architecture.md's motion recipe, run as written (so the page stays true)."""
+    page = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text()
+    section = page[page.index("**A motion**"):]
+    code = section[section.index("```python") + len("```python"):]
+    code = code[:code.index("```")]
+    namespace: dict = {}
+    exec(compile(code, "docs/architecture.md", "exec"), namespace)
+    return namespace
 
 
-def _centre(site: Site, crew, target: int) -> tuple[float, float]:
-    """The middle of the region that counts a target reached (``decide.reached_target``)."""
-    if target == site.outlet_target:
-        plane = site.case.plane
-        return plane.outlet_x_m, plane.outlet_y_m
-    if target >= len(site.components):
-        x0, y0, x1, y1 = site.storages[target - len(site.components)].rect
-    else:
-        x0, y0, x1, y1 = site.tasks[crew.scope[target]].area
-    return (x0 + x1) / 2, (y0 + y1) / 2
+TeleportMotion = _recipe()["TeleportMotion"]
 
 
 @pytest.fixture

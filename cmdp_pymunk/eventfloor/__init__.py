@@ -11,5 +11,5 @@ data beside the case (``calibration``). ``make_floor(case, fidelity)`` builds ei
 from .calibration import Calibration, calibration_for, load_calibration, uncalibrated
 from .floor import FIDELITIES, EventFloor, WalkMotion, fidelities, make_floor
 
-__all__ = ["EventFloor", "WalkMotion", "make_floor", "FIDELITIES", "fidelities", "Calibration", "calibration_for",
-           "load_calibration", "uncalibrated"]
+__all__ = ["EventFloor", "WalkMotion", "make_floor", "FIDELITIES", "fidelities", "Calibration",
+           "calibration_for", "load_calibration", "uncalibrated"]

@@ -4,9 +4,10 @@ The same engine (``engine.Engine``), case, construction state (``state.Site``), 
 table (Table 1, ``decide``), P_cons (``construct``, Eq. 2), crane queue, precedence, random
 streams (a task's pace is the one it draws on the pymunk floor on the same seed), disruptions
 (``disruptions``), event log and evaluators as the pymunk floor, moved by another motion
-(``WalkMotion``, a ``motion.Motion``) instead of per-second physics and a low level: a crew that holds target values walks to the best of
-them (``steering.best_target``'s rule: highest V_Tar, lowest index on ties) along the shortest
-path, in the time Eq. 1 gives along it (``walks``), and arrives at a whole second.
+(``WalkMotion``, a ``motion.Motion``) instead of per-second physics and a low level: a crew
+that holds target values walks to the best of them (``policy.best_target``'s rule: highest
+V_Tar, lowest index on ties) along the shortest path, in the time Eq. 1 gives along it
+(``walks``), and arrives at a whole second.
 
 Between two events every rate is constant (task paces under the calibrated invasion of
 Eq. 2, loading rates, the crane's countdown, the walks), so a span runs to the next
