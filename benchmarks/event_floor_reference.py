@@ -10,8 +10,8 @@ kind, crew, subject and detail of every event), its makespan, events run and a h
 crew's ``stats``. Then the paths that branch and feed the floor: position events (trajectories),
 values from outside (``pending``), clones continued (the floor's own future and a sampled
 one) and clones onto the walk motion (``clone(motion=WalkMotion(...))``: from an event floor,
-and from the pymunk floor on the tiny case). Speed is not measured here (``bench_event_floor.py``): any line that changes means a
-result changed.
+and from the pymunk floor on the tiny case). Speed is not measured here
+(``bench_event_floor.py``): any line that changes means a result changed.
 """
 
 from __future__ import annotations
