@@ -9,11 +9,12 @@ candidates (a task scope), an event floor is built from the pymunk floor's state
 ``candidates`` best targets is played to the end on ``futures`` sampled futures, the same for
 every candidate (paired, as the lookahead's). Per decision and future, each candidate's
 makespan minus the first's (Eq. 9's choice) is split as ``training.research.label_noise``
-splits a label run's: what every future shares (``signal_sd_s``: the square root of the covariance of two futures'
-differences) and what each future adds (``noise_sd_s``); and how often the best candidate on
-the mean of k futures agrees with the best on the mean of the other half, for k = 1, 2, 4, ...
-The pymunk floor goes on with Eq. 9's values (the states are Eq. 9's). Prints the table and
-the CPU seconds a branch costs; writes every makespan to ``--out`` (JSON).
+splits a label run's: what every future shares (``signal_sd_s``: the square root of the
+covariance of two futures' differences) and what each future adds (``noise_sd_s``); and how
+often the best candidate on the mean of k futures agrees with the best on the mean of the other
+half, for k = 1, 2, 4, ... The pymunk floor goes on with Eq. 9's values (the states are Eq.
+9's). Prints the table and the CPU seconds a branch costs; writes every makespan to ``--out``
+(JSON).
 """
 
 from __future__ import annotations
