@@ -17,10 +17,11 @@ first choice, so the values stay the base's set. A crew holds a choice that over
 until it reaches a target or the target leaves its scope; a choice equal to the base's is not
 held, so with ``candidates=1`` the floor runs exactly as the base rule (a test checks it).
 
-With an ``acting`` evaluator (DAgger's labelling, ``training.research.distill label --acting``) the
-lookahead only labels: it values the base's candidates at every decision as above, records the
-decision, and returns the acting evaluator's values, so the floor goes where that policy takes
-it (the student's own states) while the labels say what one step of lookahead would pick there.
+Its public face beyond ``values_for``: ``candidates_for(engine, i, values)`` (the base's order
+and the candidates a decision tries, or None where there is none) and ``decide(engine, i,
+values)`` (branch them and choose, a ``Decision``; recorded in ``decisions``, which
+``summary`` reads). Whoever wants more of a decision (labels, replays) wraps these from
+outside; the lookahead knows nothing of it.
 
 Racing (``race=k``, issue 32 item 3: sequential halving's idea, dropping what is clearly
 behind rather than a fixed half): every candidate first meets k futures; a candidate whose
@@ -124,7 +125,7 @@ class LookaheadSettings:
 @dataclass
 class Decision:
     """One decision the lookahead made: when, who, the candidates with their mean makespans,
-    the base rule's choice and the one taken (labels for distillation)."""
+    the base rule's choice and the one taken."""
 
     time_s: float
     crew: int
@@ -158,17 +159,11 @@ class LookaheadEvaluator(Evaluator):
 
     between_seconds = True
 
-    def __init__(self, base=None, settings: LookaheadSettings | None = None, acting=None,
-                 low_level=None):
+    def __init__(self, base=None, settings: LookaheadSettings | None = None, low_level=None):
         self.base = base if base is not None else PriorityEvaluator()
         self.settings = settings or LookaheadSettings()
-        if acting is not None and acting.between_seconds:
-            raise ValueError("the lookahead's acting policy must be a plain evaluator (a rule "
-                             "or a model), not one that branches the floor")
-        self.acting = acting  # None: the lookahead acts; else it only labels (module doc)
         self.low_level = low_level if low_level is not None else Navigator()
-        self.decisions: list[Decision] = []
-        self.on_decision = None  # f(engine, i, values, decision): labels for distillation
+        self.decisions: list[Decision] = []  # this episode's (``summary``)
         self._pool = None
         self._episode = None
         self._held: dict[int, tuple[int, int]] = {}  # crew -> (target, reaches when chosen)
@@ -176,11 +171,9 @@ class LookaheadEvaluator(Evaluator):
         self._thinking = None  # (engine's site and time, the event floor built at them)
 
     def prepare(self, case) -> None:
-        """The base, the acting policy and the branches' low level must fit the case; the
+        """The base and the branches' low level must fit the case; the
         event floor's calibration is found once (``think_on="event"``)."""
         self.base.prepare(case)
-        if self.acting is not None:
-            self.acting.prepare(case)
         if self.settings.think_on == "event":
             self.calibration = calibration_for(case)
 
@@ -193,27 +186,27 @@ class LookaheadEvaluator(Evaluator):
 
     def values_for(self, engine, i: int) -> dict[int, float]:
         """V_Tar for crew i's scope: the base's values, with the lookahead's choice on top."""
-        site = engine.site
-        if self._episode is not site:  # a new episode (reset builds a new site)
-            self._episode, self._held, self.decisions = site, {}, []
-        crew = site.crews[i]
+        self._follow(engine)
+        crew = engine.site.crews[i]
         values = self.base.values_for(engine, i)
-        if self.acting is not None:
-            self._decide(engine, i, values)
-            return self.acting.values_for(engine, i)
         held = self._held.get(i)
         if held is not None:
             target, reaches = held
             if target in values and crew.stats.reaches == reaches:
                 return promote(values, target)
             del self._held[i]
-        decision = self._decide(engine, i, values)
+        decision = self.decide(engine, i, values)
         if decision is None or decision.choice == decision.base_choice:
             return values
         self._held[i] = (decision.choice, crew.stats.reaches)
         return promote(values, decision.choice)
 
-    def decision_candidates(self, engine, i: int, values: dict[int, float]) \
+    def _follow(self, engine) -> None:
+        """A new episode (reset builds a new site): no choice held, no decision yet."""
+        if self._episode is not engine.site:
+            self._episode, self._held, self.decisions = engine.site, {}, []
+
+    def candidates_for(self, engine, i: int, values: dict[int, float]) \
             -> tuple[list[int], list[int]] | None:
         """The base's order of crew i's targets and the candidates tried at its decision; None
         where there is nothing to decide: not a task scope, a single target, or not yet the
@@ -227,11 +220,13 @@ class LookaheadEvaluator(Evaluator):
             return None  # not yet the endgame: the base decides
         return order, candidates
 
-    def _decide(self, engine, i: int, values: dict[int, float]) -> Decision | None:
-        """Branch the base's best candidates for crew i and record the decision (None where
-        there is nothing to choose: not a task scope, or a single target)."""
+    def decide(self, engine, i: int, values: dict[int, float]) -> Decision | None:
+        """Branch the base's best candidates for crew i (``values``: the base's) and record
+        the decision (None where there is nothing to choose: not a task scope, a single
+        target, not yet the endgame). It does not hold the choice: ``values_for`` does."""
+        self._follow(engine)
         site = engine.site
-        tried = self.decision_candidates(engine, i, values)
+        tried = self.candidates_for(engine, i, values)
         if tried is None:
             return None
         order, candidates = tried
@@ -250,8 +245,6 @@ class LookaheadEvaluator(Evaluator):
         decision = Decision(site.time_s, i, candidates, makespans, order[0], choice,
                             time.perf_counter() - start, seen)
         self.decisions.append(decision)
-        if self.on_decision is not None:
-            self.on_decision(engine, i, values, decision)
         return decision
 
     # -- branches ------------------------------------------------------------------------------

@@ -181,6 +181,32 @@ ROOM_RULES = {
 }
 
 
+# research wraps the policies from outside: no name in agents/ speaks of labelling them
+RESEARCH_WORDS = ("distill", "label", "acting", "on_decision", "teacher", "relabel")
+
+
+def test_agents_name_nothing_of_research():
+    """Labels, teachers and acting policies live in ``training/research`` (``labelling``
+    wraps the lookahead's public ``candidates_for`` / ``decide``): no identifier in
+    ``agents/`` (names, attributes, arguments, definitions; not prose) names them."""
+    bad = []
+    for path in sorted((ROOT / "agents").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            names = []
+            if isinstance(node, ast.Name):
+                names = [node.id]
+            elif isinstance(node, ast.Attribute):
+                names = [node.attr]
+            elif isinstance(node, ast.arg):
+                names = [node.arg]
+            elif isinstance(node, (ast.FunctionDef, ast.ClassDef, ast.AsyncFunctionDef)):
+                names = [node.name]
+            for name in names:
+                if any(w in name.lower() for w in RESEARCH_WORDS):
+                    bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {name}")
+    assert not bad, f"agents/ names research: {bad}"
+
+
 # the simulation core (cmdp_pymunk/*.py, not its rooms) imports no adapter
 CORE_MODULES = sorted(p for p in (ROOT / "cmdp_pymunk").glob("*.py") if p.name != "__init__.py")
 

@@ -134,20 +134,6 @@ def test_worker_processes_choose_as_this_process_does(tiny_case):
     assert env_one.log.events == env_two.log.events
 
 
-def test_an_acting_policy_drives_the_floor_while_the_lookahead_labels(tiny_case):
-    # DAgger's labelling: the floor is the acting policy's own, and every decision with a
-    # choice is still branched and recorded
-    acting = make_evaluator("nearest")
-    lookahead = LookaheadEvaluator(settings=LookaheadSettings(2, 1, expected_paces=True),
-                                   acting=acting)
-    env = play_floor(lookahead, tiny_case)
-    alone = play_floor(make_evaluator("nearest"), tiny_case)
-    assert env.engine.site.done and env.log.events == alone.log.events
-    assert lookahead.decisions and all(len(d.makespans_s) == 2 for d in lookahead.decisions)
-    with pytest.raises(ValueError, match="plain evaluator"):
-        LookaheadEvaluator(acting=LookaheadEvaluator())
-
-
 def test_racing_drops_what_is_clearly_behind_and_keeps_the_futures_paired(tiny_case):
     """Two candidates from 2 futures each up to 8: each round every survivor meets a prefix
     of the decision's futures (paired); a candidate stops early only where its paired
@@ -209,7 +195,7 @@ def test_an_endgame_lookahead_decides_only_once_its_share_of_tasks_has_ended(tin
 
     endgame = Recording(settings=LookaheadSettings(candidates=2, futures=0, from_share=0.5))
     ended: list = []
-    original = Recording._decide
+    original = Recording.decide
 
     def watched(self, engine, i, values):
         decision = original(self, engine, i, values)
@@ -217,7 +203,7 @@ def test_an_endgame_lookahead_decides_only_once_its_share_of_tasks_has_ended(tin
             ended.append(engine.site.tasks_ended / len(engine.site.tasks))
         return decision
 
-    endgame._decide = watched.__get__(endgame)
+    endgame.decide = watched.__get__(endgame)
     env = play_floor(endgame, tiny_case)
     assert env.engine.site.done
     assert all(share >= 0.5 for share in ended)

@@ -127,15 +127,15 @@ def label_floor(case_path: str | None, seed: int, candidates: int = 3,
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
+    from training.research.labelling import Labeller
 
     features = tuple(features or FEATURE_NAMES)
     case = cmdp_pymunk.load_case(case_path)
     navigator = Navigator()  # drives the floor and, from its plans, the branches
     options = teacher if teacher is not None else f"candidates={candidates}+futures={futures}"
     spec = make_lookahead(options)
-    lookahead = LookaheadEvaluator(spec.base, spec.settings,
-                                   acting=make_evaluator(acting) if acting else None,
-                                   low_level=navigator)
+    lookahead = Labeller(LookaheadEvaluator(spec.base, spec.settings, low_level=navigator),
+                         acting=make_evaluator(acting) if acting else None)
     engine = Engine(case, evaluator=lookahead, park_idle=True)
     rows: list[tuple] = []
     priority = PriorityEvaluator()
@@ -159,7 +159,7 @@ def label_floor(case_path: str | None, seed: int, candidates: int = 3,
     start = time.perf_counter()
     run_episode(engine, navigator, seed, stall_s=3600.0, progress=False)
     return {"seed": seed, "makespan_s": engine.makespan_s, "rows": rows,
-            "wall_s": time.perf_counter() - start, "overrides": lookahead.summary()["overrides"],
+            "wall_s": time.perf_counter() - start, "overrides": lookahead.teacher.summary()["overrides"],
             "teacher": f"lookahead:{options}", "candidates": spec.settings.candidates,
             "features": features, "acting": acting or "", "states": snapshots}
 

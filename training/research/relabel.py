@@ -47,12 +47,13 @@ def relabel_floor(path: str, features: tuple[str, ...],
     elsewhere. ``case_path``: the case the labels were made on (None: the built-in one)."""
     import cmdp_pymunk
     from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
-    from agents.lookahead import Decision, LookaheadEvaluator
+    from agents.lookahead import LookaheadEvaluator
     from agents.navigator import Navigator
     from agents.specs import make_evaluator, make_lookahead
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
+    from training.research.labelling import CandidatesOnly, Labeller
 
     old = dict(np.load(path))
     acting = replace_specs(str(old.get("acting", "")), replace)
@@ -66,23 +67,11 @@ def relabel_floor(path: str, features: tuple[str, ...],
     spec = make_lookahead(teacher.partition(":")[2])
     candidates = old["values"].shape[1]
 
-    class Replay(LookaheadEvaluator):
-        """The lookahead's candidates at each decision of the acting policy's floor, and no
-        branches."""
-
-        def _decide(self, engine, i, values):
-            tried = self.decision_candidates(engine, i, values)
-            if tried is None:
-                return None
-            order, chosen = tried
-            decision = Decision(engine.site.time_s, i, chosen, [np.nan] * len(chosen),
-                                order[0], order[0], 0.0, None)
-            self.decisions.append(decision)
-            self.on_decision(engine, i, values, decision)
-            return decision
-
     navigator = Navigator()
-    replay = Replay(spec.base, spec.settings, acting=make_evaluator(acting), low_level=navigator)
+    # the lookahead's candidates at each decision of the acting policy's floor, no branches
+    replay = Labeller(CandidatesOnly(LookaheadEvaluator(spec.base, spec.settings,
+                                                        low_level=navigator)),
+                      acting=make_evaluator(acting))
     engine = Engine(cmdp_pymunk.load_case(case_path), evaluator=replay, park_idle=True)
     priority = PriorityEvaluator()
     facts: list = []
