@@ -332,6 +332,31 @@ def _components_overlap(i: int, comp: Component, j: int, other: Component,
             "import the storey again with cmdp-import-ifc")
 
 
+def _shared_start_problems(parts: _Parts) -> list[str]:
+    """Crews whose start points are one point: their bodies, discs of the crew type's
+    occupation area, would overlap by more than :data:`GEOMETRY_TOLERANCE_M`. Two discs on one
+    centre have no direction to part in (the physics pushes them along an arbitrary normal)
+    and the event floor would stack them, so a case with such crews is refused."""
+    problems: list[str] = []
+    placed: list[tuple[int, Crew, float]] = []
+    for i, crew in parts.crews:
+        ct = parts.crew_types.get(crew.type)
+        if ct is None:  # an unknown crew type is reported on its own
+            continue
+        for j, other, r_other in placed:
+            apart = math.hypot(crew.start_x_m - other.start_x_m, crew.start_y_m - other.start_y_m)
+            needed = ct.radius_m + r_other
+            if apart < needed - GEOMETRY_TOLERANCE_M:
+                problems.append(
+                    f'crews[{i}] "{crew.id}": starts at ({crew.start_x_m:g}, {crew.start_y_m:g}),'
+                    f' {apart:.2f} m from crews[{j}] "{other.id}" at ({other.start_x_m:g}, '
+                    f"{other.start_y_m:g}): their bodies ({ct.radius_m:.2f} m and "
+                    f"{r_other:.2f} m radius) would overlap; fix: choose a free start point, "
+                    f"at least {needed:.2f} m from the other crew's")
+        placed.append((i, crew, ct.radius_m))
+    return problems
+
+
 def _semantic_problems(parts: _Parts) -> list[str]:
     """Cross-references, geometry and precedence: what field-by-field validation cannot see."""
     problems: list[str] = []
@@ -390,6 +415,7 @@ def _semantic_problems(parts: _Parts) -> list[str]:
                                       and abs(crew.start_y_m) < half_h):
             problems.append(f"{where}: start ({crew.start_x_m:g}, {crew.start_y_m:g}) is outside "
                             f"the plane {bounds}; fix: move it inside")
+    problems += _shared_start_problems(parts)
     for section in _LISTS:
         seen: set[str] = set()
         for item_id in names[section] or ():
