@@ -1,17 +1,21 @@
 """Check that a built wheel and sdist carry every tracked file of the packages they install.
 
-    python tools/check_wheel.py DIST/cmdp_pymunk-X-py3-none-any.whl [DIST/cmdp_pymunk-X.tar.gz]
+    python tools/check_wheel.py [DIST/cmdp_pymunk-X-py3-none-any.whl [DIST/cmdp_pymunk-X.tar.gz]]
 
 A module or a data file the commands read (the built-in cases and their calibrations, the
 generated layouts, the imported IFC model, the training configs) that is tracked by git under
 one of the installed packages but missing from the wheel fails here, naming the file and the
-fix. Two ways this has happened: a ``.gitignore`` line that matched a package folder (the file
+fix. Two ways a file goes missing: a ``.gitignore`` line that matched a package folder (the file
 is then not even tracked: the fresh install's imports catch that, ``tools/test_wheel.sh``), and
 a data file whose pattern ``setup.cfg``'s ``[options.package_data]`` lacks (caught here).
 
 The packages are the ``include`` list of ``setup.cfg``'s ``[options.packages.find]``; a tracked
 file under them counts unless it is in ``IGNORED`` (files the wheel is not meant to carry).
-Exit status 0 when nothing is missing, 1 when something is, 2 for bad arguments.
+The trained models in ``models/`` are not package data: the commands take them by path, from
+a checkout (docs/getting-started.md).
+Without a wheel only ``setup.cfg`` is checked, without building (``left_out``: a module
+outside a package, a data file no pattern matches; ``tests/test_check_wheel.py`` runs it in the
+gate). Exit status 0 when nothing is missing, 1 when something is, 2 for bad arguments.
 """
 
 from __future__ import annotations
@@ -48,6 +52,53 @@ def tracked_package_files(root: Path, packages: list[str]) -> list[str]:
                   and not any(fnmatch(p, pattern) for pattern in IGNORED))
 
 
+def package_data(setup_cfg: Path) -> dict[str, list[str]]:
+    """``[options.package_data]`` of ``setup.cfg``: package name -> its glob patterns."""
+    cfg = configparser.ConfigParser()
+    cfg.read(setup_cfg, encoding="utf-8")
+    if not cfg.has_section("options.package_data"):
+        return {}
+    return {pkg: [g.strip() for g in globs.replace("\n", ",").split(",") if g.strip()]
+            for pkg, globs in cfg.items("options.package_data")}
+
+
+def _glob_match(path: str, pattern: str) -> bool:
+    """setuptools' glob of a package data pattern: ``*`` stays inside one folder."""
+    parts, pats = path.split("/"), pattern.split("/")
+    return len(parts) == len(pats) and all(fnmatch(a, b) for a, b in zip(parts, pats))
+
+
+def left_out(tracked: list[str], patterns: dict[str, list[str]]) -> list[str]:
+    """Tracked package files that ``setup.cfg`` would leave out of the wheel, with the fix,
+    worked out without building: a module in a folder without ``__init__.py`` (``packages =
+    find:`` skips the folder) and a data file no ``[options.package_data]`` pattern of its
+    package matches. The quick half of the wheel check, for the gate."""
+    packages = {p.rsplit("/", 1)[0] for p in tracked if p.endswith("/__init__.py")}
+    problems = []
+    for path in tracked:
+        folders = path.split("/")[:-1]
+        outside = ["/".join(folders[:k]) for k in range(1, len(folders) + 1)
+                   if "/".join(folders[:k]) not in packages]
+        if path.endswith(".py"):
+            if outside:
+                problems.append(f"{path}: its folder {outside[0]} has no __init__.py, so the "
+                                "wheel leaves it out; fix: add an __init__.py there")
+            continue
+        # setuptools globs a package's patterns from its folder, into subpackages too
+        # (cmdp_pymunk's "cases/*.toml"): any package holding the file may match it
+        holders = [k for k in range(1, len(folders) + 1) if "/".join(folders[:k]) in packages]
+        if not holders:
+            problems.append(f"{path}: not inside a package; fix: move it into one")
+            continue
+        if not any(_glob_match("/".join(path.split("/")[k:]), g)
+                   for k in holders for g in patterns.get(".".join(folders[:k]), [])):
+            top, inside = folders[0], "/".join(path.split("/")[1:])
+            problems.append(f"{path}: no pattern of [options.package_data] matches it, so the "
+                            f"wheel leaves it out; fix: add one to setup.cfg, e.g. {top} = "
+                            f"{'/'.join([*inside.split('/')[:-1], '*' + Path(inside).suffix])}")
+    return problems
+
+
 def wheel_files(wheel: Path) -> set[str]:
     """The files a wheel installs into site-packages (its ``.dist-info`` left out)."""
     with zipfile.ZipFile(wheel) as zf:
@@ -82,21 +133,25 @@ def problems(root: Path, wheel: Path, sdist: Path | None = None) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="check_wheel.py", description=__doc__.split("\n\n")[0])
-    p.add_argument("wheel", type=Path, help="the built wheel (.whl)")
+    p.add_argument("wheel", type=Path, nargs="?", default=None,
+                   help="the built wheel (.whl); without it only setup.cfg is checked")
     p.add_argument("sdist", type=Path, nargs="?", default=None, help="the built sdist (.tar.gz)")
     p.add_argument("--root", type=Path, default=ROOT, help="the git checkout (default: this one)")
     a = p.parse_args(argv)
     for path in (a.wheel, a.sdist):
         if path is not None and not path.is_file():
             p.error(f"{path} is not a file; fix: build first, python -m build --outdir DIST")
-    found = problems(a.root, a.wheel, a.sdist)
+    tracked = tracked_package_files(a.root, package_roots(a.root / "setup.cfg"))
+    found = left_out(tracked, package_data(a.root / "setup.cfg"))
+    if a.wheel is not None:
+        found += problems(a.root, a.wheel, a.sdist)
     for line in found:
         print(f"check_wheel.py: {line}", file=sys.stderr)
     if found:
         return 1
-    n = len(tracked_package_files(a.root, package_roots(a.root / "setup.cfg")))
-    print(f"check_wheel.py: {a.wheel.name}{' and ' + a.sdist.name if a.sdist else ''} carry "
-          f"all {n} tracked package files")
+    built = [x.name for x in (a.wheel, a.sdist) if x is not None]
+    print(f"check_wheel.py: {' and '.join(built) or 'setup.cfg'} "
+          f"{'carry' if len(built) > 1 else 'carries'} all {len(tracked)} tracked package files")
     return 0
 
 

@@ -1,0 +1,64 @@
+"""Two crews on one start point are refused when the case loads (``cases/load.py``): their
+bodies, discs of the crew type's occupation area, would overlap."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from cmdp_pymunk.cases.load import (
+    BUILTIN_CASE,
+    DISRUPTED_CASE,
+    REORDER_CASE,
+    TINY_CASE,
+    CaseError,
+    case_from_dict,
+    load_case,
+)
+from conftest import tiny_dict
+
+
+def refused(data) -> list[str]:
+    with pytest.raises(CaseError) as caught:
+        case_from_dict(data, "floor.toml")
+    assert caught.value.source == "floor.toml"
+    return caught.value.problems
+
+
+def test_two_crews_on_one_point_are_refused_naming_both_and_the_fix():
+    d = tiny_dict()
+    d["crews"][3].update(start_x_m=-6.0, start_y_m=3.0)  # M-2 onto X-1
+    (message,) = [p for p in refused(d) if "would overlap" in p]
+    # XC and MC both occupy 1.0 m2: radius sqrt(1 / pi) = 0.564 m each, 1.13 m apart needed
+    assert message == ('crews[3] "M-2": starts at (-6, 3), 0.00 m from crews[0] "X-1" at '
+                       "(-6, 3): their bodies (0.56 m and 0.56 m radius) would overlap; fix: "
+                       "choose a free start point, at least 1.13 m from the other crew's")
+
+
+def test_the_bodies_decide_not_the_exact_point():
+    r_xc = r_mc = math.sqrt(1.0 / math.pi)  # 0.5642 m
+    d = tiny_dict()
+    d["crews"][3].update(start_x_m=-6.0, start_y_m=3.0 - (r_xc + r_mc) + 0.01)  # 1 cm overlap
+    assert any("would overlap" in p for p in refused(d))
+    d["crews"][3]["start_y_m"] = 3.0 - (r_xc + r_mc)  # touching: accepted
+    case_from_dict(d)
+    d["crews"][3]["start_y_m"] = 3.0 - (r_xc + r_mc) + 0.0005  # within the 1 mm tolerance
+    case_from_dict(d)
+
+
+def test_a_crew_of_an_unknown_type_is_reported_once_not_as_an_overlap():
+    d = tiny_dict()
+    d["crews"][3].update(type="QQ", start_x_m=-6.0, start_y_m=3.0)
+    problems = refused(d)
+    assert not any("would overlap" in p for p in problems)
+    assert any('unknown crew type "QQ"' in p for p in problems)
+
+
+@pytest.mark.parametrize("path", [BUILTIN_CASE, DISRUPTED_CASE, REORDER_CASE, TINY_CASE],
+                         ids=lambda p: p.name)
+def test_no_built_in_case_has_crews_on_one_point(path):
+    # the generated layouts and the imported sample IFC pass too: tests/test_layouts.py and
+    # tests/test_ifc.py load them
+    case = load_case(path)  # refused if two crews overlapped
+    assert len(case.crews) >= 2
