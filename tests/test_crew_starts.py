@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from conftest import tiny_dict
 
 from cmdp_pymunk.cases.load import (
     BUILTIN_CASE,
@@ -16,7 +17,6 @@ from cmdp_pymunk.cases.load import (
     case_from_dict,
     load_case,
 )
-from conftest import tiny_dict
 
 
 def refused(data) -> list[str]:

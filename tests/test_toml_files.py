@@ -6,6 +6,7 @@ from __future__ import annotations
 import tomllib
 
 import pytest
+from conftest import tiny_dict
 
 from cmdp_pymunk.cases.generated import to_toml
 from cmdp_pymunk.cases.ifc_import import load_overlay
@@ -17,7 +18,6 @@ from cmdp_pymunk.eventfloor.calibration import (
     load_calibration,
     write_calibration,
 )
-from conftest import tiny_dict
 
 # what a hand-written writer got wrong: a newline ends a basic string, a quote or a backslash
 # ends or escapes it, a tab and a control character need escapes, "#" would start a comment

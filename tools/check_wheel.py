@@ -65,7 +65,7 @@ def package_data(setup_cfg: Path) -> dict[str, list[str]]:
 def _glob_match(path: str, pattern: str) -> bool:
     """setuptools' glob of a package data pattern: ``*`` stays inside one folder."""
     parts, pats = path.split("/"), pattern.split("/")
-    return len(parts) == len(pats) and all(fnmatch(a, b) for a, b in zip(parts, pats))
+    return len(parts) == len(pats) and all(fnmatch(a, b) for a, b in zip(parts, pats, strict=True))
 
 
 def left_out(tracked: list[str], patterns: dict[str, list[str]]) -> list[str]:
@@ -127,7 +127,8 @@ def problems(root: Path, wheel: Path, sdist: Path | None = None) -> list[str]:
              for p in missing(expected, wheel_files(wheel))]
     if sdist is not None:
         lines += [f"{sdist.name}: lacks {p}; fix: add its pattern to [options.package_data] in "
-                  "setup.cfg (or a MANIFEST.in line)" for p in missing(expected, sdist_files(sdist))]
+                  "setup.cfg (or a MANIFEST.in line)"
+                  for p in missing(expected, sdist_files(sdist))]
     return lines
 
 

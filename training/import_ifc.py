@@ -41,7 +41,7 @@ class ImportArgs:
 
 EPILOG = """\
 example, the sample model that ships with the package (the built-in floor as BIM):
-  MODEL=$(python -c "import cmdp_pymunk; print(cmdp_pymunk.BUILTIN_CASE.with_name('precast_floor.ifc'))")
+  MODEL=$(python -c "import cmdp_pymunk as c; print(c.BUILTIN_CASE.parent / 'precast_floor.ifc')")
   cmdp-import-ifc "$MODEL" --list-storeys                      # Level 1
   cmdp-import-ifc "$MODEL" --storey "Level 1" --out floor.toml
   # cmdp-import-ifc: 36 components (21 IfcBeam, 15 IfcSlab), 87 tasks, 7 crews;
