@@ -333,10 +333,12 @@ def _components_overlap(i: int, comp: Component, j: int, other: Component,
 
 
 def _shared_start_problems(parts: _Parts) -> list[str]:
-    """Crews whose start points are one point: their bodies, discs of the crew type's
-    occupation area, would overlap by more than :data:`GEOMETRY_TOLERANCE_M`. Two discs on one
-    centre have no direction to part in (the physics pushes them along an arbitrary normal)
-    and the event floor would stack them, so a case with such crews is refused."""
+    """Crews that start on one point: one crew's start lies inside the other's body (a disc of
+    its crew type's occupation area), as for two entries copied with only the id changed. Two
+    discs on one centre have no direction to part in, and the event floor would stack them, so
+    such a case is refused. Discs that only overlap at their edges are accepted, as a crew
+    starting against a component is: the physics pushes them apart in the first steps (the
+    IFC importer packs crews that way on a small storey)."""
     problems: list[str] = []
     placed: list[tuple[int, Crew, float]] = []
     for i, crew in parts.crews:
@@ -345,14 +347,15 @@ def _shared_start_problems(parts: _Parts) -> list[str]:
             continue
         for j, other, r_other in placed:
             apart = math.hypot(crew.start_x_m - other.start_x_m, crew.start_y_m - other.start_y_m)
-            needed = ct.radius_m + r_other
-            if apart < needed - GEOMETRY_TOLERANCE_M:
+            inside = max(ct.radius_m, r_other)
+            if apart < inside - GEOMETRY_TOLERANCE_M:
                 problems.append(
                     f'crews[{i}] "{crew.id}": starts at ({crew.start_x_m:g}, {crew.start_y_m:g}),'
                     f' {apart:.2f} m from crews[{j}] "{other.id}" at ({other.start_x_m:g}, '
-                    f"{other.start_y_m:g}): their bodies ({ct.radius_m:.2f} m and "
-                    f"{r_other:.2f} m radius) would overlap; fix: choose a free start point, "
-                    f"at least {needed:.2f} m from the other crew's")
+                    f"{other.start_y_m:g}), inside one of their bodies ({ct.radius_m:.2f} m and "
+                    f"{r_other:.2f} m radius): both would start on one point; fix: choose a "
+                    f"free start point, at least {inside:.2f} m from the other crew's "
+                    f"({ct.radius_m + r_other:.2f} m keeps the bodies apart)")
         placed.append((i, crew, ct.radius_m))
     return problems
 
