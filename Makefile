@@ -51,7 +51,7 @@ test-ray: $(RAY_VENV)/.installed
 # Installs as a user does: the sdist and the wheel built from the tracked files, checked to carry
 # every tracked package file, installed without -e into a fresh venv (torch==2.13.0 first), then
 # every module imported and cmdp-simulate --seed 0 and cmdp-evaluate --help run from a folder
-# outside the checkout (tools/test_wheel.sh; about 9-10 min here, mostly installing).
+# outside the checkout (tools/test_wheel.sh; about 7-10 min, mostly installing; docs/testing.md).
 test-wheel:
 	PYTHON=$(PYTHON) TORCH_INDEX=$(TORCH_INDEX) bash tools/test_wheel.sh
 
