@@ -6,7 +6,7 @@ export SDL_VIDEODRIVER := dummy
 export SDL_AUDIODRIVER := dummy
 export PYGAME_HIDE_SUPPORT_PROMPT := 1
 
-.PHONY: demo test test-slow test-nightly test-ray docs lint bench clean
+.PHONY: demo test test-slow test-nightly test-ray test-wheel docs lint bench clean
 
 # torch is pinned first and on its own: an unpinned torch (pulled by stable-baselines3)
 # would fetch a CUDA build of several GB. On a machine with only the public package index,
@@ -47,6 +47,13 @@ $(RAY_VENV)/.installed: setup.cfg pyproject.toml
 
 test-ray: $(RAY_VENV)/.installed
 	$(RAY_VENV)/bin/python -m pytest -q -m ray
+
+# Installs as a user does: the sdist and the wheel built from the tracked files, checked to carry
+# every tracked package file, installed without -e into a fresh venv (torch==2.13.0 first), then
+# every module imported and cmdp-simulate --seed 0 and cmdp-evaluate --help run from a folder
+# outside the checkout (tools/test_wheel.sh; about 7-10 min, mostly installing; docs/testing.md).
+test-wheel:
+	PYTHON=$(PYTHON) TORCH_INDEX=$(TORCH_INDEX) bash tools/test_wheel.sh
 
 # The docs site into site/, strict: a broken link, a missing page or an unreadable docstring fails.
 $(VENV)/.docs-installed: $(VENV)/.installed setup.cfg

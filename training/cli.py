@@ -39,22 +39,27 @@ def positive_seconds(text: str) -> float:
     return value
 
 
-def non_negative_int(text: str) -> int:
+def _whole_number(text: str, least: int) -> int:
+    """``text`` as a whole number of at least ``least``: one message for every wrong value
+    (0 and -2 for a count of at least 1 get the same one), with the fix."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number; fix: give e.g. "
-                                         "0") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more") from None
+        value = None
+    if value is None or value < least:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a whole number of at least "
+                                         f"{least}; fix: give e.g. {max(least, 1)}") from None
     return value
+
+
+def non_negative_int(text: str) -> int:
+    """An ``argparse`` type: a whole number of 0 or more."""
+    return _whole_number(text, 0)
 
 
 def positive_int(text: str) -> int:
-    value = non_negative_int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be at least 1")
-    return value
+    """An ``argparse`` type: a whole number of 1 or more (a count: --episodes, --workers)."""
+    return _whole_number(text, 1)
 
 
 def add_ray_option(parser: argparse.ArgumentParser) -> None:

@@ -15,6 +15,7 @@ Needs the ``[ifc]`` extra: ``pip install -e '.[ifc]'`` in the checkout (``make t
 
 from __future__ import annotations
 
+import argparse
 import hashlib
 import sys
 import textwrap
@@ -38,8 +39,24 @@ class ImportArgs:
     list_storeys: bool = False
 
 
+EPILOG = """\
+example, the sample model that ships with the package (the built-in floor as BIM):
+  MODEL=$(python -c "import cmdp_pymunk as c; print(c.BUILTIN_CASE.parent / 'precast_floor.ifc')")
+  cmdp-import-ifc "$MODEL" --list-storeys                      # Level 1
+  cmdp-import-ifc "$MODEL" --storey "Level 1" --out floor.toml
+  # cmdp-import-ifc: 36 components (21 IfcBeam, 15 IfcSlab), 87 tasks, 7 crews;
+  #   precedences from the recipe -> floor.toml
+  cmdp-simulate --case floor.toml --ifc "$MODEL" --out out/bim   # the schedule as 4D too
+
+Crews, crane, storages and margins other than the defaults: --overlay overlay.toml (its
+sections and an example: docs/ifc.md). Needs the [ifc] extra: pip install -e '.[ifc]'.
+"""
+
+
 def parse_args(argv: list[str] | None = None) -> ImportArgs:
-    p = OneLineParser(prog=PROG, description=plain(__doc__))
+    # the epilog's example keeps its lines (RawDescriptionHelpFormatter)
+    p = OneLineParser(prog=PROG, description=plain(__doc__), epilog=EPILOG,
+                      formatter_class=argparse.RawDescriptionHelpFormatter)
     cmdp_pymunk.add_version_flag(p)
     p.add_argument("model", type=Path, help="the IFC model (IFC2X3, IFC4 or IFC4X3)")
     p.add_argument("--storey", help="the IfcBuildingStorey to import, by Name or GlobalId")

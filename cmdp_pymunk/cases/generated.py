@@ -29,6 +29,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import tomli_w
 
 from .floorplan import PRECAST_RECIPE, StorageSpot, plan_case
 from .load import BUILTIN_CASE, case_from_dict
@@ -132,39 +133,26 @@ def generate_layout(seed: int, name: str | None = None) -> dict:
 
 # -- TOML -------------------------------------------------------------------------------------
 
-def _value(v) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+def _plain(v):
+    """``v`` with every float rounded to 6 decimals (the files stay short and stable across
+    platforms) and tuples as lists; a non-finite number has no place in a case."""
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_value(x) for x in v) + "]"
+        return [_plain(x) for x in v]
     if isinstance(v, float):
         if not math.isfinite(v):
             raise ValueError(f"{v!r} has no place in a case")
-        return repr(round(v, 6))
-    return repr(v)
+        return round(v, 6)
+    return v
 
 
 def to_toml(data: dict, header: str = "") -> str:
-    """Case data as TOML: tables, named tables (``[task_types.JC]``) and arrays of tables."""
-    out = [header] if header else []
-    for key, value in data.items():
-        if isinstance(value, dict) and all(isinstance(v, dict) for v in value.values()):
-            for name, table in value.items():
-                out.append(f"[{key}.{name}]")
-                out += [f"{k} = {_value(v)}" for k, v in table.items()]
-                out.append("")
-        elif isinstance(value, dict):
-            out.append(f"[{key}]")
-            out += [f"{k} = {_value(v)}" for k, v in value.items()]
-            out.append("")
-        else:  # a list of tables
-            for table in value:
-                out.append(f"[[{key}]]")
-                out += [f"{k} = {_value(v)}" for k, v in table.items()]
-                out.append("")
-    return "\n".join(out)
+    """Case data as TOML (``tomli_w``), after ``header`` (comment lines). ``tomli_w`` writes a
+    list of tables whose entries each fit on a line as an inline array (``crews = [{...}]``)
+    ahead of the tables, as TOML requires; any text, newlines and quotes included, reads back
+    the same."""
+    return header + ("\n" if header else "") + tomli_w.dumps(_plain(data))
 
 
 def layout_toml(split: str, k: int) -> str:

@@ -64,7 +64,7 @@ from .floorplan import (
     plan_case,
 )
 from .ifc_levels import describe, how_to_set, slabs_top_m, stated_levels, working_level
-from .load import BUILTIN_CASE, CaseError, _did_you_mean, case_from_dict
+from .load import BUILTIN_CASE, CaseError, _did_you_mean, _read_toml, case_from_dict
 
 # the package is installed from a checkout (it is not on a package index): the extra from there
 INSTALL_HINT = "pip install -e '.[ifc]' in the checkout (make test installs it)"
@@ -203,16 +203,8 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
     """The overlay TOML merged over :data:`DEFAULT_OVERLAY` and the built-in case's tables,
     checked: every problem reported together in one :class:`CaseError` naming the file."""
     source = Path(path).name if path is not None else "the default overlay"
-    raw: dict = {}
-    if path is not None:
-        try:
-            raw = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-        except OSError as err:
-            raise CaseError(str(path), [f"cannot read the file ({err.strerror}); fix: check "
-                                        "the path"]) from None
-        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-            raise CaseError(source, [f"malformed TOML: {err}; fix: correct the syntax"]) \
-                from None
+    # read as a case file is: one wording for an unreadable file and a syntax error in both
+    raw: dict = _read_toml(Path(path)) if path is not None else {}
     problems = [f"[{k}]: unknown section; fix: use one of "
                 + ", ".join(sorted(_OVERLAY_SECTIONS)) for k in raw if k not in _OVERLAY_SECTIONS]
     data = {k: (dict(v) if isinstance(v, dict) else v) for k, v in DEFAULT_OVERLAY.items()}

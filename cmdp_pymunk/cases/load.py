@@ -333,6 +333,34 @@ def _components_overlap(i: int, comp: Component, j: int, other: Component,
             "import the storey again with cmdp-import-ifc")
 
 
+def _shared_start_problems(parts: _Parts) -> list[str]:
+    """Crews that start on one point: one crew's start lies inside the other's body (a disc of
+    its crew type's occupation area), as for two entries copied with only the id changed. Two
+    discs on one centre have no direction to part in, and the event floor would stack them, so
+    such a case is refused. Discs that only overlap at their edges are accepted, as a crew
+    starting against a component is: the physics pushes them apart in the first steps (the
+    IFC importer packs crews that way on a small storey)."""
+    problems: list[str] = []
+    placed: list[tuple[int, Crew, float]] = []
+    for i, crew in parts.crews:
+        ct = parts.crew_types.get(crew.type)
+        if ct is None:  # an unknown crew type is reported on its own
+            continue
+        for j, other, r_other in placed:
+            apart = math.hypot(crew.start_x_m - other.start_x_m, crew.start_y_m - other.start_y_m)
+            inside = max(ct.radius_m, r_other)
+            if apart < inside - GEOMETRY_TOLERANCE_M:
+                problems.append(
+                    f'crews[{i}] "{crew.id}": starts at ({crew.start_x_m:g}, {crew.start_y_m:g}),'
+                    f' {apart:.2f} m from crews[{j}] "{other.id}" at ({other.start_x_m:g}, '
+                    f"{other.start_y_m:g}), inside one of their bodies ({ct.radius_m:.2f} m and "
+                    f"{r_other:.2f} m radius): both would start on one point; fix: choose a "
+                    f"free start point, at least {inside:.2f} m from the other crew's "
+                    f"({ct.radius_m + r_other:.2f} m keeps the bodies apart)")
+        placed.append((i, crew, ct.radius_m))
+    return problems
+
+
 def _semantic_problems(parts: _Parts) -> list[str]:
     """Cross-references, geometry and precedence: what field-by-field validation cannot see."""
     problems: list[str] = []
@@ -391,6 +419,7 @@ def _semantic_problems(parts: _Parts) -> list[str]:
                                       and abs(crew.start_y_m) < half_h):
             problems.append(f"{where}: start ({crew.start_x_m:g}, {crew.start_y_m:g}) is outside "
                             f"the plane {bounds}; fix: move it inside")
+    problems += _shared_start_problems(parts)
     for section in _LISTS:
         seen: set[str] = set()
         for item_id in names[section] or ():

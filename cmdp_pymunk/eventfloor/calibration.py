@@ -39,6 +39,7 @@ import tomllib
 from pathlib import Path
 from typing import Annotated
 
+import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, Strict, ValidationError
 
 from ..cases.load import BUILTIN_CASE, CaseError
@@ -175,25 +176,28 @@ def calibration_for(case: Case, case_path: str | Path | None = None,
     return uncalibrated(case) if found is None else load_calibration(found, case)
 
 
-def _toml_value(v) -> str:
-    return json.dumps(v) if isinstance(v, str) else repr(float(v))
+HEADER = ("# The event floor's calibration (cmdp_pymunk.eventfloor.calibration); written by\n"
+          "# cmdp-calibrate: refit with the command below after changing the case.\n\n")
+
+
+def calibration_toml(calibration: Calibration) -> str:
+    """``calibration`` as the text of a ``.event.toml`` file (``tomli_w``: any name or command,
+    newlines and quotes included, reads back the same); the fitted numbers to 4 decimals."""
+    table = {key: getattr(calibration, key) for key in ("case", "fingerprint", "fitted_on",
+                                                        "command")}
+    table["crew_types"] = {name: {k: round(float(v), 4) for k, v in ct.model_dump().items()}
+                           for name, ct in sorted(calibration.crew_types.items())}
+    return HEADER + tomli_w.dumps({"event_floor": table})
 
 
 def write_calibration(calibration: Calibration, path: str | Path) -> Path:
     """Write ``calibration`` as TOML, whole or not at all (a temporary file renamed)."""
     path = Path(path)
-    lines = ["# The event floor's calibration (cmdp_pymunk.eventfloor.calibration); written by",
-             "# cmdp-calibrate: refit with the command below after changing the case.", "",
-             "[event_floor]"]
-    for key in ("case", "fingerprint", "fitted_on", "command"):
-        lines.append(f"{key} = {_toml_value(getattr(calibration, key))}")
-    for name, ct in sorted(calibration.crew_types.items()):
-        lines += ["", f"[event_floor.crew_types.{name}]"]
-        lines += [f"{k} = {float(v):.4f}" for k, v in ct.model_dump().items()]
+    text = calibration_toml(calibration)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write("\n".join(lines) + "\n")
+            fh.write(text)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
@@ -203,4 +207,4 @@ def write_calibration(calibration: Calibration, path: str | Path) -> Path:
 
 __all__ = ["Calibration", "CrewTypeCalibration", "UNCALIBRATED", "fingerprint", "uncalibrated",
            "load_calibration", "beside", "calibration_for", "calibration_path",
-           "write_calibration"]
+           "write_calibration", "calibration_toml"]
