@@ -311,9 +311,13 @@ class Reach:
             out = np.zeros_like(cells)
             if cells.any():
                 px, py = grid.sub_points(cells)
-                ok = in_area(px, py, area) & ~too_close(
-                    px, py, self.open_rects(laid), fit_distance(radius), grid.half_w,
-                    grid.half_h)
+                fit = fit_distance(radius)
+                # only the components within reach of these points can be too close to them
+                x0, y0, x1, y1 = expand(area, grid.cell_m + fit)
+                near = [r for r in self.open_rects(laid)
+                        if r[0] < x1 and x0 < r[2] and r[1] < y1 and y0 < r[3]]
+                ok = in_area(px, py, area) & ~too_close(px, py, near, fit, grid.half_w,
+                                                        grid.half_h)
                 out[cells] = ok.any(axis=1)
             self._work[key] = out
         return out
@@ -416,7 +420,7 @@ def unreachable(case: Case) -> list[str]:
             elif k in taken or reached(final, final_starts, reach.work_point(radius, k, laid)):
                 continue
             head = f"tasks: {task.id} ({task.type} on {task.component}): "
-            if not reach.fits_in_area(radius, k, laid).any():
+            if not decks and not reach.fits_in_area(radius, k).any():
                 problems.append(head + _no_room(case, reach, k, crew_type, radius, fit, laid))
             elif not decks:
                 problems.append(
