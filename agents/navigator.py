@@ -5,7 +5,9 @@ measured against. It reads the engine's state (not the rays) and answers with th
 ``MultiDiscrete([4, 3, 3])`` actions the learned policy uses.
 
 How it plans: the plane is a grid (``cell_m``); for each crew size, cells closer to a component
-or wall than the crew's radius plus ``clearance_m`` are blocked. The default clearance is
+or wall than the crew's radius plus ``clearance_m`` are blocked, less the bridges where the
+crew passes between them (``cmdp_pymunk.cases.reach.free_cells``: the cells the case check
+proves on). The default clearance is
 negative (-0.2 m) so that every lane a crew fits through keeps at least one row of free cells at
 this resolution; the contact solver keeps the crew off the component, and crews slide along
 it (no friction). A cost-to-go field to the target's reach region
@@ -57,7 +59,14 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from cmdp_pymunk.cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, NEIGHBOURS, PlaneGrid
+from cmdp_pymunk.cases.reach import (
+    APPROACH_BAND_M,
+    CELL_M,
+    CLEARANCE_M,
+    NEIGHBOURS,
+    PlaneGrid,
+    free_cells,
+)
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.state import CrewStatus, ScopeKind, inside
 
@@ -95,9 +104,10 @@ class _Grid:
     def __init__(self, nav: _Plans, radius: float):
         self.radius = radius
         laid = nav.site.laid
-        self.blocked = nav.plane.blocked(
-            [c.rect for c in nav.site.components if c.index not in laid],
-            radius + nav.clearance_m)
+        # the case check's cells (one reach rule: ``cases.reach.free_cells``)
+        self.blocked = ~free_cells(
+            nav.plane, [c.rect for c in nav.site.components if c.index not in laid], radius,
+            nav.clearance_m)
         self.src, self.dst, self.length = nav.plane.edges(~self.blocked)
         self.n = nav.nx * nav.ny
         self.graphs: dict = {}

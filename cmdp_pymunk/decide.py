@@ -28,6 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from . import construct, events, precedence
+from .cases.reach import in_area
 from .physics import Physics
 from .precedence import QUEUE, WAIT
 from .state import (
@@ -47,7 +48,6 @@ from .state import (
     CrewStatus,
     IdleCause,
     Site,
-    inside,
 )
 from .streams import RandomStreams
 
@@ -87,7 +87,8 @@ def reached_target(crew: CrewState, ctx: Context) -> int:
     """The target of the crew's scope whose region contains the crew's centre, or -1.
 
     A component is reached inside its task area (the component grown by the task type's area
-    distance); a storage inside its area; the outlet within its radius.
+    distance); a storage inside its area; the outlet within its radius. The area test is the
+    reach rule's (``cases.reach.in_area``), the one the case check proves each task by.
     """
     if crew.index in ctx.reached:
         return ctx.reached[crew.index]
@@ -95,12 +96,12 @@ def reached_target(crew: CrewState, ctx: Context) -> int:
     x, y = ctx.positions[crew.index]
     if crew.scope_kind in (TASKS, PAUSED):
         for target, task in crew.scope.items():
-            if inside(x, y, site.tasks[task].area):
+            if in_area(x, y, site.tasks[task].area):
                 hit = target
                 break
     elif crew.scope_kind == STORAGES:
         for target in crew.scope:
-            if inside(x, y, site.storages[target - len(site.components)].rect):
+            if in_area(x, y, site.storages[target - len(site.components)].rect):
                 hit = target
                 break
     elif crew.scope_kind == OUTLET:

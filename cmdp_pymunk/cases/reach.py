@@ -1,14 +1,32 @@
 """Reachability before simulation: can every crew type reach each work point and storage it
-needs, from where its crews start? Checked on the scripted navigator's own grid, with the
-crews' radii (``PlaneGrid``, which the navigator plans on), so that a floor that cannot be
-built is refused when it is loaded, not found an hour into a run by the stall guard.
+needs, from where its crews start? One reach rule, shared by the case check, the scripted
+navigator and the decision table, so that a floor that loads is built and a floor that is
+refused could not be (issue 41):
 
-The grid: cells of ``CELL_M``; for a crew of radius r a cell is blocked where its centre lies
-closer than r + ``CLEARANCE_M`` to a component or to the plane's walls (the clearance is
-negative, so that every lane a crew fits through keeps a row of free cells at this resolution;
-the contact solver keeps the crew off the component). Free cells connect to their 8
-neighbours, diagonals only past two free cells (no corner cutting). Components are the only
-static obstacles: task areas and storages slow a crew (Eq. 1) but never close a lane.
+- **Reached** is the decision table's test (``in_area``, which ``decide.reached_target``
+  calls): a task's work point is reached when the crew's centre lies in the task area (the
+  component grown by Table 2's area distance), a storage inside its rectangle, the outlet
+  within its radius.
+- **Fits** is the physics': a crew of radius r presses into a component by no more than the
+  contact solver's slop, so its centre gets as close as r - ``SQUEEZE_M`` (``fit_distance``).
+- **Connected** is the navigator's grid (``free_cells``, which ``agents.navigator`` plans on
+  and the check proves on, for the same radius): cells of ``CELL_M``, free where the cell's
+  centre keeps r + ``CLEARANCE_M`` off components and the plane's walls
+  (``centre_clearance``; the clearance is negative: the contact solver keeps the crew off the
+  component, and crews slide along it), connected to their 8 neighbours (diagonals only past
+  two free cells: no corner cutting). A lane the crew passes can hold no such cell centre (a
+  2 m lane leaves the FC, 2.02 m across, a strip of 0.38 m between two rows of 0.5 m cells,
+  and the check refused such floors that ran to the end): the cells holding a point where the
+  crew fits (tested on ``SUB_CELLS`` x ``SUB_CELLS`` points) are opened where they join
+  regions the centres leave apart (bridges), and nowhere else, so a floor whose free cells
+  are connected plans exactly as before (the golden schedules).
+
+So a task is reached when a point where its crew fits lies inside its task area, in a cell
+of the start's region or beside one (the navigator plans to the band ``APPROACH_BAND_M``
+round the area, then closes in on the component). The band alone is not enough: a 0.4 m
+beam along a slab's edge leaves 0.8 m of the slab's JC area beyond it, where no JCC
+(1.13 m radius) gets its centre, and such a floor stalled. Components are the only static
+obstacles: task areas and storages slow a crew (Eq. 1) but never close a lane.
 
 A deck component (``Component.deck``, a slab of a wide-slab or hollow-core floor) is an
 obstacle until it is laid and open floor afterwards (``laying_tasks`` says which task lays
@@ -20,10 +38,8 @@ a floor that passes is built in any order the simulation takes (some remaining t
 always released and reachable). Storages and the outlet must be reached with nothing laid.
 Floors without decks are checked as before: each work point from the starts.
 
-A task's work point is reached in the band ``APPROACH_BAND_M`` around its task area (the
-component grown by Table 2's area distance), a storage inside its rectangle, the outlet
-within its radius. ``Reach`` keeps the regions per crew radius and laid decks, shared by the
-check and the decision table (which offers a crew only the tasks it reaches now).
+``Reach`` keeps the regions per crew radius and laid decks, shared by the check and the
+decision table (which offers a crew only the tasks it reaches now).
 """
 
 from __future__ import annotations
@@ -32,15 +48,19 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import binary_dilation, label
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from .model import Case
 
 CELL_M = 0.5  # the navigator's grid
-CLEARANCE_M = -0.2  # added to a crew's radius: see the module doc
-APPROACH_BAND_M = 0.6  # a component target is planned to within this of its task area
+CLEARANCE_M = -0.2  # added to a crew's radius where it fits: see the module doc
+SUB_CELLS = 5  # points per cell side where a crew may fit off the cell's centre (0.1 m apart)
+SQUEEZE_M = 0.1  # pymunk's collision slop (Space.collision_slop): a crew presses this far in
+APPROACH_BAND_M = 0.6  # the navigator plans to within this of a task area, then closes in
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+WALL_MARGIN_M = 0.1  # a crew's centre keeps this much more off the plane's walls
 Rect = tuple[float, float, float, float]  # x0, y0, x1, y1 (m, the plane's centre at 0)
 
 
@@ -52,6 +72,40 @@ def rect_of(x: float, y: float, w: float, h: float) -> Rect:
 def expand(rect: Rect, by: float) -> Rect:
     """``rect`` grown by ``by`` on every side (a task area: Table 2's area distance)."""
     return (rect[0] - by, rect[1] - by, rect[2] + by, rect[3] + by)
+
+
+def in_area(x, y, rect: Rect):
+    """Whether the point (x, y) lies in ``rect`` (edges included): where a crew whose centre
+    stands there has reached a task area or a storage. The one test of the reach rule:
+    ``decide.reached_target`` asks it of a crew's position (floats), the case check of the
+    points where a crew fits (arrays)."""
+    return (rect[0] <= x) & (x <= rect[2]) & (rect[1] <= y) & (y <= rect[3])
+
+
+def centre_clearance(radius: float, clearance: float = CLEARANCE_M) -> float:
+    """How far (m) the navigator's grid keeps a free cell's centre off components and walls
+    for a crew of ``radius``: its radius plus the navigator's ``clearance``
+    (``CLEARANCE_M``)."""
+    return round(radius, 3) + clearance
+
+
+def fit_distance(radius: float) -> float:
+    """How close (m) a crew's centre gets to a component: its radius less ``SQUEEZE_M``, the
+    contact solver's slop (a 2.02 m FC passes a 2.0 m lane, not a 1.8 m one)."""
+    return round(radius, 3) - SQUEEZE_M
+
+
+def too_close(px, py, components: list[Rect], fit: float, half_w: float,
+              half_h: float) -> np.ndarray:
+    """Points (arrays ``px``, ``py``) where a crew's centre stands closer than ``fit`` to a
+    component or (``fit`` + ``WALL_MARGIN_M``) to the plane's walls."""
+    out = (np.abs(px) > half_w - fit - WALL_MARGIN_M) | \
+        (np.abs(py) > half_h - fit - WALL_MARGIN_M)
+    for x0, y0, x1, y1 in components:
+        dx = np.maximum(np.maximum(x0 - px, 0.0), px - x1)
+        dy = np.maximum(np.maximum(y0 - py, 0.0), py - y1)
+        out |= dx * dx + dy * dy < fit * fit
+    return out
 
 
 @dataclass(frozen=True)
@@ -77,15 +131,25 @@ class PlaneGrid:
         return cls(half_w, half_h, cell_m, nx, ny, cx, cy)
 
     def blocked(self, components: list[Rect], clearance: float) -> np.ndarray:
-        """Cells a crew whose radius plus clearance is ``clearance`` cannot stand on: near a
-        wall or a component."""
-        cx, cy = self.cx, self.cy
-        out = (np.abs(cx) > self.half_w - clearance - 0.1) | \
-            (np.abs(cy) > self.half_h - clearance - 0.1)
-        for x0, y0, x1, y1 in components:
-            dx = np.maximum(np.maximum(x0 - cx, 0.0), cx - x1)
-            dy = np.maximum(np.maximum(y0 - cy, 0.0), cy - y1)
-            out |= dx * dx + dy * dy < clearance * clearance
+        """Cells whose centre lies closer than ``clearance`` (a crew's ``centre_clearance``)
+        to a component or a wall."""
+        return too_close(self.cx, self.cy, components, clearance, self.half_w, self.half_h)
+
+    def sub_points(self, cells: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The ``SUB_CELLS`` x ``SUB_CELLS`` points spread over each of ``cells`` (a mask):
+        arrays (number of cells, SUB_CELLS ** 2) of x and y."""
+        off = (np.arange(SUB_CELLS) - (SUB_CELLS - 1) / 2) * (self.cell_m / SUB_CELLS)
+        ox, oy = np.meshgrid(off, off)
+        return self.cx[cells][:, None] + ox.ravel(), self.cy[cells][:, None] + oy.ravel()
+
+    def fits_somewhere(self, components: list[Rect], clearance: float,
+                       cells: np.ndarray) -> np.ndarray:
+        """Of ``cells`` (a mask), those holding a point (``sub_points``) where the crew
+        fits."""
+        px, py = self.sub_points(cells)
+        out = np.zeros_like(cells)
+        out[cells] = (~too_close(px, py, components, clearance, self.half_w,
+                                 self.half_h)).any(axis=1)
         return out
 
     def edges(self, free: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -130,6 +194,39 @@ def regions(grid: PlaneGrid, free: np.ndarray) -> np.ndarray:
     return np.where(free, labels, -1)
 
 
+def free_cells(grid: PlaneGrid, components: list[Rect], radius: float,
+               clearance: float = CLEARANCE_M) -> np.ndarray:
+    """The cells a crew of ``radius`` walks on (ny x nx): where its centre keeps
+    ``centre_clearance`` off components and walls at the cell's centre, and the bridges of the
+    module doc (cells holding a point where it fits, ``fit_distance``, opened where they join
+    regions the centres leave apart). The navigator plans on these cells and the case check
+    proves on them."""
+    blocked = grid.blocked(components, centre_clearance(radius, clearance))
+    free = ~blocked
+    labels = regions(grid, free)
+    if labels.max() < 1:  # one region (or none): nothing to join
+        return free
+    # only a cell within half a diagonal of where the crew fits can hold such a point
+    fit = fit_distance(radius)
+    near = blocked & ~too_close(grid.cx, grid.cy, components, fit - grid.cell_m / math.sqrt(2),
+                                grid.half_w, grid.half_h)
+    loose = grid.fits_somewhere(components, fit, near) if near.any() else near
+    pieces, n = label(loose, structure=np.ones((3, 3), dtype=bool))
+    if n == 0:
+        return free
+    joins: set[tuple[int, int]] = set()  # (piece, region) side by side
+    for di, dj in NEIGHBOURS:
+        a = pieces[max(0, -dj):grid.ny - max(0, dj), max(0, -di):grid.nx - max(0, di)]
+        b = labels[max(0, dj):grid.ny - max(0, -dj) or None,
+                   max(0, di):grid.nx - max(0, -di) or None]
+        ok = (a > 0) & (b >= 0)
+        joins.update(zip(a[ok].tolist(), b[ok].tolist(), strict=True))
+    regions_of = np.zeros(n + 1, dtype=int)
+    for piece, _ in joins:
+        regions_of[piece] += 1
+    return free | (regions_of[pieces] >= 2)
+
+
 def reached(labels: np.ndarray, starts: set, mask: np.ndarray) -> bool:
     """Whether a cell of ``mask`` lies in a region of ``starts`` (blocked cells: -1)."""
     return bool(np.isin(labels[mask], list(starts)).any())
@@ -169,6 +266,7 @@ class Reach:
                                   case.task_types[t.type].area_distance_m) for t in case.tasks]
         self._labels: dict = {}
         self._answers: dict = {}
+        self._work: dict = {}
 
     def __deepcopy__(self, memo):
         return self
@@ -191,19 +289,45 @@ class Reach:
         return [r for k, r in enumerate(self.rects) if k not in laid]
 
     def labels(self, radius: float, laid: frozenset = frozenset()) -> np.ndarray:
-        """``regions`` of the free cells for a crew of ``radius`` with ``laid`` laid."""
+        """``regions`` of the ``free_cells`` for a crew of ``radius`` with ``laid`` laid."""
         key = (round(radius, 3), laid)
         out = self._labels.get(key)
         if out is None:
             if len(self._labels) >= self.MAX_KEPT:
-                self._labels, self._answers = {}, {}
-            free = ~self.grid.blocked(self.open_rects(laid), radius + CLEARANCE_M)
-            out = self._labels[key] = regions(self.grid, free)
+                self._labels, self._answers, self._work = {}, {}, {}
+            out = self._labels[key] = regions(
+                self.grid, free_cells(self.grid, self.open_rects(laid), radius))
         return out
 
-    def work_point(self, task: int) -> np.ndarray:
-        """The cells where task ``task``'s work point is reached (its area's approach band)."""
-        return self.grid.rect_mask(self.task_rects[task], -APPROACH_BAND_M)
+    def fits_in_area(self, radius: float, task: int,
+                     laid: frozenset = frozenset()) -> np.ndarray:
+        """The cells holding a point inside task ``task``'s area (``in_area``, the decision
+        table's test) where a crew of ``radius`` fits with ``laid`` laid (``too_close``)."""
+        key = (round(radius, 3), task, laid)
+        out = self._work.get(key)
+        if out is None:
+            grid, area = self.grid, self.task_rects[task]
+            cells = grid.rect_mask(area, -grid.cell_m)  # every cell reaching into the area
+            out = np.zeros_like(cells)
+            if cells.any():
+                px, py = grid.sub_points(cells)
+                fit = fit_distance(radius)
+                # only the components within reach of these points can be too close to them
+                x0, y0, x1, y1 = expand(area, grid.cell_m + fit)
+                near = [r for r in self.open_rects(laid)
+                        if r[0] < x1 and x0 < r[2] and r[1] < y1 and y0 < r[3]]
+                ok = in_area(px, py, area) & ~too_close(px, py, near, fit, grid.half_w,
+                                                        grid.half_h)
+                out[cells] = ok.any(axis=1)
+            self._work[key] = out
+        return out
+
+    def work_point(self, radius: float, task: int, laid: frozenset = frozenset()) -> np.ndarray:
+        """The cells from which a crew of ``radius`` reaches task ``task``'s area: a cell
+        holding a point of the area where it fits (``fits_in_area``), or beside one (the
+        navigator closes in on the component from the band round the area)."""
+        return binary_dilation(self.fits_in_area(radius, task, laid),
+                               structure=np.ones((3, 3), dtype=bool))
 
     def reaches(self, radius: float, start: tuple[float, float], task: int,
                 laid: frozenset = frozenset()) -> bool:
@@ -215,8 +339,8 @@ class Reach:
             labels = self.labels(radius, laid)
             i, j = self.grid.cell(*start)
             here = labels[j, i]
-            out = self._answers[key] = bool(here >= 0 and reached(labels, {here},
-                                                                  self.work_point(task)))
+            out = self._answers[key] = bool(
+                here >= 0 and reached(labels, {here}, self.work_point(radius, task, laid)))
         return out
 
 
@@ -279,7 +403,8 @@ def unreachable(case: Case) -> list[str]:
                             "radius) does not fit (against a component or a wall); fix: move "
                             "its start_x_m / start_y_m into open floor")
         starts.discard(-1)
-        width = 2 * (radius + CLEARANCE_M)
+        fit = fit_distance(radius)
+        width = 2 * centre_clearance(radius)  # no way narrower opens on the navigator's grid
         # on a deck floor: from the starts over every deck the fixed point lays
         final = reach.labels(radius, laid)
         final_starts = {final[j, i] for c in crews
@@ -290,23 +415,30 @@ def unreachable(case: Case) -> list[str]:
             if tt.crew_type != crew_type:
                 continue
             if not decks:
-                if not reached(labels, starts, reach.work_point(k)):
-                    problems.append(
-                        f"tasks: {task.id} ({task.type} on {task.component}): no {crew_type} "
-                        f"crew can reach its work point from where the {crew_type} crews "
-                        f"start: every way there is narrower than {width:.2f} m (the crew's "
-                        f"{2 * radius:.2f} m less the navigator's clearance); fix: widen a "
-                        f"joint or lane next to {task.component}, or leave it out")
-            elif k not in taken and not reached(final, final_starts, reach.work_point(k)):
+                if reached(labels, starts, reach.work_point(radius, k)):
+                    continue
+            elif k in taken or reached(final, final_starts, reach.work_point(radius, k, laid)):
+                continue
+            head = f"tasks: {task.id} ({task.type} on {task.component}): "
+            if not decks and not reach.fits_in_area(radius, k).any():
+                problems.append(head + _no_room(case, reach, k, crew_type, radius, fit, laid))
+            elif not decks:
                 problems.append(
-                    f"tasks: {task.id} ({task.type} on {task.component}): no {crew_type} crew "
-                    f"can reach its work point from where the {crew_type} crews start, over "
-                    f"open floor and the decks laid before it ({len(laid)} of {len(decks)} "
-                    f"decks can be laid): every way there is narrower than {width:.2f} m (the "
-                    f"crew's {2 * radius:.2f} m less the navigator's clearance); fix: add an "
-                    f"access lane to {task.component} or widen a joint next to it, make the "
-                    "components around it decks (deck = true: walked on once laid), or leave "
-                    "it out")
+                    head + f"no {crew_type} crew can reach its work point from where the "
+                    f"{crew_type} crews start: every way there is narrower than {width:.2f} m "
+                    f"(the crew's {2 * radius:.2f} m less the navigator's clearance; between two "
+                    f"components it passes {2 * fit:.2f} m); fix: "
+                    f"widen a joint or lane next to {task.component}, or leave it out")
+            else:
+                problems.append(
+                    head + f"no {crew_type} crew can reach its work point from where the "
+                    f"{crew_type} crews start, over open floor and the decks laid before it "
+                    f"({len(laid)} of {len(decks)} decks can be laid): every way there is "
+                    f"narrower than {width:.2f} m (the crew's {2 * radius:.2f} m less the "
+                    f"navigator's clearance; between two components it passes {2 * fit:.2f} "
+                    f"m); fix: add an access lane to {task.component} or "
+                    "widen a joint next to it, make the components around it decks (deck = "
+                    "true: walked on once laid), or leave it out")
         materials = {case.task_types[t].material for t in case.task_types
                      if case.task_types[t].crew_type == crew_type}
         for storage in case.storages:
@@ -320,3 +452,24 @@ def unreachable(case: Case) -> list[str]:
             problems.append(f"plane: the outlet cannot be reached by the {crew_type} crews; "
                             "fix: move outlet_x_m / outlet_y_m into open floor")
     return problems
+
+
+def _no_room(case: Case, reach: Reach, k: int, crew_type: str, radius: float, fit: float,
+             laid: frozenset) -> str:
+    """Why no crew of ``crew_type`` gets its centre into task ``k``'s area anywhere, wherever
+    it comes from, and the fix: the components that fill the area's fringe."""
+    task = case.tasks[k]
+    area = reach.task_rects[k]
+    own = next(i for i, c in enumerate(case.components) if c.id == task.component)
+    others = [case.components[i].id for i, r in enumerate(reach.rects)
+              if i != own and i not in laid
+              and r[0] < area[2] and area[0] < r[2] and r[1] < area[3] and area[1] < r[3]]
+    distance = case.task_types[task.type].area_distance_m
+    inside = f" ({', '.join(others)} inside it)" if others else ""
+    return (f"no {crew_type} crew can stand in its task area ({task.component} grown by "
+            f"{distance:g} m){inside}: a {crew_type} crew's centre keeps {fit:.2f} m off "
+            f"components (its {radius:.2f} m radius less the contact solver's {SQUEEZE_M:g} m of "
+            "slop), "
+            "so the decision table never sees it reach the task; fix: move "
+            f"{' / '.join(others) if others else task.component} clear of {task.component}'s "
+            f"edge (leave {fit:.2f} m of the task area free beside it), or leave the task out")

@@ -1,0 +1,125 @@
+"""One reach rule (issue 41 item 3): does every floor the case check passes finish, and does a
+floor the check refuses fail to? Generated layouts, the floors of tests/test_reach_rule.py and
+the imported storeys of tests/ifc_models.py, under the priority heuristic (Eq. 9) and the other
+cheap strategies, on seeds 0..N-1.
+
+    PYTHONPATH=. python benchmarks/sweep_reach.py [--fidelity pymunk|event] [--seeds 3]
+        [--layouts 6] [--strategies priority,nearest] [--no-ifc]
+
+A floor the check refuses is run anyway (the check bypassed) and counted as "refused but
+finished" if it ends every task: that is a refusal the rule should not make. Prints a line per
+floor and strategy (finished / stalled seeds, the mean makespan) and the totals: the claim is
+0 stalls among the floors that load and 0 refused floors that finish, on the pymunk floor.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import tempfile
+import time
+from pathlib import Path
+from unittest import mock
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
+
+STALL_S = 3600.0
+
+
+def floors(layouts: int, ifc: bool) -> list[tuple[str, dict]]:
+    """(name, case data) of every floor swept."""
+    from test_reach_rule import fenced_slabs, isolated_joints
+
+    from cmdp_pymunk.cases.generated import generate_layout
+
+    out = [(f"layout-{seed}", generate_layout(seed)) for seed in range(layouts)]
+    out += [("isolated-joints-2.0", isolated_joints(2.0)),
+            ("isolated-joints-1.8", isolated_joints(1.8)),
+            ("fenced-slabs-corners-open", fenced_slabs(corners_open=True)),
+            ("fenced-slabs", fenced_slabs(corners_open=False))]
+    if ifc:
+        try:
+            import ifc_models
+
+            from cmdp_pymunk.cases.ifc_import import import_storey
+        except ImportError as err:  # the [ifc] extra is optional
+            print(f"imported storeys skipped: {err}")
+            return out
+        with tempfile.TemporaryDirectory() as tmp:
+            for name in ("two_by_two", "slabs_on_beams", "wide_slab_deck", "l_storey",
+                         "precast_deck"):
+                made = getattr(ifc_models, name)()
+                model = made[0] if isinstance(made, tuple) else made
+                path = Path(tmp) / f"{name}.ifc"
+                model.write(str(path))
+                with mock.patch("cmdp_pymunk.cases.load.unreachable", lambda case: []):
+                    data, _ = import_storey(path, "Level 1")
+                out.append((f"ifc-{name}", data))
+    return out
+
+
+def run(data: dict, strategy: str, seeds: range, fidelity: str) -> list[dict]:
+    """One row per seed: makespan_s (None: not finished), stalled, tasks ended of tasks."""
+    import cmdp_pymunk.cases.load as load
+    from agents.navigator import Navigator
+    from cmdp_pymunk.eventfloor.floor import make_floor
+    from cmdp_pymunk.rollout import run_episode
+
+    with mock.patch.object(load, "unreachable", lambda case: []):  # run refused floors too
+        case = load.case_from_dict(data, "sweep")
+    rows = []
+    for seed in seeds:
+        floor = make_floor(case, fidelity, evaluator=strategy)
+        episode = run_episode(floor, Navigator(), seed, stall_s=STALL_S, progress=False)
+        rows.append({"seed": seed, "makespan_s": episode.makespan_s,
+                     "stalled": episode.stalled is not None,
+                     "ended": floor.site.tasks_ended, "tasks": len(floor.site.tasks)})
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--fidelity", default="pymunk", choices=("pymunk", "event"))
+    p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1")
+    p.add_argument("--layouts", type=int, default=6, help="generated layouts, seeds 0..K-1")
+    p.add_argument("--strategies", default="priority,nearest")
+    p.add_argument("--no-ifc", action="store_true", help="leave out the imported storeys")
+    a = p.parse_args(argv)
+    from cmdp_pymunk.cases.load import CaseError, case_from_dict
+
+    start = time.perf_counter()
+    totals = {"loads": 0, "stalled": 0, "refused": 0, "refused_finished": 0}
+    for name, data in floors(a.layouts, not a.no_ifc):
+        try:
+            case_from_dict(data, name)
+            verdict = "loads"
+        except CaseError as err:
+            verdict = "refused"
+            first = str(err).splitlines()[1].strip() if "\n" in str(err) else str(err)
+        for strategy in a.strategies.split(","):
+            rows = run(data, strategy, range(a.seeds), a.fidelity)
+            done = [r["makespan_s"] for r in rows if r["makespan_s"] is not None]
+            bad = [r for r in rows if r["makespan_s"] is None]
+            mean = f"{statistics.mean(done):,.0f} s" if done else "-"
+            print(f"{name:28s} {verdict:8s} {strategy:9s} finished {len(done)}/{len(rows)}"
+                  f" (mean {mean})" + "".join(f"; seed {r['seed']}: {r['ended']}/{r['tasks']}"
+                                              f"{' stalled' if r['stalled'] else ''}"
+                                              for r in bad), flush=True)
+            if verdict == "loads":
+                totals["loads"] += len(rows)
+                totals["stalled"] += len(bad)
+            else:
+                totals["refused"] += len(rows)
+                totals["refused_finished"] += len(done)
+        if verdict == "refused":
+            print(f"    refused: {first[:200]}")
+    print(f"{a.fidelity}: {totals['loads']} runs of floors that load, {totals['stalled']} not "
+          f"finished; {totals['refused']} runs of refused floors, {totals['refused_finished']} "
+          f"finished; {time.perf_counter() - start:,.0f} s")
+    return 0 if totals["stalled"] == 0 and totals["refused_finished"] == 0 else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
