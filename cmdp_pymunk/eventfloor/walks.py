@@ -28,7 +28,7 @@ from scipy.ndimage import distance_transform_edt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from ..cases.reach import APPROACH_BAND_M, CELL_M, CLEARANCE_M, PlaneGrid
+from ..cases.reach import APPROACH_BAND_M, CELL_M, PlaneGrid, free_cells
 from ..state import CrewState, Rect, Site, inside
 
 
@@ -136,7 +136,8 @@ class _Radius:
     """The free cells, their graph and each cell's nearest free cell, for one crew radius."""
 
     def __init__(self, plane: PlaneGrid, components: list[Rect], radius: float):
-        self.blocked = plane.blocked(components, radius + CLEARANCE_M)
+        # the navigator's cells and the case check's (one reach rule: ``reach.free_cells``)
+        self.blocked = ~free_cells(plane, components, radius)
         src, dst, length = plane.edges(~self.blocked)
         n = plane.nx * plane.ny
         self.graph = csr_matrix((length, (src, dst)), shape=(n, n))
