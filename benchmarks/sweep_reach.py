@@ -25,6 +25,8 @@ from unittest import mock
 ROOT = Path(__file__).resolve().parent.parent
 sys.path[:0] = [str(ROOT), str(ROOT / "tests")]
 
+from cmdp_pymunk import add_version_flag  # noqa: E402 (the checkout first on the path)
+
 STALL_S = 3600.0
 
 
@@ -81,6 +83,7 @@ def run(data: dict, strategy: str, seeds: range, fidelity: str) -> list[dict]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_version_flag(p)
     p.add_argument("--fidelity", default="pymunk", choices=("pymunk", "event"))
     p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1")
     p.add_argument("--layouts", type=int, default=6, help="generated layouts, seeds 0..K-1")

@@ -29,6 +29,8 @@ import zipfile
 from fnmatch import fnmatch
 from pathlib import Path
 
+from cmdp_pymunk import add_version_flag
+
 ROOT = Path(__file__).resolve().parent.parent
 
 # tracked files under a package that no installed command reads (none yet)
@@ -134,6 +136,7 @@ def problems(root: Path, wheel: Path, sdist: Path | None = None) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="check_wheel.py", description=__doc__.split("\n\n")[0])
+    add_version_flag(p)
     p.add_argument("wheel", type=Path, nargs="?", default=None,
                    help="the built wheel (.whl); without it only setup.cfg is checked")
     p.add_argument("sdist", type=Path, nargs="?", default=None, help="the built sdist (.tar.gz)")
