@@ -84,6 +84,16 @@ def tiny_dict() -> dict:
     return copy.deepcopy(TINY)
 
 
+def tiny_file_data(**sections) -> dict:
+    """The built-in tiny case file's data (``cmdp_pymunk.TINY_CASE``, not ``TINY`` above),
+    with ``sections`` put in."""
+    import tomllib
+
+    from cmdp_pymunk.cases.load import TINY_CASE
+
+    return {**tomllib.loads(TINY_CASE.read_text()), **sections}
+
+
 @pytest.fixture
 def tiny_case():
     from cmdp_pymunk.cases.load import case_from_dict

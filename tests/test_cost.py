@@ -6,6 +6,7 @@ from __future__ import annotations
 import tomllib
 
 import pytest
+from conftest import tiny_file_data
 
 from cmdp_pymunk.cases.load import BUILTIN_CASE, TINY_CASE, CaseError, case_from_dict, load_case
 from cmdp_pymunk.cost import (
@@ -21,9 +22,8 @@ from cmdp_pymunk.events import Event
 
 
 def tiny_with(**sections) -> dict:
-    data = tomllib.loads(TINY_CASE.read_text())
-    data.update(sections)
-    return data
+    """The tiny case file's data with ``sections`` put in."""
+    return tiny_file_data(**sections)
 
 
 COST = {"currency": "EUR", "crew_rate_per_h": {"HIC": 250.0}, "default_crew_rate_per_h": 200.0,

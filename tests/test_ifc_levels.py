@@ -95,6 +95,20 @@ def _import(tmp_path, overlay_text: str | None = None, **stated):
 SUPPORTS = {"IfcBeam": 4, "IfcColumn": 6, "IfcWall": 1}
 
 
+def _refused(tmp_path, overlay: str, *model_args, **model_kwargs):
+    """The raised storey (``ifc_models.raised_storey(*model_args, **model_kwargs)``) imported
+    with ``overlay`` and refused: the error and what the model made."""
+    from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay
+    from tests import ifc_models
+
+    f, made = ifc_models.raised_storey(*model_args, **model_kwargs)
+    f.write(str(tmp_path / "m.ifc"))
+    (tmp_path / "o.toml").write_text(overlay)
+    with pytest.raises(CaseError) as err:
+        import_storey(tmp_path / "m.ifc", "Level 1", load_overlay(tmp_path / "o.toml"))
+    return err, made
+
+
 @needs_ifc
 @pytest.mark.parametrize("stated, level, route", [
     ({"elevation_m": 3.0}, 3.0, "elevation"),
@@ -205,14 +219,9 @@ def test_overlaps_of_elements_that_could_carry_the_floor_name_the_level(tmp_path
     """The wrong Elevation with heights unchecked: nothing lies below level 0, so every
     element is an obstacle, and the 37 overlaps of ``slabs_on_beams`` (counted by hand in
     test_ifc.py) each name the level, its route and how to set it."""
-    from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay
-    from tests import ifc_models
 
-    f, made = ifc_models.raised_storey("IFC4", elevation_m=0.0)
-    f.write(str(tmp_path / "m.ifc"))
-    (tmp_path / "o.toml").write_text("[import]\ncheck_storey = false\n")
-    with pytest.raises(CaseError) as err:
-        import_storey(tmp_path / "m.ifc", "Level 1", load_overlay(tmp_path / "o.toml"))
+    err, made = _refused(tmp_path, "[import]\ncheck_storey = false\n", "IFC4",
+                         elevation_m=0.0)
     assert len(err.value.problems) == 37
     assert all("model it below the storey's level (level 0.00 m from the storey's Elevation; "
                "its top at most 1 mm above it) and list its class in [import] supports in the "
@@ -227,16 +236,10 @@ def test_overlaps_on_a_storey_without_any_level_say_how_to_give_it_one(tmp_path)
     """No Elevation, no placement, no slabs in the recipe (beams, columns and walls, as
     precast): no level, no supports. By hand: B-X crosses B-1..B-3 (3); each of B-1..B-3
     meets its 2 columns and the wall below (9); C-1..C-3 the wall below (3): 15 overlaps."""
-    from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay
-    from tests import ifc_models
 
-    f, _ = ifc_models.raised_storey("IFC4")
-    f.write(str(tmp_path / "m.ifc"))
-    (tmp_path / "o.toml").write_text(
-        '[recipe.classes]\nIfcBeam = "precast"\nIfcColumn = "precast"\nIfcWall = "precast"\n'
-        '[recipe.chains]\nprecast = [{type = "JC"}, {type = "HI"}, {type = "G"}]\n')
-    with pytest.raises(CaseError) as err:
-        import_storey(tmp_path / "m.ifc", "Level 1", load_overlay(tmp_path / "o.toml"))
+    err, _ = _refused(tmp_path, '[recipe.classes]\nIfcBeam = "precast"\nIfcColumn = "precast"\n'
+                      'IfcWall = "precast"\n[recipe.chains]\n'
+                      'precast = [{type = "JC"}, {type = "HI"}, {type = "G"}]\n', "IFC4")
     assert len(err.value.problems) == 15
     assert all("if one carries the other, the storey has no level (neither an Elevation nor a "
                "placement, no slabs to take it from, no [import] level_m in the overlay), so "
@@ -249,16 +252,10 @@ def test_overlaps_on_a_storey_without_any_level_say_how_to_give_it_one(tmp_path)
 def test_a_storey_all_below_its_level_names_the_level(tmp_path):
     """Beams only in the recipe, level 3 m from the Elevation: all four lie below it and
     carry the floor, so the storey has nothing on its floor; the refusal says which level."""
-    from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay
-    from tests import ifc_models
 
-    f, _ = ifc_models.raised_storey("IFC4", elevation_m=3.0)
-    f.write(str(tmp_path / "m.ifc"))
-    (tmp_path / "o.toml").write_text(
-        '[recipe.classes]\nIfcBeam = "precast"\n'
-        '[recipe.chains]\nprecast = [{type = "JC"}, {type = "HI"}, {type = "G"}]\n')
-    with pytest.raises(CaseError) as err:
-        import_storey(tmp_path / "m.ifc", "Level 1", load_overlay(tmp_path / "o.toml"))
+    err, _ = _refused(tmp_path, '[recipe.classes]\nIfcBeam = "precast"\n[recipe.chains]\n'
+                      'precast = [{type = "JC"}, {type = "HI"}, {type = "G"}]\n',
+                      "IFC4", elevation_m=3.0)
     assert ("4 element(s) of it lie below its level 3.00 m from the storey's Elevation and "
             f"carry it ([import] supports; if the level is wrong, {ELEVATION_FIX})"
             ) in str(err.value)

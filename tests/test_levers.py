@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import math
-import tomllib
 
 import pytest
+from conftest import tiny_file_data
 
 from cmdp_pymunk.cases.levers import (
     free_starts,
@@ -18,9 +18,8 @@ from cmdp_pymunk.cases.load import TINY_CASE, CaseError, case_from_dict, load_ca
 
 
 def tiny_data(**sections) -> dict:
-    data = tomllib.loads(TINY_CASE.read_text())
-    data.update(sections)
-    return data
+    """The tiny case file's data with ``sections`` put in."""
+    return tiny_file_data(**sections)
 
 
 def test_an_added_crew_starts_at_the_nearest_free_point():

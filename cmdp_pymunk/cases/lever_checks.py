@@ -17,6 +17,13 @@ from .model import Case, Levers, Storage
 __all__ = ["lever_problems", "cost_problems"]
 
 
+def _unknown(where: str, kind: str, name: str, names: list[str]) -> str:
+    """A lever naming what the case lacks: the nearest name, or the names there are."""
+    close = _closest(name, names)
+    return (f'{where}: no {kind} "{name}"; fix: '
+            + (f'did you mean "{close}"?' if close else "use one of " + ", ".join(names)))
+
+
 def _closest(name: str, known: list[str]) -> str | None:
     """The known name most like ``name`` (``load._closest``'s rule), or None."""
     for k in known:
@@ -60,10 +67,7 @@ def lever_problems(case: Case) -> list[str]:
     for name, lever in levers.crews.items():
         where = f"levers.crews.{name}"
         if name not in case.crew_types:
-            close = _closest(name, list(case.crew_types))
-            problems.append(f'{where}: no crew type "{name}"; fix: '
-                            + (f'did you mean "{close}"?' if close else
-                               "use one of " + ", ".join(case.crew_types)))
+            problems.append(_unknown(where, "crew type", name, list(case.crew_types)))
             continue
         count = _count(case, name)
         if not lever.min <= count <= lever.max:
@@ -90,10 +94,7 @@ def lever_problems(case: Case) -> list[str]:
     for name, lever in levers.materials.items():
         where = f"levers.materials.{name}"
         if name not in case.materials:
-            close = _closest(name, list(case.materials))
-            problems.append(f'{where}: no material "{name}"; fix: '
-                            + (f'did you mean "{close}"?' if close else
-                               "use one of " + ", ".join(case.materials)))
+            problems.append(_unknown(where, "material", name, list(case.materials)))
             continue
         if lever.reorder_at is None:
             continue
@@ -111,10 +112,7 @@ def lever_problems(case: Case) -> list[str]:
         where = f"levers.storages.{name}"
         s = storages.get(name)
         if s is None:
-            close = _closest(name, list(storages))
-            problems.append(f'{where}: no storage "{name}"; fix: '
-                            + (f'did you mean "{close}"?' if close else
-                               "use one of " + ", ".join(storages)))
+            problems.append(_unknown(where, "storage", name, list(storages)))
             continue
         w, h = s.width_m / 2.0, s.height_m / 2.0
         for i, (x, y) in enumerate(lever.spots):
