@@ -101,6 +101,17 @@ class Outline(tuple):
         out = self._crossing(x, y) | (self.edge_distance_sq(x, y) <= EDGE_M * EDGE_M)
         return bool(out) if out.ndim == 0 else out
 
+    def nearest(self, x: float, y: float) -> Point:
+        """The polygon's point nearest to (x, y): the point itself inside, else the nearest
+        point of its nearest edge (where a crew closes in on the component)."""
+        if self._crossing(x, y):
+            return x, y
+        ex, ey = self._bx - self._ax, self._by - self._ay
+        t = np.clip(((x - self._ax) * ex + (y - self._ay) * ey) / (ex * ex + ey * ey), 0.0, 1.0)
+        qx, qy = self._ax + t * ex, self._ay + t * ey
+        k = int(np.argmin((qx - x) ** 2 + (qy - y) ** 2))
+        return float(qx[k]), float(qy[k])
+
     def distance(self, x, y) -> np.ndarray:
         """Distance (m) from each point to the polygon: 0 inside, else to its nearest edge."""
         d = np.sqrt(self.edge_distance_sq(x, y))
