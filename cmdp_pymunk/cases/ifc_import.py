@@ -239,7 +239,7 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             if key not in allowed:
                 problems.append(f"{section}.{key}: unknown field"
                                 + _did_you_mean(key, list(allowed)))
-            elif key == "check_storey":
+            elif key in ("check_storey", "polygons"):
                 if not isinstance(value[key], bool):
                     problems.append(f"{section}.{key} = {value[key]!r}: write true or false")
             elif key == "level_m":  # a height, below the model's origin too (a basement)
@@ -277,9 +277,6 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
         if not _is_number(st.get("x_frac", 0.0)) or not -1 <= st.get("x_frac", 0.0) <= 1:
             problems.append(f"{where}: x_frac = {st['x_frac']!r}; fix: a number from -1 (left "
                             "wall) to 1 (right wall)")
-    if not isinstance(data["import"]["polygons"], bool):
-        problems.append(f"import.polygons = {data['import']['polygons']!r}: true (footprints "
-                        "as drawn) or false (boxed); fix: write true or false")
     if _is_number(data["import"]["min_fill"]) and not 0 <= data["import"]["min_fill"] <= 1:
         problems.append("import.min_fill: a share of the rectangle, from 0 to 1; fix: e.g. 0.9")
     crew_types = base["crew_types"] if isinstance(base["crew_types"], dict) else {}
