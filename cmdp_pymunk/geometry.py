@@ -21,10 +21,16 @@ answers a float question), so the core imports no plotting library.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import shapely
-from shapely.geometry import Polygon
-from shapely.geometry.polygon import orient
+
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
+# shapely is imported where a polygon is made, not here: a floor of rectangles (every shipped
+# case) never loads it, and the core imports no optional-looking library at module level
+# (tests/test_ifc_optional.py)
 
 Rect = tuple[float, float, float, float]  # x0, y0, x1, y1 (m, the plane's centre at 0)
 Point = tuple[float, float]
@@ -69,6 +75,8 @@ class Outline(tuple):
     @property
     def polygon(self) -> Polygon:
         """The shapely polygon (made on each call; for the importer, the check, the export)."""
+        from shapely.geometry import Polygon
+
         return Polygon(self.points)
 
     @property
@@ -121,6 +129,9 @@ class Outline(tuple):
 def outline(points) -> Outline:
     """The :class:`Outline` of a simple polygon given by its corners (either winding, closed
     or not): counter-clockwise, without a repeated closing corner."""
+    from shapely.geometry import Polygon
+    from shapely.geometry.polygon import orient
+
     pts = [tuple(map(float, p)) for p in points]
     if len(pts) > 1 and pts[0] == pts[-1]:
         pts = pts[:-1]
@@ -131,6 +142,8 @@ def outline(points) -> Outline:
 def outline_problems(points) -> list[str]:
     """Why ``points`` is not a simple polygon (empty: it is): fewer than 3 corners, a
     repeated corner, no area, or edges that cross. Each problem names the fix."""
+    import shapely
+
     pts = [tuple(p) for p in points]
     if len(pts) > 1 and pts[0] == pts[-1]:
         pts = pts[:-1]
@@ -202,6 +215,8 @@ def overlap(a: Rect, b: Rect, tolerance_m: float = 0.0) -> bool:
 
 def as_polygon(shape: Rect) -> Polygon:
     """A shapely polygon of a rectangle or an outline."""
+    from shapely.geometry import Polygon
+
     return Polygon(corners(shape))
 
 
@@ -210,6 +225,10 @@ def convex_parts(shape: Rect) -> list[list[Point]]:
     rectangle or a convex outline is one piece; a concave outline is cut by shapely's
     constrained Delaunay triangulation, and the triangles are merged back greedily while
     the union stays convex (an L is two or three pieces, not a fan of slivers)."""
+    import shapely
+    from shapely.geometry import Polygon
+    from shapely.geometry.polygon import orient
+
     pts = corners(shape)
     poly = Polygon(pts)
     if not isinstance(shape, Outline) or poly.convex_hull.area - poly.area <= 1e-12:
