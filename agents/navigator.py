@@ -67,6 +67,7 @@ from cmdp_pymunk.cases.reach import (
     PlaneGrid,
     free_cells,
 )
+from cmdp_pymunk.geometry import Outline
 from cmdp_pymunk.move import STAND_STILL
 from cmdp_pymunk.state import CrewStatus, ScopeKind, inside
 
@@ -325,8 +326,12 @@ class _Plans:
                 self.best[crew.index] = math.inf
         if here == 0.0 and target < len(self.site.components):
             # in the approach band: close in on the component's nearest point
-            x0, y0, x1, y1 = self.site.components[target].rect
-            px, py = min(max(x, x0), x1), min(max(y, y0), y1)
+            shape = self.site.components[target].rect
+            if isinstance(shape, Outline):  # a polygon: its nearest point, not its box's
+                px, py = shape.nearest(x, y)
+            else:
+                x0, y0, x1, y1 = shape
+                px, py = min(max(x, x0), x1), min(max(y, y0), y1)
         else:
             carrot = self._carrot(field, x, y, lowest=detoured)
             px, py = carrot if carrot is not None else self.site.target_xy[target]
@@ -691,7 +696,9 @@ def _parked(crew) -> bool:
 
 
 def _distance_to_rect(rect, x: float, y: float) -> float:
-    """From (x, y) to the rectangle (x0, y0, x1, y1); 0 inside."""
+    """From (x, y) to the rectangle (x0, y0, x1, y1), or an outline's polygon; 0 inside."""
+    if isinstance(rect, Outline):
+        return float(rect.distance(x, y))
     x0, y0, x1, y1 = rect
     return math.hypot(max(x0 - x, 0.0, x - x1), max(y0 - y, 0.0, y - y1))
 

@@ -16,9 +16,11 @@ import numpy as np
 
 from .cases.model import Case, CrewType
 from .cases.reach import Reach, laying_tasks
+from .geometry import Outline, grown
+from .geometry import overlap as shapes_overlap
 from .precedence import ON, QUEUE, Pool, initial_pools
 
-Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1)
+Rect = tuple[float, float, float, float]  # (x0, y0, x1, y1); or a ``geometry.Outline``
 
 
 class CrewStatus(IntEnum):
@@ -83,7 +85,10 @@ def rect_of(x: float, y: float, w: float, h: float) -> Rect:
 
 
 def inside(x: float, y: float, r: Rect) -> bool:
-    return r[0] <= x <= r[2] and r[1] <= y <= r[3]
+    """Whether (x, y) lies in the rectangle, or the polygon of an ``Outline`` (edges in)."""
+    if r[0] <= x <= r[2] and r[1] <= y <= r[3]:
+        return type(r) is not Outline or r.contains(x, y)
+    return False
 
 
 def overlap(a: Rect, b: Rect) -> bool:
@@ -110,7 +115,8 @@ class TaskState:
     material: str | None
     material_per_work: float  # material consumed per unit of work
     needs_crane: bool
-    area: Rect  # the task area: the component grown by Table 2's area distance
+    area: Rect  # the task area: the component grown by Table 2's area distance (an Outline
+    # for a polygon component: its box to whatever needs a box, ``inside`` tests the polygon)
     congestion_index: float  # Table 2, I_area inside the task area
     predecessors: tuple[int, ...]
     successors: tuple[int, ...] = ()
@@ -143,7 +149,7 @@ class ComponentState:
     index: int
     id: str
     kind: str
-    rect: Rect
+    rect: Rect  # its rectangle, or its ``geometry.Outline`` (a tuple too: the box)
     tasks: tuple[int, ...]  # its tasks in precedence order
 
 
@@ -235,12 +241,12 @@ class Site:
         for i, t in enumerate(case.tasks):
             tt = case.task_types[t.type]
             comp = case.components[comp_index[t.component]]
-            rect = rect_of(comp.x_m, comp.y_m, comp.width_m, comp.height_m)
+            rect = comp.shape
             self.tasks.append(TaskState(
                 index=i, id=t.id, type=t.type, component=comp_index[t.component],
                 crew_type=tt.crew_type, work=t.work, material=tt.material,
                 material_per_work=t.material_quantity / t.work if tt.material else 0.0,
-                needs_crane=tt.needs_crane, area=expand(rect, tt.area_distance_m),
+                needs_crane=tt.needs_crane, area=grown(rect, tt.area_distance_m),
                 congestion_index=tt.congestion_index,
                 predecessors=tuple(task_index[p] for p in t.predecessors)))
         succ: list[list[int]] = [[] for _ in self.tasks]
@@ -249,13 +255,19 @@ class Site:
                 succ[p].append(t.index)
         conflicting = overlaps([t.area for t in self.tasks])
         np.fill_diagonal(conflicting, False)
+        # a polygon's box may overlap where the polygons do not: those pairs are asked again
+        polygonal = [t.index for t in self.tasks if isinstance(t.area, Outline)]
+        for i in polygonal:
+            for j in np.flatnonzero(conflicting[i]).tolist():
+                if not shapes_overlap(self.tasks[i].area, self.tasks[j].area):
+                    conflicting[i, j] = conflicting[j, i] = False
         for t in self.tasks:
             t.successors = tuple(succ[t.index])
             t.conflicts = tuple(np.flatnonzero(conflicting[t.index]).tolist())
         for t in self.tasks:
             t.all_successors = len(_descendants(t.index, succ))
         self.components = [
-            ComponentState(i, c.id, c.kind, rect_of(c.x_m, c.y_m, c.width_m, c.height_m),
+            ComponentState(i, c.id, c.kind, c.shape,
                            tuple(t.index for t in self.tasks if t.component == i))
             for i, c in enumerate(case.components)]
         n_comp = len(self.components)

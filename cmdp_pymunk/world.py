@@ -6,6 +6,12 @@ Crews are dynamic discs whose velocity is set inside their ``velocity_func`` eve
 Task areas and storage areas are sensor shapes: they slow crews (Eq. 1, see ``move``) and
 surrounding rays report them, but they never block movement.
 
+A polygon component (``geometry.Outline``) is ``pymunk.Poly`` shapes, convex only: a concave
+outline (an L, a notched slab) is its convex pieces (``geometry.convex_parts``), and so is a
+task area grown from it. A rectangle is one box, as before polygons. A crew crossing the seam
+between two pieces of one task area enters the second piece too: its congestion entries
+(``contacts``) count that crossing once more (Eq. 6's entry penalty on polygon floors only).
+
 ``World`` is the engine's ``physics.Physics``: the engine and the stages reach it only through
 that protocol's members (poses, velocities, desired velocities, steps, contacts, task areas,
 crews leaving and coming back, rays, rebuilding).
@@ -19,6 +25,7 @@ import pymunk
 
 from . import interrupt
 from .cases.model import Case
+from .geometry import Outline, convex_parts
 from .physics import (  # noqa: F401 - the kinds, also read from here
     COMPONENT,
     CREW,
@@ -54,6 +61,13 @@ WALL_RADIUS_M = 0.1
 def _box(body: pymunk.Body, rect: Rect) -> pymunk.Poly:
     x0, y0, x1, y1 = rect
     return pymunk.Poly(body, [(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+
+
+def _shapes(body: pymunk.Body, shape: Rect) -> list[pymunk.Poly]:
+    """A rectangle's box, or an outline's convex pieces (pymunk's polygons are convex)."""
+    if type(shape) is not Outline:
+        return [_box(body, shape)]
+    return [pymunk.Poly(body, part) for part in convex_parts(shape)]
 
 
 def _tag(shape: pymunk.Shape, kind: int, target: int = -1, crew: int = -1) -> pymunk.Shape:
@@ -138,13 +152,16 @@ class World:
         for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
             self._add_static(_tag(pymunk.Segment(static, a, b, WALL_RADIUS_M), WALL),
                              CATEGORY[WALL])
-        self.component_shapes: dict[int, pymunk.Shape] = {}  # by component index
+        # by component index: its shapes (one box, or an outline's convex pieces)
+        self.component_shapes: dict[int, tuple[pymunk.Shape, ...]] = {}
         for comp in site.components:
             if comp.index in site.laid:  # a deck laid (a rebuild): walked on, not an obstacle
                 continue
-            shape = _tag(_box(static, comp.rect), COMPONENT, target=comp.index)
-            self._add_static(shape, CATEGORY[COMPONENT])
-            self.component_shapes[comp.index] = shape
+            shapes = tuple(_tag(part, COMPONENT, target=comp.index)
+                           for part in _shapes(static, comp.rect))
+            for shape in shapes:
+                self._add_static(shape, CATEGORY[COMPONENT])
+            self.component_shapes[comp.index] = shapes
         self.storage_rects: dict[int, Rect] = {}  # by target index
         for st in site.storages:
             self._add_static(_tag(_box(static, st.rect), STORAGE, target=st.target),
@@ -154,7 +171,7 @@ class World:
                                (case.plane.outlet_x_m, case.plane.outlet_y_m))
         self._add_static(_tag(outlet, OUTLET, target=site.outlet_target), CATEGORY[OUTLET],
                          sensor=True)
-        self.area_shapes: dict[int, pymunk.Shape] = {}
+        self.area_shapes: dict[int, tuple[pymunk.Shape, ...]] = {}  # by task index
         self._static_body = static
 
         n = len(site.crews)
@@ -219,26 +236,28 @@ class World:
     # -- changes the construction stages make -----------------------------------------------
 
     def add_task_area(self, task: int, rect: Rect) -> None:
-        """a^c1: the task area appears on the plane as a sensor."""
-        shape = _tag(_box(self._static_body, rect), TASK_AREA)
-        shape.task = task
-        self._add_static(shape, CATEGORY[TASK_AREA], sensor=True)
-        self.area_shapes[task] = shape
+        """a^c1: the task area appears on the plane as a sensor (or sensors: an outline's
+        convex pieces)."""
+        shapes = tuple(_tag(part, TASK_AREA) for part in _shapes(self._static_body, rect))
+        for shape in shapes:
+            shape.task = task
+            self._add_static(shape, CATEGORY[TASK_AREA], sensor=True)
+        self.area_shapes[task] = shapes
         self.motion_version += 1
 
     def remove_task_area(self, task: int) -> None:
         """a^c9: the task area is deregistered."""
-        shape = self.area_shapes.pop(task)
-        self.rays.unregister(shape)
-        self.space.remove(shape)
+        for shape in self.area_shapes.pop(task):
+            self.rays.unregister(shape)
+            self.space.remove(shape)
         self.motion_version += 1
 
     def lay_deck(self, component: int) -> None:
         """A deck is laid: its box leaves the space, so crews walk over it (and rays no longer
         see it: a laid deck's later tasks are found by the navigator, which reads the state)."""
-        shape = self.component_shapes.pop(component)
-        self.rays.unregister(shape)
-        self.space.remove(shape)
+        for shape in self.component_shapes.pop(component):
+            self.rays.unregister(shape)
+            self.space.remove(shape)
         self.motion_version += 1
 
     def remove_crew(self, i: int) -> None:

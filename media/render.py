@@ -39,6 +39,7 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # noqa: E402  (the environment variables above must be set first)
 
+from cmdp_pymunk.geometry import Outline  # noqa: E402
 from cmdp_pymunk.observe import ray_model  # noqa: E402
 from cmdp_pymunk.precedence import component_attributes  # noqa: E402
 from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
@@ -272,8 +273,16 @@ class _Renderer:
             return _to_array(surface)
 
         for t in site.active_areas:
-            r = vp.rect_px(site.tasks[t].area)
+            area = site.tasks[t].area
+            r = vp.rect_px(area)
             patch = pygame.Surface(r.size, pygame.SRCALPHA)
+            if isinstance(area, Outline):  # a polygon component's area: its polygon only
+                points = [vp.to_px(x, y) for x, y in area.points]
+                pygame.draw.polygon(patch, TASK_AREA, [(px - r.left, py - r.top)
+                                                       for px, py in points])
+                surface.blit(patch, r.topleft)
+                pygame.draw.polygon(surface, (235, 130, 20), points, width=1)
+                continue
             patch.fill(TASK_AREA)
             surface.blit(patch, r.topleft)
             pygame.draw.rect(surface, (235, 130, 20), r, width=1)
@@ -300,8 +309,13 @@ class _Renderer:
         for comp in site.components:
             r = vp.rect_px(comp.rect)
             colour = component_colour(site, comp.index)
-            surface.fill(colour, r)
-            pygame.draw.rect(surface, WALL, r, width=1)
+            if isinstance(comp.rect, Outline):  # a polygon component: drawn as its outline
+                points = [vp.to_px(x, y) for x, y in comp.rect.points]
+                pygame.draw.polygon(surface, colour, points)
+                pygame.draw.polygon(surface, WALL, points, width=1)
+            else:
+                surface.fill(colour, r)
+                pygame.draw.rect(surface, WALL, r, width=1)
             ink = TEXT if colour == COMPONENT_WAITING else (255, 255, 255)
             self.blit_centred(self.text(fonts.small, comp.id, ink), r.center)
 

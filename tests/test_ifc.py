@@ -217,13 +217,20 @@ def test_overlapping_and_poorly_boxed_footprints_are_reported(tmp_path, capsys):
                            [(90, 50), (94, 50), (94, 51), (91, 51), (91, 54), (90, 54)])
     path = tmp_path / "bad.ifc"
     f.write(str(path))
+    # by default the L imports as drawn (a polygon): only the overlap is reported
     with pytest.raises(CaseError) as err:
         import_storey(path, "Level 1")
+    assert 'IfcSlab "S-L"' not in str(err.value)
+    assert "footprints overlap by 1.000 x 1.000 m" in str(err.value)
+    boxes = tmp_path / "boxes.toml"  # boxed, as before polygons
+    boxes.write_text("[import]\npolygons = false\n")
+    with pytest.raises(CaseError) as err:
+        import_storey(path, "Level 1", load_overlay(boxes))
     # L: 4 + 3 = 7 m2 of its 4 x 4 = 16 m2 rectangle -> 44%
     assert 'IfcSlab "S-L"' in str(err.value) and "fills 44% of its 4.00 x 4.00 m" in str(err.value)
     assert "min_fill = 0.43" in str(err.value)
     overlay = tmp_path / "o.toml"
-    overlay.write_text("[import]\nmin_fill = 0.4\n")
+    overlay.write_text("[import]\npolygons = false\nmin_fill = 0.4\n")
     with pytest.raises(CaseError) as err:
         import_storey(path, "Level 1", load_overlay(overlay))
     assert 'IfcSlab "S-11"' in str(err.value) and 'IfcSlab "S-X"' in str(err.value)

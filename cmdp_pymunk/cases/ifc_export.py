@@ -27,12 +27,13 @@ from .load import CaseError
 
 def model_from_case(case, storey: str = "Level 1", origin: tuple[float, float] = (0.0, 0.0),
                     classes: dict[str, str] | None = None, seed: str = "cmdp"):
-    """An IFC4 model of a case's components: one storey at z 0, each component a box 0.3 m thick
-    (IfcSlab for "precast", IfcBeam for "cast-in-place", by default; other kinds
-    IfcBuildingElementProxy) named by its id, its centre at ``origin`` + the component's
-    centre. GlobalIds are derived from ``seed`` and the ids, and the header's time stamp is
-    fixed, so one case gives one file byte for byte. The model's length unit is the
-    millimetre, as BIM tools write; the importer reads metres back."""
+    """An IFC4 model of a case's components: one storey at z 0, each component its footprint
+    (its rectangle, or its outline) extruded 0.3 m (IfcSlab for "precast", IfcBeam for
+    "cast-in-place", by default; other kinds IfcBuildingElementProxy) named by its id, its
+    box's centre at ``origin`` + the component's centre. GlobalIds are derived from ``seed``
+    and the ids, and the header's time stamp is fixed, so one case gives one file byte for
+    byte. The model's length unit is the millimetre, as BIM tools write; the importer reads
+    metres back."""
     require_ifcopenshell()
     import uuid
 
@@ -73,8 +74,13 @@ def model_from_case(case, storey: str = "Level 1", origin: tuple[float, float] =
     for comp in case.components:
         element = entity(classes.get(comp.kind, "IfcBuildingElementProxy"), comp.id)
         w, h = comp.width_m, comp.height_m
+        profile = [(0, 0), (w, 0), (w, h), (0, h)]
+        if comp.outline is not None:  # a polygon: its outline, from its box's corner
+            x0, y0 = comp.x_m - w / 2, comp.y_m - h / 2
+            profile = [(x - x0, y - y0) for x, y in comp.outline]
+        # an extruded IfcArbitraryClosedProfileDef of the footprint
         rep = api.geometry.add_slab_representation(f, context=body, depth=0.3,
-                                                   polyline=[(0, 0), (w, 0), (w, h), (0, h)])
+                                                   polyline=profile)
         api.geometry.assign_representation(f, product=element, representation=rep)
         matrix = np.eye(4)
         matrix[:2, 3] = (origin[0] + comp.x_m - w / 2, origin[1] + comp.y_m - h / 2)

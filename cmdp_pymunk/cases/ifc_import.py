@@ -50,6 +50,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..geometry import Outline, as_polygon
+from ..geometry import overlap as shapes_overlap
 from .floorplan import (
     GEOMETRY_TOLERANCE_M,
     PRECAST_RECIPE,
@@ -74,7 +76,11 @@ INSTALL_HINT = "pip install -e '.[ifc]' in the checkout (make test installs it)"
 # open floor left and right of the components, 7 m above and below).
 DEFAULT_OVERLAY: dict = {
     "plane": {"margin_x_m": 6.0, "margin_y_m": 7.0},
+    # polygons: an element whose footprint is one polygon but no rectangle (notched,
+    # trapezoidal, L-shaped) is imported as drawn (a component's outline); false: boxed,
+    # refused below min_fill as before polygons
     "import": {"min_fill": 0.9, "neighbour_gap_m": 5.0, "check_storey": True,
+               "polygons": True,
                # elements of these classes whose body lies wholly below the storey's level
                # carry the floor (beams and columns under the slabs, the walls of the storey
                # below): supports, not obstacles on the work plane (:func:`split_supports`)
@@ -99,7 +105,8 @@ DEFAULT_OVERLAY: dict = {
 _OVERLAY_SECTIONS = {"plane", "import", "crews", "crane", "storages", "recipe", "case",
                      "simulation", "reaching_reward", "task_types", "crew_types", "materials"}
 _OVERLAY_KEYS = {"plane": ("margin_x_m", "margin_y_m", "width_m", "height_m"),
-                 "import": ("min_fill", "neighbour_gap_m", "check_storey", "supports",
+                 "import": ("min_fill", "neighbour_gap_m", "check_storey", "polygons",
+                            "supports",
                             "deck_joint_max_m", "level_m"),
                  "crane": ("lift_time_s", "assist_time_s")}
 _STORAGE_KEYS = ("id", "material", "width_m", "height_m", "capacity", "congestion_index_full",
@@ -232,7 +239,7 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             if key not in allowed:
                 problems.append(f"{section}.{key}: unknown field"
                                 + _did_you_mean(key, list(allowed)))
-            elif key == "check_storey":
+            elif key in ("check_storey", "polygons"):
                 if not isinstance(value[key], bool):
                     problems.append(f"{section}.{key} = {value[key]!r}: write true or false")
             elif key == "level_m":  # a height, below the model's origin too (a basement)
@@ -324,6 +331,7 @@ class Element:
     z_m: tuple[float, float] | None = None  # the body's bottom and top (world z, metres)
     classes: tuple[str, ...] = ()  # its class and superclasses, most specific first
     parts_from: tuple[str, ...] = ()  # the classes of the parts its body came from, if any
+    outline: tuple | None = None  # its footprint's corners when no rectangle (world, m)
 
     @property
     def label(self) -> str:
@@ -449,6 +457,16 @@ def footprint(shapes) -> tuple[Rect | None, float]:
     """The plan footprint of tessellated shapes (one, or a sequence: an element's parts;
     world coordinates, metres): its bounding rectangle and the share of that rectangle the
     footprint fills (the union of the triangles' projections on the floor)."""
+    rect, fill, _ = footprint_outline(shapes)
+    return rect, fill
+
+
+def footprint_outline(shapes) -> tuple[Rect | None, float, tuple | None]:
+    """``footprint``'s rectangle and fill, and the footprint's projected outline: the union of
+    the body's projected faces simplified within ``GEOMETRY_TOLERANCE_M``, as its corners
+    (world, metres), when it is one polygon without holes that its rectangle does not fill
+    (a notched, trapezoidal or L-shaped slab); None for a rectangle (or a footprint of
+    several pieces or with holes: those are boxed, ``[import] min_fill``)."""
     import numpy as np
     import shapely
 
@@ -466,9 +484,15 @@ def footprint(shapes) -> tuple[Rect | None, float]:
     lo, hi = verts.min(axis=0), verts.max(axis=0)
     rect = Rect(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
     if len(tris) == 0 or rect.area <= 0:
-        return rect, 0.0
+        return rect, 0.0, None
+    # the faces' union, its slivers between triangles closed within the tolerance
     union = shapely.union_all(shapely.polygons(tris))
-    return rect, min(1.0, union.area / rect.area)
+    fill = min(1.0, union.area / rect.area)
+    shape = union.buffer(GEOMETRY_TOLERANCE_M / 2, join_style="mitre").buffer(
+        -GEOMETRY_TOLERANCE_M / 2, join_style="mitre").simplify(GEOMETRY_TOLERANCE_M)
+    if fill >= 0.999 or shape.geom_type != "Polygon" or shape.interiors:
+        return rect, fill, None
+    return rect, fill, tuple(shape.exterior.coords[:-1])
 
 
 def _body_shapes(element, settings) -> tuple[list, list]:
@@ -526,14 +550,14 @@ def storey_elements(model, storey, recipe: Recipe) -> tuple[list[Element], dict[
     for element, chain, kind, shapes, parts in taken:
         if element.id() in in_others:
             continue  # a part of an element taken whole
-        rect, fill, z = None, 0.0, None
+        rect, fill, z, outline = None, 0.0, None, None
         if shapes:
-            rect, fill = footprint(shapes)
+            rect, fill, outline = footprint_outline(shapes)
             heights = [h for s in shapes for h in s.geometry.verts[2::3]]
             z = (min(heights), max(heights))
         elements.append(Element(element.GlobalId, element.is_a(), (element.Name or "").strip(),
                                 kind, rect, fill, z, tuple(chain),
-                                tuple(sorted({p.is_a() for p in parts}))))
+                                tuple(sorted({p.is_a() for p in parts})), outline))
     skipped: dict[str, int] = {}
     for element in not_taken:
         if element.id() not in in_others:
@@ -697,6 +721,19 @@ def _r(v: float) -> float:
     return round(v, 3) + 0.0
 
 
+def _plan_corners(outline: tuple, cx: float, cy: float) -> list[list[float]]:
+    """An outline's corners on the plane (centred on (cx, cy)), in millimetres (``_r``),
+    without a corner that rounding made twice."""
+    out: list[list[float]] = []
+    for x, y in outline:
+        p = [_r(x - cx), _r(y - cy)]
+        if not out or p != out[-1]:
+            out.append(p)
+    if len(out) > 1 and out[0] == out[-1]:
+        out.pop()
+    return out
+
+
 def _off_storey(e: Element, storey: StoreyRange) -> str:
     """The message for an element whose body starts outside its storey's range."""
     bottom = e.z_m[0]
@@ -784,6 +821,8 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     notes, and where the precedences came from ("recipe" or "model")."""
     problems, notes = [], []
     min_fill = float(overlay.data["import"]["min_fill"])
+    polygons = overlay.data["import"]["polygons"] is True
+    drawn = {k for k, e in enumerate(elements) if polygons and e.outline is not None}
     check_storey = storey is not None and overlay.data["import"]["check_storey"]
     for e in elements:
         if e.rect is None:
@@ -799,6 +838,9 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
                             f"({e.rect.size[0]:.3g} x {e.rect.size[1]:.3g} m; an element out "
                             "of the floor's plane); fix: model it as a solid on the floor, or "
                             "leave its class out of the recipe")
+        elif e.outline is not None and polygons:
+            notes.append(f"{e.label}: imported as drawn, a polygon of {len(e.outline)} corners "
+                         f"filling {e.fill:.0%} of its rectangle")
         elif e.fill < min_fill:
             w, h = e.rect.size
             problems.append(f"{e.label}: its footprint fills {e.fill:.0%} of its {w:.2f} x "
@@ -813,8 +855,15 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         raise CaseError(source, problems)
     rects = [e.rect for e in elements]
     for i, j in overlapping_pairs(rects):  # beyond GEOMETRY_TOLERANCE_M, as the case check
-        problems.append(_overlap(elements[i], elements[j], rects[i].overlap(rects[j]),
-                                 storey))
+        size = rects[i].overlap(rects[j])
+        if i in drawn or j in drawn:  # a polygon's box may reach over what it leaves free
+            a, b = (Outline(elements[k].outline) if k in drawn else tuple(rects[k])
+                    for k in (i, j))
+            if not shapes_overlap(a, b, GEOMETRY_TOLERANCE_M):
+                continue
+            x0, y0, x1, y1 = as_polygon(a).intersection(as_polygon(b)).bounds
+            size = (x1 - x0, y1 - y0)
+        problems.append(_overlap(elements[i], elements[j], size, storey))
     box = bounding_rect(rects)
     cx, cy = box.centre
     plane_cfg = overlay.data["plane"]
@@ -836,11 +885,18 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         raise CaseError(source, problems)
 
     components = []
-    for e, cid in zip(elements, ids, strict=True):
+    for k, (e, cid) in enumerate(zip(elements, ids, strict=True)):
         x, y = e.rect.centre
         w, h = e.rect.size
-        components.append({"id": cid, "kind": e.kind, "x_m": _r(x - cx), "y_m": _r(y - cy),
-                           "width_m": _r(w), "height_m": _r(h), "ifc_guid": e.guid})
+        entry = {"id": cid, "kind": e.kind, "x_m": _r(x - cx), "y_m": _r(y - cy),
+                 "width_m": _r(w), "height_m": _r(h), "ifc_guid": e.guid}
+        if k in drawn:  # as drawn: its outline, and the box of the outline's rounded corners
+            corners = _plan_corners(e.outline, cx, cy)
+            xs, ys = [p[0] for p in corners], [p[1] for p in corners]
+            entry.update(x_m=(min(xs) + max(xs)) / 2, y_m=(min(ys) + max(ys)) / 2,
+                         width_m=max(xs) - min(xs), height_m=max(ys) - min(ys),
+                         outline=corners)
+        components.append(entry)
     crew_types = overlay.base["crew_types"]
     widest = max(2 * math.sqrt(crew_types[ct]["occupation_area_m2"] / math.pi)
                  for ct in overlay.data["crews"] if overlay.data["crews"][ct] > 0) \

@@ -21,6 +21,7 @@ from typing import Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
 
+from .. import geometry
 from .floorplan import GEOMETRY_TOLERANCE_M, Rect
 from .lever_checks import cost_problems, lever_problems
 from .model import (  # noqa: F401  (re-exported: the models are part of this API)
@@ -313,6 +314,29 @@ def _overlap(a: Rect, b: Rect) -> bool:
     return a.overlaps(b, GEOMETRY_TOLERANCE_M)
 
 
+def _plan_overlap(a, b) -> tuple[float, float] | None:
+    """The size (x, y, m) of where two case entries (components, storages) overlap in plan
+    beyond :data:`GEOMETRY_TOLERANCE_M`, or None. Rectangles by their rectangles (as before
+    polygons); a component with an ``outline`` by its polygon, so a notched slab's box may
+    reach over a neighbour that the slab itself leaves free."""
+    ra, rb = _rect(a), _rect(b)
+    if not _overlap(ra, rb):
+        return None
+    if getattr(a, "outline", None) is None and getattr(b, "outline", None) is None:
+        return ra.overlap(rb)
+    sa = a.shape if getattr(a, "outline", None) else tuple(ra)
+    sb = b.shape if getattr(b, "outline", None) else tuple(rb)
+    if not geometry.overlap(sa, sb, GEOMETRY_TOLERANCE_M):
+        return None
+    x0, y0, x1, y1 = geometry.as_polygon(sa).intersection(geometry.as_polygon(sb)).bounds
+    return x1 - x0, y1 - y0
+
+
+def _on_component(comp: Component, x: float, y: float) -> bool:
+    """Whether the point (x, y) lies on the component (its rectangle, or its outline)."""
+    return bool(geometry.contains(comp.shape if comp.outline else tuple(_rect(comp)), x, y))
+
+
 def _components_overlap(i: int, comp: Component, j: int, other: Component,
                         size: tuple[float, float]) -> str:
     """The message for two components whose rectangles overlap by ``size`` (x, y, metres).
@@ -434,14 +458,14 @@ def _semantic_problems(parts: _Parts) -> list[str]:
         if plane is not None and outside(*r):
             problems.append(f"{where}: rectangle x {r[0]:g}..{r[2]:g}, y {r[1]:g}..{r[3]:g} "
                             f"lies outside the plane {bounds}; fix: move or shrink it")
-        for j, other, ro in placed:
-            if _overlap(r, ro):
-                problems.append(_components_overlap(i, comp, j, other, r.overlap(ro)))
+        for j, other, _ro in placed:
+            if (size := _plan_overlap(comp, other)) is not None:
+                problems.append(_components_overlap(i, comp, j, other, size))
         placed.append((i, comp, r))
     for i, st in parts.storages:
         where = f'storages[{i}] "{st.id}"'
-        for j, comp, rc in placed:
-            if _overlap(_rect(st), rc):
+        for j, comp, _rc in placed:
+            if _plan_overlap(st, comp) is not None:
                 problems.append(f'{where}: overlaps components[{j}] "{comp.id}" (crews could '
                                 "not stand in it to fetch); fix: move the storage off the "
                                 "component")
@@ -458,15 +482,15 @@ def _semantic_problems(parts: _Parts) -> list[str]:
             problems.append(f"{where}: lies outside the plane {bounds}; fix: move it inside")
 
     if plane is not None:
-        for j, comp, rc in placed:
-            if rc[0] <= plane.outlet_x_m <= rc[2] and rc[1] <= plane.outlet_y_m <= rc[3]:
+        for j, comp, _rc in placed:
+            if _on_component(comp, plane.outlet_x_m, plane.outlet_y_m):
                 problems.append(f"plane: the outlet ({plane.outlet_x_m:g}, {plane.outlet_y_m:g})"
                                 f' lies inside components[{j}] "{comp.id}"; fix: move the '
                                 "outlet onto open floor")
     for i, crew in parts.crews:
-        for j, comp, rc in placed:
+        for j, comp, _rc in placed:
             # centre inside: a disc that only overlaps the edge is pushed off by the physics
-            if rc[0] <= crew.start_x_m <= rc[2] and rc[1] <= crew.start_y_m <= rc[3]:
+            if _on_component(comp, crew.start_x_m, crew.start_y_m):
                 problems.append(f'crews[{i}] "{crew.id}": start ({crew.start_x_m:g}, '
                                 f'{crew.start_y_m:g}) lies inside components[{j}] "{comp.id}"'
                                 "; fix: start the crew on open floor")

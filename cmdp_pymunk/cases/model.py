@@ -29,6 +29,8 @@ from pydantic import (
     model_validator,
 )
 
+from ..geometry import Outline, outline, outline_problems
+
 # Scalars are strict: a quoted "0.4" in a case file is a mistake to report, not to guess at.
 # (Strict floats still accept whole numbers, so ``width_m = 54`` is fine.) TOML has ``nan`` and
 # ``inf``: no quantity of a floor is either, and a NaN coordinate stalls a run.
@@ -206,7 +208,15 @@ class Crew(_Model):
 
 
 class Component(_Model):
-    """A structural component: an axis-aligned rectangle, a static obstacle on the plane.
+    """A structural component: an axis-aligned rectangle, or a polygon (``outline``), a
+    static obstacle on the plane.
+
+    ``outline``: the component's footprint as a simple polygon, ``[[x, y], ...]`` in plane
+    coordinates (m), either winding (stored counter-clockwise), at least 3 corners, no edges
+    crossing (``cmdp_pymunk.geometry``). With it, ``x_m``, ``y_m``, ``width_m`` and
+    ``height_m`` may be left out: they are its bounding box (given, they must be that box),
+    which is all that needs a box reads; its task areas are the polygon grown by the area
+    distance. Without it the component is its rectangle, as before polygons.
 
     ``ifc_guid``: the GlobalId of the IFC element it was imported from (``cmdp-import-ifc``);
     the 4D export (``cmdp-simulate --ifc``) assigns the component's tasks to that element.
@@ -225,14 +235,64 @@ class Component(_Model):
     height_m: Positive
     ifc_guid: str | None = None
     deck: Flag = False
+    outline: tuple[tuple[Number, Number], ...] | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _box_of_outline(cls, data: object) -> object:
+        # An outline's component may leave its rectangle out: it is the outline's box.
+        if not isinstance(data, dict) or data.get("outline") is None:
+            return data
+        points = data["outline"]
+        try:
+            xs = [float(p[0]) for p in points]
+            ys = [float(p[1]) for p in points]
+        except (TypeError, ValueError, IndexError):
+            return data  # the field's own validation names what is wrong
+        if not xs:
+            return data
+        box = {"x_m": (min(xs) + max(xs)) / 2, "y_m": (min(ys) + max(ys)) / 2,
+               "width_m": max(xs) - min(xs), "height_m": max(ys) - min(ys)}
+        given = {k: data[k] for k in box if k in data}
+        off = [k for k, v in given.items() if isinstance(v, (int, float))
+               and not math.isclose(v, box[k], rel_tol=1e-9, abs_tol=1e-6)]
+        if off:
+            raise ValueError(
+                f"{', '.join(off)} disagree with the outline's bounding box (x_m = "
+                f"{box['x_m']:g}, y_m = {box['y_m']:g}, width_m = {box['width_m']:g}, "
+                f"height_m = {box['height_m']:g}); fix: leave x_m, y_m, width_m and "
+                "height_m out (an outline's component is its box) or give that box")
+        return {**box, **data}
+
+    @field_validator("outline")
+    @classmethod
+    def _simple_polygon(cls, value):
+        if value is None:
+            return value
+        problems = outline_problems(value)
+        if problems:
+            raise ValueError("; ".join(problems))
+        return outline(value).points
+
+    @property
+    def shape(self):
+        """Its footprint on the plane: the rectangle ``(x0, y0, x1, y1)``, or the
+        ``geometry.Outline`` of its outline (a tuple too: its bounding box)."""
+        if self.outline is not None:
+            return Outline(self.outline)
+        return (self.x_m - self.width_m / 2, self.y_m - self.height_m / 2,
+                self.x_m + self.width_m / 2, self.y_m + self.height_m / 2)
 
     @model_serializer(mode="wrap")
     def _without_deck_false(self, handler):
-        # A component that is no deck dumps as before decks existed (case.json, run records,
-        # the event floor's calibration fingerprint).
+        # A component that is no deck, or a rectangle, dumps as before decks and outlines
+        # existed (case.json, run records, the event floor's calibration fingerprint).
         data = handler(self)
-        if isinstance(data, dict) and not data.get("deck", True):
-            data.pop("deck")
+        if isinstance(data, dict):
+            if not data.get("deck", True):
+                data.pop("deck")
+            if data.get("outline", 0) is None:
+                data.pop("outline")
         return data
 
 

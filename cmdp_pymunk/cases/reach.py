@@ -52,6 +52,7 @@ from scipy.ndimage import binary_dilation, label
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
+from ..geometry import Outline, contains, grown
 from .model import Case
 
 CELL_M = 0.5  # the navigator's grid
@@ -62,6 +63,9 @@ APPROACH_BAND_M = 0.6  # the navigator plans to within this of a task area, then
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 WALL_MARGIN_M = 0.1  # a crew's centre keeps this much more off the plane's walls
 Rect = tuple[float, float, float, float]  # x0, y0, x1, y1 (m, the plane's centre at 0)
+# (a polygon component is a ``geometry.Outline``: a Rect, its box, carrying the polygon; every
+# test below that must be exact asks the polygon, and a rectangle takes the path it took
+# before polygons)
 
 
 def rect_of(x: float, y: float, w: float, h: float) -> Rect:
@@ -75,10 +79,12 @@ def expand(rect: Rect, by: float) -> Rect:
 
 
 def in_area(x, y, rect: Rect):
-    """Whether the point (x, y) lies in ``rect`` (edges included): where a crew whose centre
-    stands there has reached a task area or a storage. The one test of the reach rule:
-    ``decide.reached_target`` asks it of a crew's position (floats), the case check of the
-    points where a crew fits (arrays)."""
+    """Whether the point (x, y) lies in ``rect`` (edges included), or in the polygon of an
+    ``Outline``: where a crew whose centre stands there has reached a task area or a storage.
+    The one test of the reach rule: ``decide.reached_target`` asks it of a crew's position
+    (floats), the case check of the points where a crew fits (arrays)."""
+    if type(rect) is Outline:
+        return contains(rect, x, y)
     return (rect[0] <= x) & (x <= rect[2]) & (rect[1] <= y) & (y <= rect[3])
 
 
@@ -101,7 +107,11 @@ def too_close(px, py, components: list[Rect], fit: float, half_w: float,
     component or (``fit`` + ``WALL_MARGIN_M``) to the plane's walls."""
     out = (np.abs(px) > half_w - fit - WALL_MARGIN_M) | \
         (np.abs(py) > half_h - fit - WALL_MARGIN_M)
-    for x0, y0, x1, y1 in components:
+    for shape in components:
+        if type(shape) is Outline:
+            out |= shape.distance(px, py) < fit
+            continue
+        x0, y0, x1, y1 = shape
         dx = np.maximum(np.maximum(x0 - px, 0.0), px - x1)
         dy = np.maximum(np.maximum(y0 - py, 0.0), py - y1)
         out |= dx * dx + dy * dy < fit * fit
@@ -171,7 +181,15 @@ class PlaneGrid:
         return np.concatenate(src), np.concatenate(dst), np.concatenate(length)
 
     def rect_mask(self, rect: Rect, shrink: float = 0.0) -> np.ndarray:
-        """Cells whose centres lie in ``rect`` shrunk by ``shrink`` (negative: grown)."""
+        """Cells whose centres lie in ``rect`` shrunk by ``shrink`` (negative: grown). An
+        ``Outline``'s cells are those inside its polygon and at least ``shrink`` off its
+        edges, or (``shrink`` <= 0) no more than ``-shrink`` off the polygon (its corners
+        grow round: a point that far from the polygon, as a crew sees it)."""
+        if type(rect) is Outline:
+            inside = contains(rect, self.cx, self.cy)
+            if shrink > 0:
+                return inside & (np.sqrt(rect.edge_distance_sq(self.cx, self.cy)) >= shrink)
+            return inside | (rect.distance(self.cx, self.cy) <= -shrink)
         x0, y0, x1, y1 = rect
         return (self.cx >= x0 + shrink) & (self.cx <= x1 - shrink) & \
             (self.cy >= y0 + shrink) & (self.cy <= y1 - shrink)
@@ -260,10 +278,10 @@ class Reach:
     def __init__(self, case: Case):
         self.case = case
         self.grid = PlaneGrid.of(case.plane.half_extents)
-        self.rects = [rect_of(c.x_m, c.y_m, c.width_m, c.height_m) for c in case.components]
+        self.rects = [c.shape for c in case.components]  # rectangles or outlines
         comp_by_id = {c.id: k for k, c in enumerate(case.components)}
-        self.task_rects = [expand(self.rects[comp_by_id[t.component]],
-                                  case.task_types[t.type].area_distance_m) for t in case.tasks]
+        self.task_rects = [grown(self.rects[comp_by_id[t.component]],
+                                 case.task_types[t.type].area_distance_m) for t in case.tasks]
         self._labels: dict = {}
         self._answers: dict = {}
         self._work: dict = {}

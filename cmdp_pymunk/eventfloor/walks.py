@@ -29,6 +29,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from ..cases.reach import APPROACH_BAND_M, CELL_M, PlaneGrid, free_cells
+from ..geometry import Outline, contains
 from ..state import CrewState, Rect, Site, inside
 
 
@@ -50,6 +51,9 @@ def congestion_along(site: Site, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
     r = np.asarray([rect for rect, _ in areas])
     x, y = xs[:, None], ys[:, None]
     inside = (x >= r[:, 0]) & (x <= r[:, 2]) & (y >= r[:, 1]) & (y <= r[:, 3])
+    for k, (area, _) in enumerate(areas):
+        if type(area) is Outline:  # a polygon's box holds more than the polygon
+            inside[:, k] = contains(area, xs, ys)
     return np.where(inside, np.asarray([index for _, index in areas]), 1.0).min(
         axis=1, initial=1.0)
 
@@ -128,6 +132,8 @@ class _Path:
         """The indices, among a walk's points (its start first), of this path's points but
         the last that ``rect`` holds."""
         px, py = self.px[:-1], self.py[:-1]
+        if type(rect) is Outline:
+            return np.flatnonzero(contains(rect, px, py)) + 1
         return np.flatnonzero((px >= rect[0]) & (px <= rect[2]) & (py >= rect[1])
                                & (py <= rect[3])) + 1
 
@@ -330,6 +336,11 @@ def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
         return cx + (x - cx) * 0.95 * r / d, cy + (y - cy) * 0.95 * r / d
     x0, y0, x1, y1 = region[1]
     m = min(0.01, (x1 - x0) / 4, (y1 - y0) / 4)
+    if type(region[1]) is Outline:  # the polygon's nearest point, the margin inside it
+        inner = region[1].polygon.buffer(-m, join_style="mitre")
+        if inner.geom_type != "Polygon" or inner.is_empty:  # thinner than the margin
+            return region[1].nearest(x, y)
+        return Outline(inner.exterior.coords[:-1]).nearest(x, y)
     return min(max(x, x0 + m), x1 - m), min(max(y, y0 + m), y1 - m)
 
 
