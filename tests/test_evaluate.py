@@ -11,7 +11,7 @@ import pytest
 import cmdp_pymunk
 from agents.task_priority import save_priorities
 from cmdp_pymunk.bounds import lower_bound
-from training import compare as evaluate
+from training.commands import evaluate_strategies as evaluate
 from training.runs.paired import mean_ci, paired
 
 TINY = str(cmdp_pymunk.TINY_CASE)
@@ -278,14 +278,14 @@ def test_two_workers_give_the_same_episodes(tmp_path):
 
 @pytest.mark.slow
 def test_a_stage2_model_is_a_strategy(tmp_path):
-    """An (untrained) stage-2 model .zip goes through make_evaluator like any strategy."""
+    """An (untrained) stage-2 model .zip goes through evaluator_from_spec like any strategy."""
     from stable_baselines3 import PPO
 
-    from training.stage2 import Stage2Config, make_floor, training_case
+    from training.stage2 import Stage2Config, make_decision_loop, training_case
     from training.vec_env import FloorsVecEnv
 
     config = Stage2Config(case=TINY, central_critic=False)
-    venv = FloorsVecEnv([lambda: make_floor(config, training_case(config))])
+    venv = FloorsVecEnv([lambda: make_decision_loop(config, training_case(config))])
     model = PPO("MlpPolicy", venv, n_steps=8, batch_size=8,
                 policy_kwargs={"net_arch": [8]}, device="cpu", seed=0)
     path = tmp_path / "stage2.zip"

@@ -9,7 +9,7 @@ import torch
 from gymnasium import spaces
 
 from tests.test_lean_actor import COMMITTED, observations, random_ppo
-from training import export
+from training.commands import export
 
 
 def run(path, obs):
@@ -78,7 +78,7 @@ def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_pa
     config = Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1,
                           typed=typed, fidelity="event")
     case = stage2.training_case(config)
-    floor = stage2.make_floor(config, case)
+    floor = stage2.make_decision_loop(config, case)
     model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))
     generator = torch.Generator().manual_seed(0)
     with torch.no_grad():  # untrained, the linear and residual heads are zero: perturb them

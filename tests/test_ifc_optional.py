@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from training import import_ifc, simulate
+from training.commands import import_ifc, simulate
 
 
 @pytest.fixture

@@ -125,7 +125,7 @@ fine = (engine.site, engine.positions, self.site, env.engine.site, cmdp_pymunk.w
 def test_the_core_reaches_the_plane_only_through_the_physics_protocol():
     """Every member of a world read in the core (``world.X``, ``self.world.X``,
     ``ctx.world.X``) outside world.py is one of ``physics.Physics``'s, and only world.py (and
-    ``rollout.versions``, for pymunk's version) imports pymunk. The event floor's own plane
+    ``report.versions``, for pymunk's version) imports pymunk. The event floor's own plane
     (``eventfloor.floor.EventPlane``) is driven by its floor alone: it is a Physics too."""
     from cmdp_pymunk.eventfloor.floor import EventPlane
     from cmdp_pymunk.physics import Physics
@@ -140,7 +140,7 @@ def test_the_core_reaches_the_plane_only_through_the_physics_protocol():
             if isinstance(node, ast.Attribute) and _dotted(node.value).split(".")[-1] == "world":
                 used.setdefault(node.attr, set()).add(path.name)
         if "pymunk" in first_parts(path):
-            assert path.name == "rollout.py", f"{path.name} imports pymunk"
+            assert path.name == "report.py", f"{path.name} imports pymunk"
     assert {"pose", "step", "ray_query", "drive"} <= used.keys()  # the checker sees them
     assert not used.keys() - members, {k: used[k] for k in used.keys() - members}
 

@@ -5,7 +5,7 @@ import json
 import pytest
 
 import cmdp_pymunk
-from training import simulate
+from training.commands import simulate
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 
@@ -310,7 +310,7 @@ def test_bad_input_exits_2(tmp_path, capsys):
 
 def test_no_charts_says_so(tmp_path, capsys):
     from cmdp_pymunk import TINY_CASE
-    from training.simulate import main
+    from training.commands.simulate import main
 
     assert main(["--case", str(TINY_CASE), "--out", str(tmp_path), "--no-charts",
                  "--no-progress"]) == 0
