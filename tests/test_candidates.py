@@ -130,10 +130,10 @@ def test_bad_candidate_settings_are_refused_with_their_fix(override, message):
 @pytest.mark.slow
 def test_a_short_candidate_run_resumes_and_deploys(tmp_path):
     from sb3_contrib import MaskablePPO
-    from training.commands.train import main
 
     from agents.specs import evaluator_from_spec
     from cmdp_pymunk import TINY_CASE
+    from training.commands.train import main
 
     def run(name, extra=()):
         argv = ["stage2", "--out", str(tmp_path / name), "--no-progress",

@@ -136,8 +136,10 @@ def test_gif_is_written(tmp_path):
                           "--no-progress"]) == 0
     import imageio.v3 as iio
 
+    from training.runs.simulation import GIF_FPS, GIF_SECONDS
+
     frames = iio.imread(out / "rollout.gif", index=None)
-    assert 2 <= len(frames) <= simulate.GIF_SECONDS * simulate.GIF_FPS
+    assert 2 <= len(frames) <= GIF_SECONDS * GIF_FPS
 
 
 def test_a_ctrl_c_while_the_gif_streams_leaves_no_half_gif(tmp_path, monkeypatch, capsys):

@@ -135,9 +135,9 @@ def short_run(tmp_path, name: str, extra=()):
 @pytest.mark.slow
 def test_short_run_writes_its_files_resumes_and_repeats_its_weights(tmp_path):
     from stable_baselines3 import PPO
-    from training.commands.simulate import main as simulate
 
     from agents.models import ModelEvaluator
+    from training.commands.simulate import main as simulate
 
     run = short_run(tmp_path, "a")
     for name in ("config.json", "case.json", "progress.csv", "best_model.zip",
