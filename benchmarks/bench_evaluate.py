@@ -16,8 +16,8 @@ import statistics
 import time
 
 import cmdp_pymunk
-from training.runs.strategies import episode_job
 from training.runs.backends import Workers
+from training.runs.strategies import episode_job
 
 
 def measure(case, seeds: list[int], workers: int) -> tuple[float, list]:

@@ -27,9 +27,9 @@ import time
 
 import cmdp_pymunk
 from cmdp_pymunk.report import versions
-from training.runs.strategies import episode_job
 from training.research.distill import _label_job
 from training.runs.backends import open_backend
+from training.runs.strategies import episode_job
 
 
 def _job(runner, which: str, *args):
