@@ -264,11 +264,11 @@ def test_evaluate_without_disruptions_plays_each_episode_once(tmp_path, never_un
     assert "disruptions' delay" not in (tmp_path / "summary.md").read_text()
 
 
-@pytest.mark.parametrize("command", ["simulate", "compare"])
+@pytest.mark.parametrize("command", ["simulate", "evaluate_strategies"])
 def test_help_says_how_to_turn_disruptions_on_and_the_cost_off(command, capsys):
     import importlib
 
-    module = importlib.import_module(f"training.{command}")
+    module = importlib.import_module(f"training.commands.{command}")
     with pytest.raises(SystemExit):
         module.parse_args(["--help"])
     text = " ".join(capsys.readouterr().out.split())

@@ -9,6 +9,7 @@ import torch
 from gymnasium import spaces
 
 from tests.test_lean_actor import COMMITTED, observations, random_ppo
+from training import onnx_export
 from training.commands import export
 
 
@@ -97,13 +98,13 @@ def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_pa
     masks = np.stack([s[1] for s in states]).astype(bool)
     assert len(states) > 20 and not masks.all()  # some decisions have fewer candidates
 
-    out = export.export(path, tmp_path / "candidate.onnx")
+    out = onnx_export.export(path, tmp_path / "candidate.onnx")
     session = ort.InferenceSession(str(out), providers=["CPUExecutionProvider"])
     logits, action = session.run(["logits", "action"], {"obs": obs, "mask": masks})
     loaded = MaskablePPO.load(path, device="cpu")
     with torch.no_grad():
         raw = loaded.policy.action_net(torch.as_tensor(obs)).numpy()
     assert np.allclose(logits[masks], raw[masks], atol=1e-4)
-    assert (logits[~masks] == export.HUGE_NEG).all()
+    assert (logits[~masks] == onnx_export.HUGE_NEG).all()
     expected, _ = loaded.predict(obs, action_masks=masks, deterministic=True)
     assert (action == expected).all() and len(set(expected.tolist())) > 1
