@@ -11,7 +11,7 @@ import pytest
 import cmdp_pymunk
 from agents.task_priority import save_priorities
 from cmdp_pymunk.bounds import lower_bound
-from training.cli import seed_list
+from training.cli import seed_list, seeds_text
 from training.commands import evaluate_strategies as evaluate
 from training.runs.paired import mean_ci, paired
 from training.runs.strategies import read_log
@@ -41,6 +41,15 @@ def test_seed_list():
     for bad in ("3-1", "a", "-1", "1,1"):
         with pytest.raises(argparse.ArgumentTypeError):
             seed_list(bad)
+
+
+def test_seeds_text_is_read_back_by_seed_list():
+    # a run of seeds as a range, anything else as a list, and seed_list reads either back
+    assert seeds_text([0, 1, 2, 3]) == "0-3"
+    assert seeds_text([5, 0, 1, 9]) == "5,0,1,9"
+    assert seeds_text([7]) == "7-7"
+    for seeds in ([0, 1, 2, 3], [5, 0, 1, 9], [100, 101], [3]):
+        assert seed_list(seeds_text(seeds)) == seeds
 
 
 def test_mean_ci_by_hand():
