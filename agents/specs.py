@@ -27,11 +27,12 @@ EVALUATOR_HELP = ("priority (Eq. 9), nearest, uniform, ga:PATH (a task-priority 
                   "or a masked choice)")
 
 
-def make_evaluator(spec: str):
-    """A name of the core's (``priority``, Eq. 9; ``nearest``; ...: ``evaluate.EVALUATORS``),
-    ``ga:PATH`` or ``cpsat:PATH`` (a task-priority file), ``cpsat`` (a plan solved when bound
-    to the env), or a stage-2 model ``.zip``; ValueError otherwise (naming the file and the
-    fix)."""
+def evaluator_from_spec(spec: str):
+    """The evaluator a command-line spec names (``--evaluator``, ``--strategies``; the core's own
+    ``evaluate.make_evaluator`` takes names and objects): a name of the core's
+    (``priority``, Eq. 9; ``nearest``; ...: ``evaluate.EVALUATORS``), ``ga:PATH`` or
+    ``cpsat:PATH`` (a task-priority file), ``cpsat`` (a plan solved when bound to the env),
+    or a stage-2 model ``.zip``; ValueError otherwise (naming the file and the fix)."""
     if spec in evaluate.EVALUATORS:
         return evaluate.make_evaluator(spec)
     if spec.startswith(("ga:", "cpsat:")):
@@ -97,7 +98,7 @@ def make_lookahead(options: str):
     if base.startswith("lookahead"):
         raise ValueError("--evaluator lookahead: base=lookahead would branch inside branches; "
                          "give a rule such as base=priority or base=ga:PATH")
-    return LookaheadEvaluator(make_evaluator(base), LookaheadSettings(**settings))
+    return LookaheadEvaluator(evaluator_from_spec(base), LookaheadSettings(**settings))
 
 
 def make_replan(options: str):
@@ -124,7 +125,7 @@ def make_replan(options: str):
     if base.startswith(("lookahead", "replan")):
         raise ValueError(f"--evaluator replan: base={base} would plan inside plans; give a "
                          "rule such as base=priority or base=student:PATH")
-    return ReplanEvaluator(make_evaluator(base), ReplanSettings(**settings))
+    return ReplanEvaluator(evaluator_from_spec(base), ReplanSettings(**settings))
 
 
 def make_navigator(spec: str, engine=None, deterministic: bool = False) -> LowLevel:

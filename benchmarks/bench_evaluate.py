@@ -16,14 +16,14 @@ import statistics
 import time
 
 import cmdp_pymunk
-from training.compare import _episode_job
 from training.runs.backends import Workers
+from training.runs.strategies import episode_job
 
 
 def measure(case, seeds: list[int], workers: int) -> tuple[float, list]:
     """Episodes per wall second, and the makespans."""
     start = time.perf_counter()
-    with Workers(_episode_job, (case, 3600.0, None, False), workers) as pool:
+    with Workers(episode_job, (case, 3600.0, None, False), workers) as pool:
         rows = pool.map([("priority", "scripted", s) for s in seeds])
     return len(seeds) / (time.perf_counter() - start), [r["makespan_s"] for r in rows]
 

@@ -23,7 +23,7 @@ from agents.navigator import Navigator
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 from cmdp_pymunk.rollout import run_episode
-from training.compare import seed_list
+from training.cli import seed_list
 
 
 def main(argv: list[str] | None = None) -> None:

@@ -26,10 +26,10 @@ import statistics
 import time
 
 import cmdp_pymunk
-from cmdp_pymunk.rollout import versions
-from training.compare import _episode_job
+from cmdp_pymunk.report import versions
 from training.research.distill import _label_job
 from training.runs.backends import open_backend
+from training.runs.strategies import episode_job
 
 
 def _job(runner, which: str, *args):
@@ -40,7 +40,7 @@ def _job(runner, which: str, *args):
         time.sleep(0.3)
         _job(runner, *args)
         return None
-    return {"episode": _episode_job, "label": _label_job}[which](runner, *args)
+    return {"episode": episode_job, "label": _label_job}[which](runner, *args)
 
 
 def measure(job: str, runner_args, jobs, workers: int, ray: str | None,

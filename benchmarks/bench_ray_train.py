@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 import cmdp_pymunk
-from cmdp_pymunk.rollout import versions
+from cmdp_pymunk.report import versions
 from training import scaffold, stage2
 
 

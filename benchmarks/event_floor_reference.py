@@ -22,7 +22,7 @@ import sys
 
 import cmdp_pymunk
 from agents.navigator import Navigator
-from agents.specs import make_evaluator
+from agents.specs import evaluator_from_spec
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import PriorityEvaluator
 from cmdp_pymunk.eventfloor import EventFloor, WalkMotion, calibration_for
@@ -55,7 +55,7 @@ def main() -> int:
         case = cmdp_pymunk.load_case(path)
         calibration = calibration_for(case)
         for spec in EVALUATORS:
-            floor = EventFloor(case, evaluator=make_evaluator(spec), stall_s=STALL_S,
+            floor = EventFloor(case, evaluator=evaluator_from_spec(spec), stall_s=STALL_S,
                                calibration=calibration)
             for seed in SEEDS:
                 floor.reset(seed)

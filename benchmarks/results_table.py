@@ -63,9 +63,9 @@ class RandomEvaluator:
 
 
 def make_strategy(spec: str, seed: int):
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
-    return RandomEvaluator(seed) if spec == "random" else make_evaluator(spec)
+    return RandomEvaluator(seed) if spec == "random" else evaluator_from_spec(spec)
 
 
 def play(env_id: str, spec: str, seed: int) -> dict:
@@ -197,7 +197,7 @@ def _registered_ids() -> list[str]:
 def main(argv: list[str] | None = None) -> int:
     import cmdp_pymunk
     from cmdp_pymunk.events import write_atomic
-    from training.compare import seed_list, spec_list
+    from training.cli import seed_list, spec_list
     from training.runs.paired import csv_text
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])

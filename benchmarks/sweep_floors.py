@@ -28,7 +28,7 @@ from pathlib import Path
 
 import cmdp_pymunk
 from cmdp_pymunk.cases.load import BUILTIN_CASE, DISRUPTED_CASE
-from training.compare import seed_list
+from training.cli import seed_list
 
 LAYOUTS = sorted(p for p in (BUILTIN_CASE.parent / "layouts").glob("*.toml")
                  if not p.name.endswith(".event.toml"))  # calibrations live beside them
@@ -40,10 +40,10 @@ STALL_S = 3600.0
 def sweep(case_path: str, strategy: str, seeds: list[int], fidelity: str) -> list[dict]:
     """One row per seed: {case, strategy, seed, fidelity, makespan_s, time_s, tasks_ended,
     tasks, cpu_s, stalled}; makespan_s None where the floor did not finish."""
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
     case = cmdp_pymunk.load_case(case_path)
-    evaluator = make_evaluator(strategy)
+    evaluator = evaluator_from_spec(strategy)
     if fidelity == "event":
         from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 

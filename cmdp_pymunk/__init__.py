@@ -8,6 +8,7 @@ installed, importing the package registers the env's variants (``pettingzoo.make
 ``env`` load the adapter on use.
 """
 
+from .about import ENV_NAME, __version__, add_version_flag
 from .cases.load import (
     BUILTIN_CASE,
     DISRUPTED_CASE,
@@ -17,15 +18,6 @@ from .cases.load import (
     CaseError,
     load_case,
 )
-
-__version__ = "0.2.0"
-ENV_NAME = "cmdp_pymunk_v1"  # the PettingZoo env's name and version (CMDPEnv.metadata)
-
-
-def add_version_flag(parser) -> None:
-    """``--version`` on a command-line parser: the package version and the env's name."""
-    parser.add_argument("--version", action="version",
-                        version=f"%(prog)s {__version__} ({ENV_NAME})")
 
 
 def parallel_env(**kwargs):
@@ -59,7 +51,6 @@ else:
 
     _registry.register_variants()
     _registry.register_decision_variants()
-
 
 
 __all__ = ["parallel_env", "env", "add_version_flag", "__version__", "CMDPEnv", "Case", "CaseError",

@@ -73,7 +73,9 @@ class Context:
 
 
 @dataclass(frozen=True)
-class Rule:
+class Row:
+    """A row of Table 1: its code, the paper's wording, its trigger and its effect."""
+
     code: str  # "c1" ... "c10", Table 1
     name: str  # the paper's wording
     trigger: Callable[[CrewState, Context], bool]
@@ -370,26 +372,26 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
 
 
 _T, _F, _R = (TASKING,), (FETCHING,), (REACHING,)
-DECISION_TABLE: tuple[Rule, ...] = (
-    Rule("c9", "Complete task", tasking_with_progress_complete, complete_task, _T),
-    Rule("c3", "Pause task", tasking_with_material_running_out, pause_task, _T),
-    Rule("c8", "Request crane for task", started_crane_task_with_material,
+DECISION_TABLE: tuple[Row, ...] = (
+    Row("c9", "Complete task", tasking_with_progress_complete, complete_task, _T),
+    Row("c3", "Pause task", tasking_with_material_running_out, pause_task, _T),
+    Row("c8", "Request crane for task", started_crane_task_with_material,
          request_crane_for_task, _T),
-    Rule("c2", "Execute task", tasking_with_equipment_and_material, execute_task, _T),
-    Rule("c6", "Fetching completed", fetching_at_full_load, complete_fetching, _F),
-    Rule("c7", "Request crane for material", storage_running_out, request_crane_for_material,
+    Row("c2", "Execute task", tasking_with_equipment_and_material, execute_task, _T),
+    Row("c6", "Fetching completed", fetching_at_full_load, complete_fetching, _F),
+    Row("c7", "Request crane for material", storage_running_out, request_crane_for_material,
          _F + _R),
-    Rule("c5", "Fetch materials", reached_storage_with_stock, fetch_materials, _R),
-    Rule("c4", "Resume task", reached_paused_task, resume_task, _R),
-    Rule("c1", "Initiate task", reached_task_target_with_equipment, initiate_task, _R),
-    Rule("c10", "Acquire target", reaching_without_current_scope, acquire_target, _R),
+    Row("c5", "Fetch materials", reached_storage_with_stock, fetch_materials, _R),
+    Row("c4", "Resume task", reached_paused_task, resume_task, _R),
+    Row("c1", "Initiate task", reached_task_target_with_equipment, initiate_task, _R),
+    Row("c10", "Acquire target", reaching_without_current_scope, acquire_target, _R),
 )
 TERMINAL_ROWS = {"c2", "c10"}  # rows after which no other row fires in the same step
 # The table's rows per crew state, in table order: a waiting or deregistered crew tries none.
 ROWS_BY_STATUS = {s: tuple(r for r in DECISION_TABLE if s in r.statuses) for s in CrewStatus}
 
 
-def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
+def first_rule(crew: CrewState, ctx: Context) -> Row | None:
     for rule in ROWS_BY_STATUS[crew.status]:
         if rule.trigger(crew, ctx):
             return rule

@@ -3,7 +3,7 @@
 The engine's ``step`` returns what happened in one span (``motion.Span``: a simulated second
 on the physics motion, the seconds to the next event on the walk motion); ``Counters.count``
 turns it into the per-crew counters of the episode (``crew.stats``: the
-summaries of ``rollout.crew_summary`` and the evaluation chapters) and into the counts of the
+summaries of ``report.crew_summary`` and the evaluation chapters) and into the counts of the
 current call (``window``: ``infos[agent]["step_stats"]``, the training metrics). Nothing here
 changes what the simulation does next.
 """

@@ -13,7 +13,7 @@ import pettingzoo
 
 import cmdp_pymunk  # noqa: F401  (importing it registers the cmdp/ variants)
 from agents.navigator import Navigator  # the scripted low level: walks each crew to its target
-from cmdp_pymunk.rollout import crew_summary
+from cmdp_pymunk.report import crew_summary
 
 
 def main(argv=None) -> float:

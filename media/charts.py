@@ -9,7 +9,7 @@
 - :func:`trajectories`, Fig. 11: (a) one crew's path (the hoisting crew HIC by default), wider
   as time goes on, with the components it worked on numbered in the order it started them;
   (b) every crew's path, one small panel per crew.
-- :func:`stall_picture`: the floor where a run stalled (``rollout.stall_report``): every crew
+- :func:`stall_picture`: the floor where a run stalled (``report.stall_report``): every crew
   where it stands, drawn to its size, a walking crew's target and the way it means to walk,
   and its last minutes of path from the log.
 - :func:`resource_profile`: the resources over time, counted from the log: crews busy per
@@ -776,7 +776,7 @@ STUCK_COLOUR = "#d62728"
 
 def stall_picture(report: dict, case: Case, path: str | Path,
                   events: Sequence[Event] = ()) -> Path:
-    """The floor where a run stalled, from its stall report (``rollout.stall_report``):
+    """The floor where a run stalled, from its stall report (``report.stall_report``):
     the layout, each crew as a disc of its radius where it stands (red if it walks to a
     target, grey otherwise) with its id, a red star on the target it walks to, dashed red
     the way it means to walk (``way_m``, where the low level said it), and thin lines for

@@ -29,7 +29,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from cmdp_pymunk.cases.load import Calendar
-from cmdp_pymunk.rollout import PERCENTILES
+from cmdp_pymunk.report import PERCENTILES
 from cmdp_pymunk.schedule import tasks_ended
 from cmdp_pymunk.workcalendar import calendar_datetime
 from media.charts import HOUR_S, _date_axis, save_png
@@ -68,7 +68,7 @@ def makespan_histogram(stats: dict, path: str | Path, calendar: Calendar | None 
     ``calendar``, a date axis of the finish on top.
 
     Args:
-        stats: ``rollout.makespan_stats`` of the episodes (``makespans_s``, None for an
+        stats: ``report.makespan_stats`` of the episodes (``makespans_s``, None for an
             unfinished episode; ``p50_s``, ``p80_s``, ``p90_s``).
         path: the PNG to write.
     """
@@ -100,7 +100,7 @@ def s_curve(finishes: Sequence[Sequence[float]], total_tasks: int, path: str | P
         finishes: per episode, its task finish times (``schedule.finish_times``), seconds.
         total_tasks: the case's number of tasks (a horizontal line).
         path: the PNG to write.
-        stats: ``rollout.makespan_stats`` of the same episodes, to mark P50/P80/P90.
+        stats: ``report.makespan_stats`` of the same episodes, to mark P50/P80/P90.
         calendar: the run's working calendar: a date axis on top, dated percentiles.
     """
     end_s = max((f[-1] for f in finishes if len(f)), default=1.0)

@@ -15,7 +15,7 @@ import pytest
 from test_interrupt import default_sigint
 
 import cmdp_pymunk
-from training import compare as evaluate
+from training.commands import evaluate_strategies as evaluate
 from training.runs.backends import WorkerLost, Workers, open_backend
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,7 +93,8 @@ def test_the_default_path_never_imports_ray(tmp_path):
     argv = [*QUICK, "--seeds", "0-1", "--workers", "2", "--out", str(tmp_path)]
     simulate = ["--case", TINY, "--episodes", "2", "--workers", "2", "--no-charts",
                 "--no-progress", "--out", str(tmp_path / "simulate")]
-    code = ("import sys; from training import compare, simulate, stage2; "
+    code = ("import sys; from training import stage2; "
+            "from training.commands import evaluate_strategies as compare, simulate; "
             f"assert compare.main({argv!r}) == 0; "
             f"assert simulate.main({simulate!r}) == 0; "
             f"config = stage2.Stage2Config(case={TINY!r}, n_envs=2, num_cpus=2); "
@@ -117,7 +118,7 @@ def test_ray_without_ray_installed_is_one_clear_line(tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert err.startswith("cmdp-evaluate: --ray needs Ray") and "pip install -e '.[ray]'" in err
     assert not (tmp_path / "episodes.jsonl").exists()
-    from training import simulate, train
+    from training.commands import simulate, train
 
     out = tmp_path / "simulate"
     assert simulate.main(["--case", TINY, "--episodes", "2", "--ray", "--out", str(out)]) == 2
@@ -164,8 +165,8 @@ def interrupt_evaluate(argv: list[str], lines: int = 2) -> tuple[int, str]:
 
     out = Path(argv[argv.index("--out") + 1])
     env = dict(os.environ, PYTHONPATH=str(ROOT), SDL_VIDEODRIVER="dummy", PYTHONUNBUFFERED="1")
-    proc = subprocess.Popen([sys.executable, "-m", "training.compare", *argv], cwd=ROOT,
-                            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-m", "training.commands.evaluate_strategies", *argv],
+                            cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             text=True, preexec_fn=default_sigint)
     try:
         log = out / "episodes.jsonl"

@@ -50,7 +50,7 @@ def test_another_row_swaps_only_the_first_choice(tiny_env):
 def test_row_zero_plays_eq9s_schedule():
     case = far_start_case()
     config = candidate_config()
-    floor = stage2.make_floor(config, case)
+    floor = stage2.make_decision_loop(config, case)
     played = stage2.play_floor(floor, 0, lambda obs: 0)
     heuristic = EpisodeRunner(case).run("priority", "scripted", 0)["makespan_s"]
     assert played[-1].info["makespan_s"] == heuristic
@@ -64,7 +64,7 @@ def test_row_zero_on_the_event_floor_plays_eq9s_event_schedule():
 
     config = candidate_config(fidelity="event")
     case = stage2.training_case(config)
-    floor = stage2.make_floor(config, case)
+    floor = stage2.make_decision_loop(config, case)
     assert type(floor.engine).__name__ == "EventFloor"
     played = stage2.play_floor(floor, 3, lambda obs: 0)
     plain = load_case(None)
@@ -80,7 +80,7 @@ def test_untrained_policy_chooses_eq9_on_recorded_states():
     # floor in a tenth of a second instead of seven
     config = candidate_config(fidelity="event")
     case = stage2.training_case(config)
-    floor = stage2.make_floor(config, case)
+    floor = stage2.make_decision_loop(config, case)
     model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))
     states = []
 
@@ -131,9 +131,9 @@ def test_bad_candidate_settings_are_refused_with_their_fix(override, message):
 def test_a_short_candidate_run_resumes_and_deploys(tmp_path):
     from sb3_contrib import MaskablePPO
 
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
     from cmdp_pymunk import TINY_CASE
-    from training.train import main
+    from training.commands.train import main
 
     def run(name, extra=()):
         argv = ["stage2", "--out", str(tmp_path / name), "--no-progress",
@@ -152,7 +152,7 @@ def test_a_short_candidate_run_resumes_and_deploys(tmp_path):
     run("a", ["--resume", str(checkpoint), "--set", "total_steps=64"])
     assert MaskablePPO.load(folder / "final_model.zip").num_timesteps >= 64
     assert json.loads((folder / "config-1.json").read_text())["resumed_from"] == str(checkpoint)
-    evaluator = make_evaluator(str(folder / "final_model.zip"))
+    evaluator = evaluator_from_spec(str(folder / "final_model.zip"))
     assert type(evaluator).__name__ == "CandidateModelEvaluator"
     from cmdp_pymunk import load_case
 
@@ -175,7 +175,7 @@ def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
     # Eq. 9 itself (row 0 everywhere) on a pooled seed (4 mod 3 = 1): the rewards sum to the
     # floor's R_e terms plus 0.001 x its own makespan, so the makespan part cancels
     case = far_start_case()
-    floor = stage2.make_floor(candidate_config(against_heuristic=True, seed_pool=3), case)
+    floor = stage2.make_decision_loop(candidate_config(against_heuristic=True, seed_pool=3), case)
     total = floor.reset(4)
     while True:
         out = floor.decide(0)
@@ -397,7 +397,7 @@ def test_a_held_model_holds_as_the_student_in_deployment_and_training(tmp_path):
     """On the built-in event floor (seed 0) a student that sends RC and FC crews to far
     targets: the model with hold_choice plays its schedule event for event, the one without
     re-decides while crews walk and plays another; the training floor holds as deployment."""
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
     from agents.student import StudentEvaluator
     from training.research import distill
 
@@ -409,8 +409,8 @@ def test_a_held_model_holds_as_the_student_in_deployment_and_training(tmp_path):
                             + ["--hold-choice"] * hold) == 0
     floors = {name: event_floor(evaluator, 0) for name, evaluator in (
         ("student", StudentEvaluator.load(student)), ("eq9", "priority"),
-        ("held", make_evaluator(str(tmp_path / "hold-True.zip"))),
-        ("unheld", make_evaluator(str(tmp_path / "hold-False.zip"))))}
+        ("held", evaluator_from_spec(str(tmp_path / "hold-True.zip"))),
+        ("unheld", evaluator_from_spec(str(tmp_path / "hold-False.zip"))))}
     assert floors["student"].log.events != floors["eq9"].log.events
     assert floors["held"].log.events == floors["student"].log.events
     assert floors["unheld"].log.events != floors["student"].log.events
@@ -418,8 +418,8 @@ def test_a_held_model_holds_as_the_student_in_deployment_and_training(tmp_path):
     for hold in (True, False):
         config = candidate_config(fidelity="event", candidates=3, typed=True,
                                   hold_choice=hold)
-        floor = stage2.make_floor(config, stage2.training_case(config))
-        model = make_evaluator(str(tmp_path / f"hold-{hold}.zip")).model
+        floor = stage2.make_decision_loop(config, stage2.training_case(config))
+        model = evaluator_from_spec(str(tmp_path / f"hold-{hold}.zip")).model
 
         def choose(obs, floor=floor, model=model):
             action, _ = model.predict(obs[None], action_masks=floor.action_masks()[None],

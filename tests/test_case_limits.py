@@ -96,7 +96,7 @@ def test_crane_busy_beyond_the_time_limit(floor):
 
 
 def test_the_simulate_command_refuses_them_with_exit_2(tmp_path, capsys):
-    from training import simulate
+    from training.commands import simulate
 
     text = BUILTIN_CASE.read_text(encoding="utf-8").replace(
         "max_time_s = 80000.0", "max_time_s = inf", 1)
@@ -114,7 +114,7 @@ def test_the_simulate_command_refuses_them_with_exit_2(tmp_path, capsys):
                                   ["--max-time-s", "0"], ["--seed", "-1"],
                                   ["--episodes", "0"], ["--stall-s", "1e999"]])
 def test_bad_numbers_on_the_command_line_get_one_line_and_exit_2(argv, tmp_path, capsys):
-    from training import simulate
+    from training.commands import simulate
 
     with pytest.raises(SystemExit) as caught:
         simulate.main([*argv, "--out", str(tmp_path / "o")])

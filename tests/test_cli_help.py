@@ -9,7 +9,7 @@ import shlex
 import pytest
 
 import cmdp_pymunk
-from training import import_ifc, simulate
+from training.commands import import_ifc, simulate
 
 
 def _usage_error(main, argv, capsys) -> str:

@@ -21,16 +21,17 @@ def console_scripts() -> list[str]:
 
 def cli_modules() -> list[str]:
     found = set(console_scripts())
-    for folder in ("training", "media", "benchmarks", "tools", "cmdp_pymunk"):
+    for folder in ("training", "training/commands", "media", "benchmarks", "tools", "cmdp_pymunk"):
         for path in (ROOT / folder).glob("*.py"):
             text = path.read_text(encoding="utf-8")
             if "ArgumentParser(" in text and "def main(" in text:
-                found.add(f"{folder}.{path.stem}")
+                found.add(f"{folder.replace('/', '.')}.{path.stem}")
     return sorted(found)
 
 
 def test_the_console_scripts_are_found():
-    assert {"training.simulate", "training.train"} <= set(cli_modules())
+    assert {"training.commands.simulate", "training.commands.train",
+            "training.commands.compare_reaching"} <= set(cli_modules())
 
 
 @pytest.mark.parametrize("module", cli_modules())
@@ -46,7 +47,7 @@ def test_version_flag(module, capsys):
 def test_package_version_is_the_one_setup_cfg_reads():
     cfg = configparser.ConfigParser()
     cfg.read(ROOT / "setup.cfg")
-    assert cfg["metadata"]["version"] == "attr: cmdp_pymunk.__version__"
+    assert cfg["metadata"]["version"] == "attr: cmdp_pymunk.about.__version__"
 
 
 def test_citation_and_license_files():
@@ -57,7 +58,7 @@ def test_citation_and_license_files():
 
 
 # cmdp-train's stages are parsers of their own
-HELP_ARGV = {"training.train": (["--help"], ["stage1", "--help"], ["stage2", "--help"])}
+HELP_ARGV = {"training.commands.train": (["--help"], ["stage1", "--help"], ["stage2", "--help"])}
 
 
 @pytest.mark.parametrize("module", console_scripts())

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from training.compare_reaching import compare, load_run, main
+from training.commands.compare_reaching import compare, load_run, main
 
 
 def write_run(folder, rows):

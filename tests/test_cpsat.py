@@ -71,7 +71,7 @@ def test_simulate_reports_the_cpsat_bound_and_replays_the_plan(tmp_path):
     import json
 
     import cmdp_pymunk
-    from training import simulate
+    from training.commands import simulate
 
     tiny = cmdp_pymunk.TINY_CASE
     out = tmp_path / "run"

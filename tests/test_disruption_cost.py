@@ -1,6 +1,6 @@
 """What disruptions struck an episode and what they cost (issue 31, item 6): the counts and
 downtimes read from the event log (``disruptions.struck``), the delay against the same seed on
-the case without them (``disruptions.undisrupted``, ``rollout.disruption_cost``,
+the case without them (``disruptions.undisrupted``, ``report.disruption_cost``,
 ``training.runs.runner.cost_fields``), and both in ``cmdp-simulate`` and ``cmdp-evaluate``.
 
 On the tiny case of ``conftest`` with the priority heuristic and the scripted navigator, seed 0
@@ -21,7 +21,7 @@ from cmdp_pymunk import disruptions
 from cmdp_pymunk.cases.load import TINY_CASE, case_from_dict
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.events import Event
-from cmdp_pymunk.rollout import disruption_cost, disruption_summary, struck_text
+from cmdp_pymunk.report import disruption_cost, disruption_summary, struck_text
 from training.runs.runner import EpisodeRunner, cost_fields
 
 # One absence of X-1 [50, 110) and one crane breakdown [140, 240): scheduled, so the same on
@@ -163,7 +163,7 @@ def never_undisrupted(monkeypatch):
 
 
 def test_simulate_reports_what_struck_and_what_it_cost(tmp_path, disrupted_file, capsys):
-    from training import simulate
+    from training.commands import simulate
 
     plain, out = tmp_path / "plain", tmp_path / "disrupted"
     assert simulate.main(["--case", str(TINY_CASE), "--out", str(plain), "--episodes", "2",
@@ -199,7 +199,7 @@ def test_simulate_reports_what_struck_and_what_it_cost(tmp_path, disrupted_file,
 
 
 def test_simulate_without_disruptions_plays_each_seed_once(tmp_path, never_undisrupted):
-    from training import simulate
+    from training.commands import simulate
 
     assert simulate.main(["--case", str(TINY_CASE), "--out", str(tmp_path), "--no-charts",
                           "--no-progress"]) == 0
@@ -209,7 +209,7 @@ def test_simulate_without_disruptions_plays_each_seed_once(tmp_path, never_undis
 
 def test_no_disruption_cost_counts_but_does_not_measure(tmp_path, disrupted_file,
                                                         never_undisrupted, capsys):
-    from training import simulate
+    from training.commands import simulate
 
     assert simulate.main(["--case", str(disrupted_file), "--out", str(tmp_path), "--no-charts",
                           "--no-progress", "--no-disruption-cost"]) == 0
@@ -219,7 +219,7 @@ def test_no_disruption_cost_counts_but_does_not_measure(tmp_path, disrupted_file
 
 
 def test_evaluate_rows_and_summaries_carry_the_cost(tmp_path, disrupted_file):
-    from training import compare
+    from training.commands import evaluate_strategies as compare
 
     out = tmp_path / "eval"
     assert compare.main(["--case", str(disrupted_file), "--seeds", "0-1", "--strategies",
@@ -254,7 +254,7 @@ def test_evaluate_rows_and_summaries_carry_the_cost(tmp_path, disrupted_file):
 
 
 def test_evaluate_without_disruptions_plays_each_episode_once(tmp_path, never_undisrupted):
-    from training import compare
+    from training.commands import evaluate_strategies as compare
 
     assert compare.main(["--case", str(TINY_CASE), "--seeds", "0", "--strategies", "priority",
                          "--workers", "1", "--out", str(tmp_path), "--no-progress",
@@ -264,11 +264,11 @@ def test_evaluate_without_disruptions_plays_each_episode_once(tmp_path, never_un
     assert "disruptions' delay" not in (tmp_path / "summary.md").read_text()
 
 
-@pytest.mark.parametrize("command", ["simulate", "compare"])
+@pytest.mark.parametrize("command", ["simulate", "evaluate_strategies"])
 def test_help_says_how_to_turn_disruptions_on_and_the_cost_off(command, capsys):
     import importlib
 
-    module = importlib.import_module(f"training.{command}")
+    module = importlib.import_module(f"training.commands.{command}")
     with pytest.raises(SystemExit):
         module.parse_args(["--help"])
     text = " ".join(capsys.readouterr().out.split())

@@ -492,7 +492,7 @@ def test_evaluate_reports_p80_paired_differences_and_idle_by_disruption(tmp_path
     import csv
     import json
 
-    from training import compare as evaluate
+    from training.commands import evaluate_strategies as evaluate
 
     case = tmp_path / "tiny_disrupted.toml"
     from test_disruption_cost import DISRUPTED_TOML

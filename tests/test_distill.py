@@ -62,7 +62,7 @@ def test_fit_finds_a_feature_the_teacher_follows():
 
 
 def test_label_fit_and_simulate_on_the_tiny_case(tmp_path):
-    from training import simulate
+    from training.commands import simulate
 
     labels, model = tmp_path / "labels", tmp_path / "new" / "student.json"
     tiny = str(cmdp_pymunk.TINY_CASE)
@@ -165,7 +165,7 @@ def test_choice_regret_by_hand():
 
 
 def test_label_with_expected_paces_and_an_acting_policy_then_fit_model(tmp_path):
-    from training import simulate
+    from training.commands import simulate
 
     labels, model = tmp_path / "labels", tmp_path / "m" / "model.zip"
     tiny = str(cmdp_pymunk.TINY_CASE)
@@ -249,7 +249,7 @@ def schedule(evaluator, case, seed: int = 0):
 def test_student_model_plays_the_students_schedule_on_the_tiny_case(tmp_path, capsys):
     from agents.candidates import CREW_TYPES
     from agents.features import ALL_FEATURES
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
     tiny = str(cmdp_pymunk.TINY_CASE)
     labels, student = tmp_path / "labels", tmp_path / "student.json"
@@ -270,7 +270,7 @@ def test_student_model_plays_the_students_schedule_on_the_tiny_case(tmp_path, ca
                          str(fitted_model)]) == 0
     meta = json.loads(fitted_model.with_suffix(".distill.json").read_text())
     assert meta["typed"] and meta["hold_choice"]
-    assert make_evaluator(str(fitted_model)).view.types == CREW_TYPES
+    assert evaluator_from_spec(str(fitted_model)).view.types == CREW_TYPES
     # three decisions (one a floor) teach it almost nothing (weights about 1e-6): a hand-made
     # student of the same file that sends crews to the farther target changes the schedule
     hand = tmp_path / "hand.json"
@@ -286,11 +286,11 @@ def test_student_model_plays_the_students_schedule_on_the_tiny_case(tmp_path, ca
         meta = json.loads(model.with_suffix(".distill.json").read_text())
         assert meta["student"] == str(made) and meta["command"].startswith("python -m")
         assert meta["hold_choice"] and meta["student_meta"]["features"] == fitted["features"]
-        evaluator = make_evaluator(str(model))
+        evaluator = evaluator_from_spec(str(model))
         assert evaluator.view.types == CREW_TYPES and evaluator.view.cap == 2
         for seed in (0, 1):
             students, student_events = schedule(StudentEvaluator.load(made), case, seed)
-            models, model_events = schedule(make_evaluator(str(model)), case, seed)
+            models, model_events = schedule(evaluator_from_spec(str(model)), case, seed)
             assert models == students and model_events == student_events
     assert schedule(StudentEvaluator.load(hand), case)[0] != eq9
 

@@ -11,8 +11,10 @@ import pytest
 import cmdp_pymunk
 from agents.task_priority import save_priorities
 from cmdp_pymunk.bounds import lower_bound
-from training import compare as evaluate
+from training.cli import seed_list, seeds_text
+from training.commands import evaluate_strategies as evaluate
 from training.runs.paired import mean_ci, paired
+from training.runs.strategies import read_log
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 FILES = ("episodes.jsonl", "episodes.csv", "summary.csv", "summary.md", "summary.json",
@@ -34,11 +36,20 @@ def documented_outputs() -> set[str]:
 
 
 def test_seed_list():
-    assert evaluate.seed_list("0-3") == [0, 1, 2, 3]
-    assert evaluate.seed_list("5,0-1,9") == [5, 0, 1, 9]
+    assert seed_list("0-3") == [0, 1, 2, 3]
+    assert seed_list("5,0-1,9") == [5, 0, 1, 9]
     for bad in ("3-1", "a", "-1", "1,1"):
         with pytest.raises(argparse.ArgumentTypeError):
-            evaluate.seed_list(bad)
+            seed_list(bad)
+
+
+def test_seeds_text_is_read_back_by_seed_list():
+    # a run of seeds as a range, anything else as a list, and seed_list reads either back
+    assert seeds_text([0, 1, 2, 3]) == "0-3"
+    assert seeds_text([5, 0, 1, 9]) == "5,0,1,9"
+    assert seeds_text([7]) == "7-7"
+    for seeds in ([0, 1, 2, 3], [5, 0, 1, 9], [100, 101], [3]):
+        assert seed_list(seeds_text(seeds)) == seeds
 
 
 def test_mean_ci_by_hand():
@@ -158,7 +169,7 @@ def test_histogram_and_s_curve_inputs_match_the_episodes(tmp_path):
                           "--start", "2026-01-09T15:30", "--holidays", "2026-01-12"]) == 0
     for name in ("makespan_histogram.png", "s_curve.png"):
         assert (out / name).stat().st_size > 1000, name
-    rows = evaluate.read_log(out / "episodes.jsonl")
+    rows = read_log(out / "episodes.jsonl")
     makespans = [r["makespan_s"] for r in rows]
     assert len(makespans) == 3 and len(set(makespans)) > 1  # three seeds, not all alike
     entry = json.loads((out / "summary.json").read_text())[0]
@@ -271,21 +282,21 @@ def test_two_workers_give_the_same_episodes(tmp_path):
         rows = list(csv.DictReader((out / "episodes.csv").open()))
         # episodes.jsonl is in the order they finish: compare it by episode
         ends = {(r["strategy"], r["seed"]): r["task_end_times_s"]
-                for r in evaluate.read_log(out / "episodes.jsonl")}
+                for r in read_log(out / "episodes.jsonl")}
         outs.append(([{k: v for k, v in r.items() if k != "wall_s"} for r in rows], ends))
     assert outs[0] == outs[1]
 
 
 @pytest.mark.slow
 def test_a_stage2_model_is_a_strategy(tmp_path):
-    """An (untrained) stage-2 model .zip goes through make_evaluator like any strategy."""
+    """An (untrained) stage-2 model .zip goes through evaluator_from_spec like any strategy."""
     from stable_baselines3 import PPO
 
-    from training.stage2 import Stage2Config, make_floor, training_case
+    from training.stage2 import Stage2Config, make_decision_loop, training_case
     from training.vec_env import FloorsVecEnv
 
     config = Stage2Config(case=TINY, central_critic=False)
-    venv = FloorsVecEnv([lambda: make_floor(config, training_case(config))])
+    venv = FloorsVecEnv([lambda: make_decision_loop(config, training_case(config))])
     model = PPO("MlpPolicy", venv, n_steps=8, batch_size=8,
                 policy_kwargs={"net_arch": [8]}, device="cpu", seed=0)
     path = tmp_path / "stage2.zip"

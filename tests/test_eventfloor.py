@@ -334,17 +334,17 @@ def test_a_disruption_longer_than_the_stall_guard_is_no_stall():
 
 
 def test_the_lookahead_thinks_on_the_event_floor_and_acts_on_the_pymunk_one():
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
     case = cmdp_pymunk.load_case(cmdp_pymunk.TINY_CASE)
-    lookahead = make_evaluator("lookahead:candidates=2+futures=2+floor=event")
+    lookahead = evaluator_from_spec("lookahead:candidates=2+futures=2+floor=event")
     engine = Engine(case, evaluator=lookahead, park_idle=True)
     episode = run_episode(engine, Navigator(), 0, 3600, progress=False)
     assert episode.makespan_s is not None
     summary = lookahead.summary()
     assert summary["thinks_on"] == "event" and summary["decisions"] >= 1
     with pytest.raises(ValueError, match="floor=same or event"):
-        make_evaluator("lookahead:floor=fast")
+        evaluator_from_spec("lookahead:floor=fast")
 
 
 @pytest.mark.slow

@@ -9,7 +9,8 @@ import torch
 from gymnasium import spaces
 
 from tests.test_lean_actor import COMMITTED, observations, random_ppo
-from training import export
+from training import onnx_export
+from training.commands import export
 
 
 def run(path, obs):
@@ -78,7 +79,7 @@ def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_pa
     config = Stage2Config(action="candidate", central_critic=False, n_envs=1, num_cpus=1,
                           typed=typed, fidelity="event")
     case = stage2.training_case(config)
-    floor = stage2.make_floor(config, case)
+    floor = stage2.make_decision_loop(config, case)
     model = stage2.new_candidate_model(config, stage2.make_vec_env(config, case, 0))
     generator = torch.Generator().manual_seed(0)
     with torch.no_grad():  # untrained, the linear and residual heads are zero: perturb them
@@ -97,13 +98,13 @@ def test_masked_choice_model_exports_and_matches_torch_on_recorded_states(tmp_pa
     masks = np.stack([s[1] for s in states]).astype(bool)
     assert len(states) > 20 and not masks.all()  # some decisions have fewer candidates
 
-    out = export.export(path, tmp_path / "candidate.onnx")
+    out = onnx_export.export(path, tmp_path / "candidate.onnx")
     session = ort.InferenceSession(str(out), providers=["CPUExecutionProvider"])
     logits, action = session.run(["logits", "action"], {"obs": obs, "mask": masks})
     loaded = MaskablePPO.load(path, device="cpu")
     with torch.no_grad():
         raw = loaded.policy.action_net(torch.as_tensor(obs)).numpy()
     assert np.allclose(logits[masks], raw[masks], atol=1e-4)
-    assert (logits[~masks] == export.HUGE_NEG).all()
+    assert (logits[~masks] == onnx_export.HUGE_NEG).all()
     expected, _ = loaded.predict(obs, action_masks=masks, deterministic=True)
     assert (action == expected).all() and len(set(expected.tolist())) > 1

@@ -17,7 +17,8 @@ from cmdp_pymunk.eventfloor.calibration import (
     fingerprint,
     write_calibration,
 )
-from training import compare, simulate
+from training.commands import evaluate_strategies as compare
+from training.commands import simulate
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 QUIET = ["--no-progress", "--no-charts"]

@@ -6,7 +6,7 @@ import json
 import pytest
 from conftest import tiny_dict
 
-from agents.specs import make_evaluator
+from agents.specs import evaluator_from_spec
 from agents.task_priority import (
     TaskPriorityEvaluator,
     load_priorities,
@@ -45,7 +45,7 @@ def test_evaluator_prefers_the_higher_priority_task(tiny_env):
 def test_priority_file_round_trip_and_errors(tmp_path, tiny_case):
     path = save_priorities(tmp_path / "p.json", tiny_case,
                            {"X-A": 0.9, "K-A": 0.1, "X-B": 0.2, "M-C": 0.3}, 0.5, "ga")
-    ev = make_evaluator(f"ga:{path}")
+    ev = evaluator_from_spec(f"ga:{path}")
     assert ev.priorities["X-A"] == 0.9 and ev.distance_weight == 0.5
     ev.check_case(tiny_case)
     data = json.loads(path.read_text())
@@ -60,13 +60,13 @@ def test_priority_file_round_trip_and_errors(tmp_path, tiny_case):
     with pytest.raises(ValueError, match=r"priorities\['X-A'\] is 'nan'; fix"):
         load_priorities(path)
     with pytest.raises(ValueError, match="cannot read the priority file"):
-        make_evaluator(f"ga:{tmp_path / 'missing.json'}")
+        evaluator_from_spec(f"ga:{tmp_path / 'missing.json'}")
 
 
 def test_simulate_with_a_ga_file(tmp_path):
 
     import cmdp_pymunk
-    from training import simulate
+    from training.commands import simulate
 
     tiny = cmdp_pymunk.TINY_CASE
     case = __import__("cmdp_pymunk").load_case(tiny)
@@ -129,7 +129,7 @@ def test_workers_give_the_same_search(tmp_path):
 
 
 def test_cmdp_ga_config_errors_and_a_tiny_run(tmp_path, capsys):
-    from training import ga
+    from training.commands import ga
 
     assert ga.main(["--set", "population=0", "--set", "elite=x", "--out",
                     str(tmp_path / "bad")]) == 2

@@ -28,7 +28,7 @@ SEEDS = range(10)
 
 def simulate_seeds(first: int, episodes: int, out: Path) -> dict[str, dict]:
     """seed -> {"events_sha256", "makespan_s"} of one ``cmdp-simulate`` run."""
-    from training import simulate
+    from training.commands import simulate
 
     argv = ["--seed", str(first), "--episodes", str(episodes), "--out", str(out),
             "--no-charts", "--no-progress"]
@@ -72,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         print("golden schedules: " + ("unchanged" if same else "CHANGED"))
         return 0 if same else 1
     from cmdp_pymunk.events import write_atomic
-    from cmdp_pymunk.rollout import versions
+    from cmdp_pymunk.report import versions
 
     data = {"comment": "cmdp-simulate on the built-in case (priority evaluator, scripted "
                        "navigator), seeds 0-9 in one --episodes run; checked by "

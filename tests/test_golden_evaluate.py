@@ -8,7 +8,7 @@ from __future__ import annotations
 import csv
 from pathlib import Path
 
-from training import compare
+from training.commands import evaluate_strategies as compare
 
 GOLDEN = Path(__file__).resolve().parent / "data" / "golden_evaluate_tiny.csv"
 TINY = str(Path(__file__).resolve().parents[1] / "cmdp_pymunk" / "cases" / "tiny_floor.toml")

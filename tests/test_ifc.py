@@ -15,7 +15,7 @@ from cmdp_pymunk.cases.ifc_export import read_4d  # noqa: E402
 from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay  # noqa: E402
 from cmdp_pymunk.cases.load import CaseError, load_case  # noqa: E402
 from tests import ifc_models  # noqa: E402
-from training import import_ifc, simulate  # noqa: E402
+from training.commands import import_ifc, simulate  # noqa: E402
 
 
 @pytest.fixture(scope="module", params=["IFC4", "IFC2X3"])

@@ -181,7 +181,7 @@ def test_a_wrong_elevation_is_refused_by_the_command_naming_level_and_route(tmp_
     storey, each message naming the level, its route and how to set it; exit 2, one message,
     nothing written. The overlay's level_m, as the message says, makes it import."""
     from tests import ifc_models
-    from training import import_ifc
+    from training.commands import import_ifc
 
     f, made = ifc_models.raised_storey("IFC4", elevation_m=0.0)
     path = tmp_path / "m.ifc"

@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from training import import_ifc, simulate
+from training.commands import import_ifc, simulate
 
 
 @pytest.fixture
@@ -35,7 +35,7 @@ def test_the_core_does_not_import_ifcopenshell_at_module_level():
     import ast
     from pathlib import Path
 
-    for path in (Path(simulate.__file__).parent.parent / "cmdp_pymunk").glob("*.py"):
+    for path in (Path(simulate.__file__).parents[2] / "cmdp_pymunk").glob("*.py"):
         tree = ast.parse(path.read_text(encoding="utf-8"))
         top = [n for n in tree.body if isinstance(n, (ast.Import, ast.ImportFrom))]
         names = [a.name for n in top if isinstance(n, ast.Import) for a in n.names]

@@ -142,7 +142,7 @@ def test_simulate_stops_at_every_moment_with_one_line_and_exit_130(moment_s, tmp
     """Moments before the banner (imports), in an episode, between episodes and while a
     seed's charts are written (about half of a tiny episode's wall time)."""
     out = tmp_path / "out"
-    code, err = run_and_interrupt("training.simulate", ["--case", TINY, "--episodes", "30",
+    code, err = run_and_interrupt("training.commands.simulate", ["--case", TINY, "--episodes", "30",
                                                         "--no-progress", "--out", str(out)],
                                   moment_s)
     assert code == 130, err
@@ -154,7 +154,7 @@ def test_simulate_stops_at_every_moment_with_one_line_and_exit_130(moment_s, tmp
 def test_simulate_stops_in_an_episode_of_the_builtin_case(tmp_path):
     """The case the issue saw lose 2 Ctrl-C in 10 (inside pymunk's velocity callback)."""
     out = tmp_path / "out"
-    code, err = run_and_interrupt("training.simulate",
+    code, err = run_and_interrupt("training.commands.simulate",
                                   ["--no-charts", "--no-progress", "--out", str(out)], 1.0)
     assert code == 130, err
     line = one_line(err, "cmdp-simulate")
@@ -168,7 +168,7 @@ def test_simulate_stops_inside_a_lookahead_branch(tmp_path):
     """Ctrl-C while the lookahead runs a branch of the built-in floor: one line, exit 130,
     no half-written outputs."""
     out = tmp_path / "out"
-    code, err = run_and_interrupt("training.simulate",
+    code, err = run_and_interrupt("training.commands.simulate",
                                   ["--evaluator", "lookahead:candidates=3+futures=1",
                                    "--no-charts", "--no-progress", "--out", str(out)], 2.5)
     assert code == 130, err
@@ -185,7 +185,7 @@ TRAIN = ["stage1", "--set", f"case='{TINY}'", "--set", "n_envs=2", "--set", "num
 @pytest.mark.slow
 def test_train_stops_during_behaviour_cloning_and_says_nothing_was_saved(tmp_path):
     run = tmp_path / "run"
-    code, err = run_and_interrupt("training.train", [*TRAIN, "--out", str(run), "--set",
+    code, err = run_and_interrupt("training.commands.train", [*TRAIN, "--out", str(run), "--set",
                                                       "bc_samples=10000000"],
                                   1.0, wait_for="behaviour cloning: collecting")
     assert code == 130, err
@@ -199,7 +199,7 @@ def test_train_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
     from stable_baselines3 import PPO
 
     run = tmp_path / "run"
-    code, err = run_and_interrupt("training.train", [*TRAIN, "--out", str(run), "--set",
+    code, err = run_and_interrupt("training.commands.train", [*TRAIN, "--out", str(run), "--set",
                                                       "bc_samples=0", "--set",
                                                       "total_steps=100000000"],
                                   2.0, wait_for="PPO:")
@@ -213,7 +213,7 @@ def test_train_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
 @pytest.mark.slow
 def test_train_stage2_stops_during_ppo_with_a_checkpoint_to_resume_from(tmp_path):
     run = tmp_path / "run"
-    code, err = run_and_interrupt("training.train", [
+    code, err = run_and_interrupt("training.commands.train", [
         "stage2", "--out", str(run), "--no-progress", "--set", "bc_episodes=0",
         "--set", "num_cpus=2", "--set", "n_steps=16", "--set", "batch_size=32",
         "--set", "eval_seeds=[2000]", "--set", "total_steps=100000000"], 2.0, wait_for="PPO:")

@@ -9,7 +9,7 @@ import pytest
 from conftest import play_floor
 
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings
-from agents.specs import make_evaluator
+from agents.specs import evaluator_from_spec
 from training.research.labelling import CandidatesOnly, Labeller
 
 
@@ -37,9 +37,9 @@ def test_a_test_labeller_sees_every_decision_of_a_lookahead_that_drives(tiny_cas
 def test_an_acting_policy_drives_the_floor_while_the_lookahead_labels(tiny_case):
     # DAgger's labelling: the floor is the acting policy's own, and every decision with a
     # choice is still branched and recorded
-    labeller = Labeller(_teacher(), acting=make_evaluator("nearest"))
+    labeller = Labeller(_teacher(), acting=evaluator_from_spec("nearest"))
     env = play_floor(labeller, tiny_case)
-    alone = play_floor(make_evaluator("nearest"), tiny_case)
+    alone = play_floor(evaluator_from_spec("nearest"), tiny_case)
     assert env.engine.site.done and env.log.events == alone.log.events
     assert labeller.decisions
     assert all(len(d.makespans_s) == 2 and all(map(math.isfinite, d.makespans_s))
@@ -50,9 +50,9 @@ def test_an_acting_policy_drives_the_floor_while_the_lookahead_labels(tiny_case)
 
 def test_candidates_only_branches_nothing_and_keeps_the_base_choice(tiny_case):
     teacher = _teacher()
-    labeller = Labeller(CandidatesOnly(teacher), acting=make_evaluator("priority"))
+    labeller = Labeller(CandidatesOnly(teacher), acting=evaluator_from_spec("priority"))
     env = play_floor(labeller, tiny_case)
-    alone = play_floor(make_evaluator("priority"), tiny_case)
+    alone = play_floor(evaluator_from_spec("priority"), tiny_case)
     assert env.log.events == alone.log.events
     assert labeller.decisions and teacher.decisions == []  # nothing was branched
     assert all(d.choice == d.base_choice == d.candidates[0]

@@ -53,7 +53,8 @@ def test_the_training_stages_do_not_import_each_other(module, other):
     assert not {n for n in names if n == f"training.{other}" or
                 n.startswith(f"training.{other}.")}, names
     assert "training.scaffold" in names
-    assert "training.train" not in names  # the command imports the stages, not the reverse
+    # the command imports the stages, not the reverse
+    assert not {n for n in names if n.startswith("training.commands")}, names
 
 
 # -- the engine owns the floor: nothing built on the core reads its plane or an env's state ----
@@ -125,7 +126,7 @@ fine = (engine.site, engine.positions, self.site, env.engine.site, cmdp_pymunk.w
 def test_the_core_reaches_the_plane_only_through_the_physics_protocol():
     """Every member of a world read in the core (``world.X``, ``self.world.X``,
     ``ctx.world.X``) outside world.py is one of ``physics.Physics``'s, and only world.py (and
-    ``rollout.versions``, for pymunk's version) imports pymunk. The event floor's own plane
+    ``report.versions``, for pymunk's version) imports pymunk. The event floor's own plane
     (``eventfloor.floor.EventPlane``) is driven by its floor alone: it is a Physics too."""
     from cmdp_pymunk.eventfloor.floor import EventPlane
     from cmdp_pymunk.physics import Physics
@@ -140,7 +141,7 @@ def test_the_core_reaches_the_plane_only_through_the_physics_protocol():
             if isinstance(node, ast.Attribute) and _dotted(node.value).split(".")[-1] == "world":
                 used.setdefault(node.attr, set()).add(path.name)
         if "pymunk" in first_parts(path):
-            assert path.name == "rollout.py", f"{path.name} imports pymunk"
+            assert path.name == "report.py", f"{path.name} imports pymunk"
     assert {"pose", "step", "ray_query", "drive"} <= used.keys()  # the checker sees them
     assert not used.keys() - members, {k: used[k] for k in used.keys() - members}
 
@@ -164,19 +165,21 @@ ROOM_RULES = {
     # room: rooms it must not import (anything not listed is allowed)
     "agents": {"training", "media", "benchmarks", "tools", "examples"},  # policies, evaluators
     "media": {"agents", "training", "benchmarks", "tools"},  # drawing from logs and engines
-    "training/runs": {"training.search", "training.simulate", "training.compare",
-                      "training.train", "training.ga", "training.search_rule",
-                      "training.research.distill",
-                      "training.research.label_noise"},  # machinery, no commands
-    "training/search": {"training.simulate", "training.compare", "training.train",
-                        "training.ga", "training.search_rule"},  # searches, not commands
+    # commands (issue 43): each a thin file over the libraries; none imports another
+    "training/commands": {"training.commands", "training.research"},
+    "training/runs": {"training.commands", "training.search",
+                      "training.research"},  # machinery, no commands
+    "training/search": {"training.commands", "training.research"},  # searches, not commands
+    # the event floor's calibration and validation: machinery beside the event floor
+    "training/eventfloor": {"training.commands", "training.search", "training.research"},
     # the event floor: the same stages without pymunk, rays or the adapters
     "cmdp_pymunk/eventfloor": {"cmdp_pymunk.world", "cmdp_pymunk.observe", "cmdp_pymunk.adapters",
                                "pymunk", "pettingzoo", "gymnasium"},
     # case input and output: the case as data, files, generators, IFC; no simulation stage
     "cmdp_pymunk/cases": {"cmdp_pymunk.engine", "cmdp_pymunk.world", "cmdp_pymunk.state",
                           "cmdp_pymunk.decide", "cmdp_pymunk.construct", "cmdp_pymunk.move",
-                          "cmdp_pymunk.observe", "cmdp_pymunk.rollout", "cmdp_pymunk.adapters",
+                          "cmdp_pymunk.observe", "cmdp_pymunk.rollout", "cmdp_pymunk.report",
+                          "cmdp_pymunk.adapters",
                           "pymunk", "pettingzoo", "gymnasium"},
 }
 
@@ -290,6 +293,33 @@ def test_no_two_modules_share_a_name():
             if path.name != "__init__.py":
                 seen.setdefault(path.stem, []).append(str(path.relative_to(ROOT)))
     assert not {k: v for k, v in seen.items() if len(v) > 1}
+
+
+def test_nothing_imports_a_command():
+    """A command (``training/commands``) is the top of its chain: no module of the package,
+    the benchmarks, the tools or the examples imports one (tests run them through ``main``);
+    what two commands share is a library (``training.runs``, ``training.cli``, ...)."""
+    bad = [f"{p.relative_to(ROOT)} imports {n}"
+           for room in ("cmdp_pymunk", "agents", "training", "media", "benchmarks", "tools",
+                        "examples")
+           for p in _room_modules(room) if "commands" not in p.relative_to(ROOT).parts
+           for n in imported_modules(p) if n.startswith("training.commands")]
+    assert not bad, bad
+
+
+def test_every_console_script_is_a_command():
+    """``setup.cfg``'s console scripts all point into ``training/commands``, one module each."""
+    import configparser
+
+    cfg = configparser.ConfigParser()
+    cfg.read(ROOT / "setup.cfg")
+    targets = [line.split("=", 1)[1].strip() for line in
+               cfg["options.entry_points"]["console_scripts"].strip().splitlines()]
+    modules = [t.split(":")[0] for t in targets]
+    assert modules and all(m.startswith("training.commands.") for m in modules), modules
+    assert len(set(modules)) == len(modules), modules
+    for module in modules:
+        assert (ROOT / (module.replace(".", "/") + ".py")).is_file(), module
 
 
 def test_nothing_imports_the_research_tools():

@@ -11,7 +11,7 @@ import cmdp_pymunk
 from agents.lookahead import LookaheadEvaluator, LookaheadSettings, promote, ranked
 from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
-from agents.specs import make_evaluator
+from agents.specs import evaluator_from_spec
 from cmdp_pymunk.streams import EXPECTED
 
 
@@ -82,19 +82,19 @@ def test_the_true_future_branch_replays_the_floor(tiny_case):
 
 
 def test_lookahead_specs_and_their_errors():
-    ev = make_evaluator("lookahead:candidates=2+futures=0+base=nearest")
+    ev = evaluator_from_spec("lookahead:candidates=2+futures=0+base=nearest")
     assert isinstance(ev, LookaheadEvaluator) and ev.settings == LookaheadSettings(2, 0)
     assert type(ev.base).__name__ == "NearestFirstEvaluator"
-    assert make_evaluator("lookahead").settings == LookaheadSettings()
+    assert evaluator_from_spec("lookahead").settings == LookaheadSettings()
     with pytest.raises(ValueError, match="candidates=INT, futures=INT or expected, "
                                          "workers=INT, race=INT, base=SPEC"):
-        make_evaluator("lookahead:cands=2")
-    expected = make_evaluator("lookahead:futures=expected")
+        evaluator_from_spec("lookahead:cands=2")
+    expected = evaluator_from_spec("lookahead:futures=expected")
     assert expected.settings == LookaheadSettings(futures=1, expected_paces=True)
     with pytest.raises(ValueError, match="futures must be 1"):
         LookaheadSettings(futures=2, expected_paces=True)
     with pytest.raises(ValueError, match="branch inside branches"):
-        make_evaluator("lookahead:base=lookahead")
+        evaluator_from_spec("lookahead:base=lookahead")
     with pytest.raises(ValueError, match="candidates must be an int >= 1"):
         LookaheadSettings(candidates=0)
 
@@ -111,7 +111,7 @@ def test_the_lookahead_needs_no_binding_and_branches_the_engine_alone(tiny_case)
 
 
 def test_cmdp_simulate_runs_the_lookahead(tmp_path):
-    from training import simulate
+    from training.commands import simulate
 
     out = tmp_path / "run"
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),
@@ -177,7 +177,7 @@ def test_racing_over_as_many_futures_as_it_starts_with_is_the_plain_lookahead(ti
     a, b = play_floor(plain, tiny_case), play_floor(racing, tiny_case)
     assert a.makespan_s == b.makespan_s and a.log.events == b.log.events
     assert [d.makespans_s for d in plain.decisions] == [d.makespans_s for d in racing.decisions]
-    assert isinstance(make_evaluator("lookahead:candidates=3+futures=8+race=2"),
+    assert isinstance(evaluator_from_spec("lookahead:candidates=3+futures=8+race=2"),
                       LookaheadEvaluator)
     with pytest.raises(ValueError, match="futures >= race"):
         LookaheadSettings(futures=2, race=4)
@@ -213,10 +213,10 @@ def test_an_endgame_lookahead_decides_only_once_its_share_of_tasks_has_ended(tin
     alone = play_floor(late, tiny_case)
     assert late.decisions == [] and alone.log.events == play_floor(
         PriorityEvaluator(), tiny_case).log.events
-    spec = make_evaluator("lookahead:candidates=2+futures=4+race=2+from=0.7")
+    spec = evaluator_from_spec("lookahead:candidates=2+futures=4+race=2+from=0.7")
     assert spec.settings.from_share == 0.7
     for bad in ("from=1", "from=-0.1", "from=x"):
         with pytest.raises(ValueError, match="from=SHARE"):
-            make_evaluator(f"lookahead:{bad}")
+            evaluator_from_spec(f"lookahead:{bad}")
     with pytest.raises(ValueError, match=r"from_share must be in \[0, 1\)"):
         LookaheadSettings(from_share=1.0)

@@ -92,10 +92,10 @@ def test_the_engine_takes_a_name(tiny_case):
 def test_a_misspelt_strategy_gets_a_did_you_mean():
     import pytest
 
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
     with pytest.raises(ValueError, match="did you mean 'priority'"):
-        make_evaluator("priorty")
+        evaluator_from_spec("priorty")
     with pytest.raises(ValueError) as err:
-        make_evaluator("runs/missing.zip")  # a model path: no guess among the names
+        evaluator_from_spec("runs/missing.zip")  # a model path: no guess among the names
     assert "did you mean" not in str(err.value)

@@ -4,7 +4,7 @@ Fig. 10's task ids (media/charts.py) on a log of more tasks than fit an unlabell
 import imageio.v3 as iio
 from conftest import make_events
 
-from cmdp_pymunk.rollout import makespan_stats
+from cmdp_pymunk.report import makespan_stats
 from media import charts
 from media.episodes import draw_episodes
 

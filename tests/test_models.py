@@ -13,7 +13,7 @@ import cmdp_pymunk
 from cmdp_pymunk import load_case
 from cmdp_pymunk.observe import evaluation_size
 from cmdp_pymunk.state import Site
-from training import simulate
+from training.commands import simulate
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 

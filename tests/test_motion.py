@@ -64,7 +64,8 @@ def test_a_third_motion_finishes_the_tiny_case_without_touching_the_engine(telep
 
 
 def test_a_third_motion_runs_through_cmdp_simulate_and_cmdp_evaluate(teleport, tmp_path):
-    from training import compare, simulate
+    from training.commands import evaluate_strategies as compare
+    from training.commands import simulate
 
     out = tmp_path / "sim"
     assert simulate.main(["--case", TINY, "--out", str(out), "--seed", "1", "--no-progress",

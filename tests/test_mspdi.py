@@ -148,7 +148,7 @@ def test_cmdp_simulate_writes_it_and_says_where_its_dates_come_from(tmp_path, ca
     import csv
 
     import cmdp_pymunk
-    from training import simulate
+    from training.commands import simulate
 
     out = tmp_path / "run"
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),
@@ -196,7 +196,7 @@ def test_mpxj_reads_the_simulated_schedule_back(tmp_path, mpxj_reader, capsys):
     import csv
 
     import cmdp_pymunk
-    from training import simulate
+    from training.commands import simulate
 
     out = tmp_path / "run"
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out), "--seed",

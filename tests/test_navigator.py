@@ -40,7 +40,7 @@ def test_carrot_prefers_nearer_ring_over_lower_value(tiny_env):
 @pytest.mark.slow
 def test_seed_102_finishes_with_priority_and_scripted_navigator(tmp_path):
     """The whole episode that stalled at t = 41,461 s before the fix."""
-    from training import simulate
+    from training.commands import simulate
 
     out = tmp_path / "s102"
     assert simulate.main(["--seed", "102", "--out", str(out), "--no-charts",

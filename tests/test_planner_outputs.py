@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from cmdp_pymunk.rollout import (
+from cmdp_pymunk.report import (
     MIN_FLOORS_FOR_PERCENTILES,
     makespan_stats,
     percentiles_note,

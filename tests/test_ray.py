@@ -21,7 +21,7 @@ from test_backends import (
 )
 
 import cmdp_pymunk
-from training import compare as evaluate
+from training.commands import evaluate_strategies as evaluate
 from training.runs.backends import WorkerLost
 
 # As a cluster of `ray start --head` (Ray 2.60's default), with a token: the commands run in a
@@ -213,7 +213,7 @@ def test_simulate_plays_the_same_seeds_on_ray(cluster, tmp_path):
     this process."""
     from test_simulate import seed_files
 
-    from training import simulate
+    from training.commands import simulate
 
     argv = ["--case", str(cmdp_pymunk.TINY_CASE), "--seed", "4", "--episodes", "3",
             "--no-charts", "--no-progress"]
@@ -223,7 +223,7 @@ def test_simulate_plays_the_same_seeds_on_ray(cluster, tmp_path):
 
 
 def test_simulate_with_an_address_nobody_answers_at_is_one_line(tmp_path, capsys):
-    from training import simulate
+    from training.commands import simulate
 
     out = tmp_path / "out"
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--episodes", "2", "--ray",
@@ -288,7 +288,7 @@ def test_cmdp_train_stage2_on_ray_learns_the_same_weights(cluster, tmp_path):
     import torch as th
     from stable_baselines3 import PPO
 
-    from training.train import main
+    from training.commands.train import main
 
     argv = ["stage2", "--no-progress", "--set", f"case={cmdp_pymunk.TINY_CASE}",
             "--set", "n_envs=3", "--set", "num_cpus=2", "--set", "central_critic=false",
@@ -305,7 +305,7 @@ def test_cmdp_train_stage2_on_ray_learns_the_same_weights(cluster, tmp_path):
 
 
 def test_cmdp_train_with_an_address_nobody_answers_at_is_one_line(tmp_path, capsys):
-    from training.train import main
+    from training.commands.train import main
 
     out = tmp_path / "run"
     assert main(["stage2", "--ray", "127.0.0.1:9", "--out", str(out)]) == 2

@@ -13,7 +13,7 @@ from agents.replan import (
     remaining_seconds,
     solve_rest,
 )
-from agents.specs import make_evaluator
+from agents.specs import evaluator_from_spec
 from cmdp_pymunk.precedence import Pool
 from cmdp_pymunk.state import Site
 
@@ -60,10 +60,10 @@ def test_settings_and_spec_errors_name_the_fix():
     with pytest.raises(ValueError, match="overhead_s"):
         ReplanSettings(overhead_s=-1)
     with pytest.raises(ValueError, match="window=SECONDS"):
-        make_evaluator("replan:windw=3")
+        evaluator_from_spec("replan:windw=3")
     with pytest.raises(ValueError, match="plan inside plans"):
-        make_evaluator("replan:base=replan")
-    ev = make_evaluator("replan:limit=0.5+overhead=30+window=60+base=nearest")
+        evaluator_from_spec("replan:base=replan")
+    ev = evaluator_from_spec("replan:limit=0.5+overhead=30+window=60+base=nearest")
     assert ev.settings == ReplanSettings(limit=0.5, overhead_s=30.0, window_s=60.0)
 
 
@@ -80,7 +80,7 @@ def test_cmdp_simulate_runs_replan_and_reports_it_under_its_own_key(tmp_path):
     import json
 
     import cmdp_pymunk
-    from training import simulate
+    from training.commands import simulate
 
     out = tmp_path / "run"
     assert simulate.main(["--case", str(cmdp_pymunk.TINY_CASE), "--out", str(out),

@@ -2,15 +2,10 @@
 
 import pytest
 
-from agents.specs import make_evaluator, make_navigator, model_path
+from agents.specs import evaluator_from_spec, make_navigator, model_path
 from cmdp_pymunk.engine import Engine
-from cmdp_pymunk.rollout import (
-    crew_summary,
-    episode_reach_rate,
-    makespan_stats,
-    reach_rate,
-    run_episode,
-)
+from cmdp_pymunk.report import crew_summary, episode_reach_rate, makespan_stats, reach_rate
+from cmdp_pymunk.rollout import run_episode
 
 
 def test_reach_rate_counts_each_timeout_as_a_miss():
@@ -35,7 +30,7 @@ def test_makespan_stats_over_finished_episodes_only():
 
 
 def test_run_episode_finishes_the_tiny_case(tiny_case):
-    engine = Engine(tiny_case, evaluator=make_evaluator("priority"))
+    engine = Engine(tiny_case, evaluator=evaluator_from_spec("priority"))
     navigator = make_navigator("scripted", engine)
     episode = run_episode(engine, navigator, seed=1, stall_s=3600.0, progress=False)
     assert episode.stalled is None and episode.makespan_s == engine.site.time_s
@@ -52,7 +47,7 @@ def test_a_missing_model_file_is_named(tmp_path):
 
 
 def test_makespan_stats_over_the_seed_bound():
-    from cmdp_pymunk.rollout import makespan_stats
+    from cmdp_pymunk.report import makespan_stats
 
     rows = [{"makespan_s": m, "reach_rate": 1.0, "seed_bound_s": b}
             for m, b in ((150.0, 100.0), (300.0, 150.0), (None, 120.0))]
@@ -66,7 +61,7 @@ def test_makespan_stats_over_the_seed_bound():
 
 def test_stall_text_reads_a_report_as_prose():
     """A hand-made stall report (the shape ``stall_report`` gives) in prose, word for word."""
-    from cmdp_pymunk.rollout import stall_text
+    from cmdp_pymunk.report import stall_text
 
     report = {"after_s": 3600.0, "time_s": 21183.0, "tasks": 36, "tasks_ended": 33,
               "tasks_on": ["F-12"], "tasks_queued": ["F-14", "R-3"],

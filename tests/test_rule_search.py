@@ -116,8 +116,8 @@ def test_the_kept_mean_is_the_best_checked_or_eq9():
 
 
 def test_cmdp_search_rule_names_a_bad_setting_and_writes_a_usable_rule(tmp_path, capsys):
-    from agents.specs import make_evaluator
-    from training import search_rule as cli
+    from agents.specs import evaluator_from_spec
+    from training.commands import search_rule as cli
 
     assert cli.main(["--set", "seeds_per_generation=0", "--out", str(tmp_path / "bad")]) == 2
     assert "seeds_per_generation = 0 must be positive" in capsys.readouterr().err
@@ -130,7 +130,7 @@ def test_cmdp_search_rule_names_a_bad_setting_and_writes_a_usable_rule(tmp_path,
     assert "means checked on selection seeds 2..2" in capsys.readouterr().out
     for name in ("rule.json", "history.csv", "checkpoint.pkl", "config.json"):
         assert (out / name).is_file(), name
-    assert make_evaluator(f"student:{out / 'rule.json'}").candidates == 5
+    assert evaluator_from_spec(f"student:{out / 'rule.json'}").candidates == 5
 
 
 def test_a_search_on_the_event_floor_is_selected_on_the_pymunk_floor(tmp_path):

@@ -5,7 +5,7 @@ import json
 import pytest
 
 import cmdp_pymunk
-from training import simulate
+from training.commands import simulate
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 
@@ -136,8 +136,10 @@ def test_gif_is_written(tmp_path):
                           "--no-progress"]) == 0
     import imageio.v3 as iio
 
+    from training.runs.simulation import GIF_FPS, GIF_SECONDS
+
     frames = iio.imread(out / "rollout.gif", index=None)
-    assert 2 <= len(frames) <= simulate.GIF_SECONDS * simulate.GIF_FPS
+    assert 2 <= len(frames) <= GIF_SECONDS * GIF_FPS
 
 
 def test_a_ctrl_c_while_the_gif_streams_leaves_no_half_gif(tmp_path, monkeypatch, capsys):
@@ -310,7 +312,7 @@ def test_bad_input_exits_2(tmp_path, capsys):
 
 def test_no_charts_says_so(tmp_path, capsys):
     from cmdp_pymunk import TINY_CASE
-    from training.simulate import main
+    from training.commands.simulate import main
 
     assert main(["--case", str(TINY_CASE), "--out", str(tmp_path), "--no-charts",
                  "--no-progress"]) == 0

@@ -7,7 +7,7 @@ import pytest
 
 import cmdp_pymunk
 from training import stage1
-from training.train import main
+from training.commands.train import main
 
 TINY = str(cmdp_pymunk.TINY_CASE)
 SMALL = ["--set", f"case='{TINY}'", "--set", "total_steps=2048", "--set", "n_envs=2",

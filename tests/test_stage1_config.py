@@ -85,7 +85,7 @@ def test_without_wandb_project_no_callback_is_added():
 def test_train_reports_the_missing_wandb_with_exit_2(monkeypatch, capsys, tmp_path):
     import importlib.util
 
-    from training import train
+    from training.commands import train
 
     real = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec",

@@ -51,13 +51,13 @@ def test_bad_settings_are_refused_with_their_fix(override, message):
 def test_training_floor_appends_the_global_state_for_the_central_critic():
     config = Stage2Config(central_critic=True)
     case = stage2.training_case(config)
-    floor = stage2.make_floor(config, case)
+    floor = stage2.make_decision_loop(config, case)
     floor.reset(seed=3)
     obs = floor.observe()
     assert obs.shape == floor.low.shape and obs.dtype == np.float32
     assert np.all((obs >= floor.low) & (obs <= floor.high))
     assert np.array_equal(obs[floor.actor_size:], floor.state())
-    plain = stage2.make_floor(Stage2Config(central_critic=False), case)
+    plain = stage2.make_decision_loop(Stage2Config(central_critic=False), case)
     assert plain.low.shape == (floor.actor_size,)
     # the teacher names a target in the deciding crew's scope
     act = floor.teacher_action()
@@ -72,7 +72,7 @@ def test_decisions_as_recorded_before_the_floor_moved_onto_the_engine():
     exactly."""
     recorded = np.load(DATA / "stage2_decisions.npz")
     config = Stage2Config(central_critic=True)
-    floor = stage2.make_floor(config, stage2.training_case(config))
+    floor = stage2.make_decision_loop(config, stage2.training_case(config))
     assert floor.actor_size == int(recorded["actor_size"])
     floor.reset(int(recorded["seed"]))
     observations, crews, rewards, times = [floor.observe()], [floor.deciding], [], \
@@ -99,7 +99,7 @@ def test_central_critic_actor_ignores_the_state_and_the_lean_actor_matches():
 
     config = Stage2Config(central_critic=True)
     case = stage2.training_case(config)
-    venv = FloorsVecEnv([lambda: stage2.make_floor(config, case)])
+    venv = FloorsVecEnv([lambda: stage2.make_decision_loop(config, case)])
     floor = venv.floors[0]
     model = PPO(CentralCriticPolicy, venv, n_steps=8, batch_size=8,
                 policy_kwargs={"actor_size": floor.actor_size, "net_arch": [16, 16]},
@@ -126,7 +126,7 @@ def short_run(tmp_path, name: str, extra=()):
             "--set", "n_epochs=1", "--set", "bc_episodes=1", "--set", "bc_epochs=2",
             "--set", "eval_seeds=[2000]", "--set", "eval_every_steps=64",
             "--set", "checkpoint_every_steps=64", *extra]
-    from training.train import main
+    from training.commands.train import main
 
     assert main(argv) == 0
     return tmp_path / name
@@ -137,7 +137,7 @@ def test_short_run_writes_its_files_resumes_and_repeats_its_weights(tmp_path):
     from stable_baselines3 import PPO
 
     from agents.models import ModelEvaluator
-    from training.simulate import main as simulate
+    from training.commands.simulate import main as simulate
 
     run = short_run(tmp_path, "a")
     for name in ("config.json", "case.json", "progress.csv", "best_model.zip",
@@ -167,7 +167,7 @@ def test_short_run_writes_its_files_resumes_and_repeats_its_weights(tmp_path):
     for _ in range(2):
         evaluator = ModelEvaluator(run / "final_model.zip")
         config = Stage2Config()
-        floor = stage2.make_floor(config, stage2.training_case(config))
+        floor = stage2.make_decision_loop(config, stage2.training_case(config))
         floor.reset(seed=5)
         engine, i = floor.engine, floor.deciding
         evaluator.prepare(engine.case)

@@ -74,7 +74,7 @@ def test_the_comparison_sums_the_time_by_strategy_and_draws_it(tmp_path):
 def test_cmdp_evaluate_writes_where_the_time_goes(tmp_path):
     from pathlib import Path
 
-    from training import compare
+    from training.commands import evaluate_strategies as compare
 
     tiny = str(Path(__file__).resolve().parents[1] / "cmdp_pymunk" / "cases" / "tiny_floor.toml")
     assert compare.main(["--case", tiny, "--seeds", "0-1", "--strategies", "priority",

@@ -13,7 +13,7 @@ import pytest
 from cmdp_pymunk.cases.levers import make_variant, variant_toml
 from cmdp_pymunk.cases.load import TINY_CASE, load_case
 from cmdp_pymunk.cost import case_cost
-from training import compare
+from training.commands import evaluate_strategies as compare
 
 COMMON = ["--seeds", "0-2", "--strategies", "priority", "--workers", "1", "--fidelity",
           "event", "--no-progress", "--no-figures"]

@@ -77,7 +77,7 @@ def write_search_settings(out, config, case, workers, ray) -> None:
     import json
 
     from cmdp_pymunk.events import write_atomic
-    from cmdp_pymunk.rollout import versions
+    from cmdp_pymunk.report import versions
 
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.json", json.dumps(
@@ -165,3 +165,35 @@ def calendar_of(case, args):
     if any(value is not None for value in given.values()):
         calendar = calendar_with(calendar, given, "command line", CALENDAR_OPTIONS)
     return calendar
+
+
+def seed_list(text: str) -> list[int]:
+    """``0-19``, ``3,5,8`` or ``0-9,100-104``: whole numbers, ranges inclusive."""
+    import argparse
+
+    seeds: list[int] = []
+    try:
+        for part in text.split(","):
+            a, sep, b = part.strip().partition("-")
+            lo, hi = int(a), int(b) if sep else int(a)
+            if lo < 0 or hi < lo:
+                raise ValueError
+            seeds.extend(range(lo, hi + 1))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a list of seeds; fix: give e.g. "
+                                         "0-19 or 0,3,5 (whole numbers >= 0)") from None
+    if len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"{text!r} names a seed twice")
+    return seeds
+
+
+def spec_list(text: str) -> list[str]:
+    """``priority,nearest``: the names of a comma-separated list, blanks dropped."""
+    return [s.strip() for s in text.split(",") if s.strip()]
+
+
+def seeds_text(seeds: list[int]) -> str:
+    """A list of seeds as ``seed_list`` reads it: ``0-19`` for a run, else ``3,5,8``."""
+    if seeds == list(range(seeds[0], seeds[-1] + 1)):
+        return f"{seeds[0]}-{seeds[-1]}"
+    return ",".join(map(str, seeds))

@@ -32,7 +32,7 @@ from pydantic import field_validator, model_validator
 
 from cmdp_pymunk.cases.load import Case
 from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.rollout import versions
+from cmdp_pymunk.report import versions
 
 from .config import Count, CountOrZero, Rate, RateOrZero, RunConfig, Sizes
 

@@ -27,7 +27,7 @@ import numpy as np
 
 import cmdp_pymunk
 from cmdp_pymunk.move import STAND_STILL
-from cmdp_pymunk.rollout import reach_rate
+from cmdp_pymunk.report import reach_rate
 
 from . import scaffold
 from .config import CountOrZero, Rate, RateOrZero, Share

@@ -3,15 +3,14 @@
     cmdp-train stage2 [--config training/configs/stage2.toml] [--set key=value ...]
                       [--out runs/stage2] [--resume CHECKPOINT.zip]
 
-Data flow: ``make_floor`` (``cmdp_pymunk.adapters.decision_loop.DecisionLoop``, an engine: one
-decision = one target evaluation; between two decisions the floor runs on with the low level, the
-scripted
-navigator or a stage-1 model whose actions are sampled) -> ``scaffold.vec_env`` (``n_envs``
-floors in ``num_cpus`` processes, each stepping its share in one ``vec_env.FloorsVecEnv``) ->
-``VecMonitor`` -> one PPO policy whose weights every crew shares. Its action is the desired
-position (Box(2), Eq. 4). The formulation (one shared policy making the team's decisions in
-sequence, each rewarded with the team's R_e until the next decision) is written down in
-``cmdp_pymunk/adapters/decision_loop.py``.
+Data flow: ``make_decision_loop`` (``cmdp_pymunk.adapters.decision_loop.DecisionLoop``, an
+engine: one decision = one target evaluation; between two decisions the floor runs on with the
+low level, the scripted navigator or a stage-1 model whose actions are sampled) ->
+``scaffold.vec_env`` (``n_envs`` floors in ``num_cpus`` processes, each stepping its share in
+one ``vec_env.FloorsVecEnv``) -> ``VecMonitor`` -> one PPO policy whose weights every crew
+shares. Its action is the desired position (Box(2), Eq. 4). The formulation (one shared policy
+making the team's decisions in sequence, each rewarded with the team's R_e until the next
+decision) is written down in ``cmdp_pymunk/adapters/decision_loop.py``.
 
 With ``central_critic`` (the paper's MAPPO, section 4.1) the observation is O^e followed by the
 global state s, and ``agents.central_critic.CentralCriticPolicy`` lets the actor see O^e only.
@@ -174,11 +173,12 @@ def low_level_factory(spec: str):
     return make
 
 
-def make_floor(config: Stage2Config, case):
-    """A training floor: the config's low level and stall guard, the global state after O^e
-    with ``central_critic``. The scripted navigator reads the state, not the rays: idle crews
-    are parked (as cmdp-simulate does; the schedules are the same) and no rays are cast. With
-    ``action = "candidate"`` it is wrapped in ``training.candidate_loop.CandidateLoop``."""
+def make_decision_loop(config: Stage2Config, case):
+    """A training decision loop (the floor as stage 2 sees it): the config's low level and stall
+    guard, the global state after O^e with ``central_critic``. The scripted navigator reads
+    the state, not the rays: idle crews are parked (as cmdp-simulate does; the schedules
+    are the same) and no rays are cast. With ``action = "candidate"`` it is wrapped in
+    ``training.candidate_loop.CandidateLoop``."""
     floor = DecisionLoop(case, low_level_factory(config.low_level), fidelity=config.fidelity,
                          stall_s=config.stall_s, park_idle=config.low_level == "scripted",
                          with_state=config.central_critic)
@@ -188,7 +188,8 @@ def make_floor(config: Stage2Config, case):
         plain = config.model_copy(update={"action": "desired_position", "start_rule": "",
                                           "start_model": "", "typed": False,
                                           "hold_choice": False})
-        reference = partial(make_floor, plain, case) if config.against_heuristic else None
+        reference = partial(make_decision_loop, plain, case) \
+            if config.against_heuristic else None
         return CandidateLoop(floor, config.candidates, reference, config.seed_pool,
                              crew_types(config), config.hold_choice)
     return floor
@@ -202,7 +203,7 @@ def make_vec_env(config: Stage2Config, case, seed: int, ray: str | None = None):
 
     from .vec_env import FloorsVecEnv
 
-    venv = scaffold.vec_env([partial(make_floor, config, case)] * config.n_envs,
+    venv = scaffold.vec_env([partial(make_decision_loop, config, case)] * config.n_envs,
                             config.num_cpus, vectorize=FloorsVecEnv, ray=ray)
     venv.seed(seed)
     return VecMonitor(venv, info_keywords=("makespan_s", "stalled"))
@@ -236,7 +237,7 @@ def play_floor(floor: DecisionLoop, seed: int, choose: Callable[[np.ndarray], np
 def heuristic_samples(config: Stage2Config, case, episodes: int, seed: int, log=print):
     """(observations, teacher actions, discounted returns) of every decision of ``episodes``
     floors driven by the priority heuristic (through Eq. 4 at its best target)."""
-    floor = make_floor(config, case)
+    floor = make_decision_loop(config, case)
     observations, actions, returns = [], [], []
     for k in range(episodes):
         played = play_floor(floor, seed + k, lambda _: floor.teacher_action())
@@ -336,7 +337,7 @@ def evaluate_policy(actor, config: Stage2Config, case, seeds) -> dict:
 
     # the evaluation's own seeds as given, and no reference floors: only makespans are read
     config = config.model_copy(update={"against_heuristic": False, "seed_pool": 0})
-    floor = make_floor(config, case)
+    floor = make_decision_loop(config, case)
     if config.action == "candidate":
         def choose(obs):
             action, _ = actor.predict(obs[None], action_masks=floor.action_masks()[None],

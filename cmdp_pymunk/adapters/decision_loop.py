@@ -61,7 +61,7 @@ The formulation: one shared policy makes the team's decisions in sequence
 Episode end
     ``terminated`` when every task has ended. ``truncated`` at the time limit, or when no task
     moves on for ``stall_s`` simulated seconds (the engine's own stall guard: ``engine.stalled``
-    says when, ``rollout.stall_report(floor.engine, ...)`` who and what): a stalled floor
+    says when, ``report.stall_report(floor.engine, ...)`` who and what): a stalled floor
     teaches nothing.
 
 Info

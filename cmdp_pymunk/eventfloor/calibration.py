@@ -8,9 +8,9 @@ Three numbers per crew type (``CrewTypeCalibration``):
   on a task or loads at a storage: on the pymunk floor the crews standing in the area, on the
   event floor their expectation.
 
-They are fitted by ``cmdp-calibrate`` (``training.calibrate``) on Eq. 9's pymunk floors of
-training seeds (0-19), so that each crew type's walking, working and loading crew-seconds on
-the event floor match the pymunk floor's, and written beside the case as
+They are fitted by ``cmdp-calibrate`` (``training.eventfloor.fitting``) on Eq. 9's pymunk
+floors of training seeds (0-19), so that each crew type's walking, working and loading
+crew-seconds on the event floor match the pymunk floor's, and written beside the case as
 ``<case file stem>.event.toml``::
 
     [event_floor]

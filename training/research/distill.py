@@ -123,7 +123,7 @@ def label_floor(case_path: str | None, seed: int, candidates: int = 3,
     from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
     from agents.lookahead import LookaheadEvaluator
     from agents.navigator import Navigator
-    from agents.specs import make_evaluator, make_lookahead
+    from agents.specs import evaluator_from_spec, make_lookahead
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
@@ -135,7 +135,7 @@ def label_floor(case_path: str | None, seed: int, candidates: int = 3,
     options = teacher if teacher is not None else f"candidates={candidates}+futures={futures}"
     spec = make_lookahead(options)
     lookahead = Labeller(LookaheadEvaluator(spec.base, spec.settings, low_level=navigator),
-                         acting=make_evaluator(acting) if acting else None)
+                         acting=evaluator_from_spec(acting) if acting else None)
     engine = Engine(case, evaluator=lookahead, park_idle=True)
     rows: list[tuple] = []
     priority = PriorityEvaluator()
@@ -231,7 +231,7 @@ def _label_job(runner, case_path, seed, candidates, futures, acting=None, states
 def label(args) -> int:
     from tqdm import tqdm
 
-    from training.compare import seed_list
+    from training.cli import seed_list
     from training.runs.backends import open_backend
 
     teacher = label_teacher(args)  # bad settings fail before any floor runs
@@ -240,9 +240,9 @@ def label(args) -> int:
 
     cmdp_pymunk.load_case(args.case)  # and so does a bad case file
     if args.acting:
-        from agents.specs import make_evaluator
+        from agents.specs import evaluator_from_spec
 
-        make_evaluator(args.acting)  # so does a missing or unreadable acting policy
+        evaluator_from_spec(args.acting)  # so does a missing or unreadable acting policy
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     seeds = [s for s in seed_list(args.seeds) if not (out / f"seed-{s}.npz").exists()]

@@ -108,7 +108,7 @@ def split(rows: list[dict]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from training.compare import seed_list
+    from training.cli import seed_list
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     cmdp_pymunk.add_version_flag(p)

@@ -36,17 +36,16 @@ def floor_end(tasks, makespan_s: float, last: str = "R", then: str = "F") -> dic
 def floor_row(runner, strategy: str, seed: int, last: str, then: str) -> dict:
     """One seed's floor under ``strategy`` (the scripted navigator), as ``floor_end``'s row;
     ValueError if the floor did not finish."""
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
-    engine, _ = runner.play(make_evaluator(strategy), "scripted", seed)
+    engine, _ = runner.play(evaluator_from_spec(strategy), "scripted", seed)
     if engine.makespan_s is None:
         raise ValueError(f"seed {seed}: the floor under {strategy} did not finish")
     return {"seed": seed, **floor_end(engine.site.tasks, engine.makespan_s, last, then)}
 
 
 def main(argv: list[str] | None = None) -> int:
-    from training.cli import OneLineParser
-    from training.compare import seed_list
+    from training.cli import OneLineParser, seed_list
 
     p = OneLineParser(prog="python -m training.research.floor_end",
                       description=__doc__.split("\n")[0])
@@ -58,12 +57,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--out", default="", help="also write the rows and means (JSON) here")
     args = p.parse_args(sys.argv[1:] if argv is None else argv)
     import cmdp_pymunk
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
     from training.runs.runner import EpisodeRunner
 
     try:
         case = cmdp_pymunk.load_case(args.case)
-        make_evaluator(args.strategy)
+        evaluator_from_spec(args.strategy)
         types = set(case.task_types)
         unknown = [t for t in (args.last, args.then) if t not in types]
         if unknown:

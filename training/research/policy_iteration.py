@@ -142,7 +142,7 @@ def check(args: IterationArgs):
     """Every option, before any floor runs: the case, the start, the teacher, the features,
     the seeds, and OUT's earlier settings. The case; ValueError naming the option and the fix."""
     import cmdp_pymunk
-    from agents.specs import make_evaluator
+    from agents.specs import evaluator_from_spec
 
     if args.rounds < 1:
         raise ValueError(f"--rounds {args.rounds}: give 1 or more")
@@ -160,7 +160,7 @@ def check(args: IterationArgs):
             raise ValueError(f"--start {args.start}: no such file; fix: give a student JSON "
                              "(e.g. models/searched_rule.json, or a round's student.json) or "
                              "priority")
-        make_evaluator(f"student:{path}")  # a file that is no student fails here
+        evaluator_from_spec(f"student:{path}")  # a file that is no student fails here
     check_seeds(args)
     check_earlier_run(args)
     return case
@@ -251,7 +251,7 @@ def fit_round(args: IterationArgs, plans: list[Round], plan: Round) -> tuple[dic
             "fit": report}
     if not plan.student.is_file() or _weights(plan.student) != _weights_of(student):
         # the kept student episodes (if any) played other weights: Eq. 9's and the base's stay
-        from training.compare import read_log
+        from training.runs.strategies import read_log
 
         spec = f"student:{plan.student}"
         write_atomic(plan.episodes, "".join(json.dumps(r) + "\n" for r in read_log(plan.episodes)
@@ -273,8 +273,8 @@ def evaluate_round(args: IterationArgs, case, plan: Round, bar) -> list[dict]:
     navigator, ``cmdp-evaluate``'s episodes); each row appended to ``episodes.jsonl`` as it
     ends, the kept ones reused."""
     from cmdp_pymunk.events import write_atomic
-    from training.compare import _episode_job, read_log
     from training.runs.backends import open_backend
+    from training.runs.strategies import episode_job, read_log
 
     specs = selection_strategies(plan)
     kept = {(r["strategy"], r["seed"]): r for r in read_log(plan.episodes)}
@@ -285,7 +285,7 @@ def evaluate_round(args: IterationArgs, case, plan: Round, bar) -> list[dict]:
     bar.update(len(wanted) - len(todo))
     runner_args = (case, 3600.0, None, False, None, "pymunk", None)
     with plan.episodes.open("a") as log, \
-            open_backend(_episode_job, runner_args, args.workers) as pool:
+            open_backend(episode_job, runner_args, args.workers) as pool:
         for i, row in pool.as_completed([(s, NAVIGATOR, seed) for s, seed in todo]):
             spec, seed = todo[i]
             row = {"strategy": spec, "navigator": NAVIGATOR, "seed": seed,
@@ -453,7 +453,7 @@ def kept_text(args: IterationArgs) -> str:
             continue
         labelled = len(distill.label_files(plan.labels))
         if labelled:
-            from training.compare import read_log
+            from training.runs.strategies import read_log
 
             episodes = len(read_log(plan.episodes))
             parts.append(f"round {plan.number}: {labelled} of {len(plan.seeds)} label floors"
@@ -464,8 +464,7 @@ def kept_text(args: IterationArgs) -> str:
 def parse_args(argv: list[str]) -> IterationArgs:
     import argparse
 
-    from training.cli import OneLineParser, positive_int, positive_seconds
-    from training.compare import seed_list
+    from training.cli import OneLineParser, positive_int, positive_seconds, seed_list
 
     def features(text: str) -> tuple[str, ...]:
         try:

@@ -49,7 +49,7 @@ def relabel_floor(path: str, features: tuple[str, ...],
     from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
     from agents.lookahead import LookaheadEvaluator
     from agents.navigator import Navigator
-    from agents.specs import make_evaluator, make_lookahead
+    from agents.specs import evaluator_from_spec, make_lookahead
     from cmdp_pymunk.engine import Engine
     from cmdp_pymunk.evaluate import PriorityEvaluator
     from cmdp_pymunk.rollout import run_episode
@@ -71,7 +71,7 @@ def relabel_floor(path: str, features: tuple[str, ...],
     # the lookahead's candidates at each decision of the acting policy's floor, no branches
     replay = Labeller(CandidatesOnly(LookaheadEvaluator(spec.base, spec.settings,
                                                         low_level=navigator)),
-                      acting=make_evaluator(acting))
+                      acting=evaluator_from_spec(acting))
     engine = Engine(cmdp_pymunk.load_case(case_path), evaluator=replay, park_idle=True)
     priority = PriorityEvaluator()
     facts: list = []

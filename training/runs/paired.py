@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from cmdp_pymunk.disruptions import STRUCK_FIELDS
-from cmdp_pymunk.rollout import MIN_FLOORS_FOR_PERCENTILES, over_seed_bound, percentiles_note
+from cmdp_pymunk.report import MIN_FLOORS_FOR_PERCENTILES, over_seed_bound, percentiles_note
 from cmdp_pymunk.state import DISRUPTION_IDLE_FIELDS
 
 REFERENCE = "priority"

@@ -12,17 +12,12 @@ navigator) pair and runs seeds on them, on the case or on the case without its d
 from __future__ import annotations
 
 from agents.models import PolicyStuck
-from agents.specs import make_evaluator, make_navigator
+from agents.specs import evaluator_from_spec, make_navigator
 from cmdp_pymunk import disruptions
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.eventfloor import Calibration, make_floor
-from cmdp_pymunk.rollout import (
-    Episode,
-    disruption_cost,
-    episode_reach_rate,
-    episode_seed_bound,
-    run_episode,
-)
+from cmdp_pymunk.report import disruption_cost, episode_reach_rate, episode_seed_bound
+from cmdp_pymunk.rollout import Episode, run_episode
 from cmdp_pymunk.schedule import finish_times
 from cmdp_pymunk.state import DISRUPTION_CAUSES, DISRUPTION_IDLE_FIELDS
 from cmdp_pymunk.timeuse import time_use
@@ -94,7 +89,7 @@ def episode_row(engine: Engine, episode: Episode | None, stall_reason: str = "")
 
 
 def seed_bound_s(engine: Engine) -> float | None:
-    """The bound on the engine's seed's floor in seconds (``rollout.episode_seed_bound``)."""
+    """The bound on the engine's seed's floor in seconds (``report.episode_seed_bound``)."""
     bound = episode_seed_bound(engine)
     return round(bound.seed_bound_s, 3) if bound else None
 
@@ -112,7 +107,7 @@ def cost_fields(row: dict, undisrupted_row: dict | None) -> dict:
     """``COST_FIELDS`` of an episode row against the row of the same seed, evaluator and low
     level on the case without disruptions (``EpisodeRunner.run(..., undisrupted=True)``;
     None: not measured): its makespan, the delay (s) and the delay in % of it
-    (``rollout.disruption_cost``)."""
+    (``report.disruption_cost``)."""
     if undisrupted_row is None:
         return dict.fromkeys(COST_FIELDS)
     cost = disruption_cost(row["makespan_s"], undisrupted_row["makespan_s"])
@@ -136,7 +131,7 @@ def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None =
 class EpisodeRunner:
     """Engines and low levels kept per (evaluator, navigator) pair; ``run`` plays one seed.
 
-    An evaluator is a spec (``agents.specs.make_evaluator``) or an evaluator object (the GA
+    An evaluator is a spec (``agents.specs.evaluator_from_spec``) or an evaluator object (the GA
     passes its individuals); an object is swapped into a cached engine of the same navigator.
     ``position_log_every_s``, ``fidelity``, ``calibration``: see ``make_engine`` (the floor
     the seeds run on; its calibration serves the case without disruptions too: the same
@@ -169,7 +164,7 @@ class EpisodeRunner:
                 if self._undisrupted is None:
                     self._undisrupted = disruptions.undisrupted(self.case)
                 case = self._undisrupted
-            ev = make_evaluator(evaluator) if isinstance(evaluator, str) else evaluator
+            ev = evaluator_from_spec(evaluator) if isinstance(evaluator, str) else evaluator
             engine = make_engine(case, ev, navigator_spec, self.max_time_s,
                                  self.position_log_every_s, self.fidelity, self.calibration)
             self._cache[key] = (engine, make_navigator(navigator_spec, engine,
@@ -201,7 +196,7 @@ def check_specs(case, strategies: list[str], navigators: list[str],
     """Build every evaluator and low level once on the case: a missing file or a model or
     priority file that does not fit the case fails here, before any episode."""
     for spec in strategies:
-        make_engine(case, make_evaluator(spec), "scripted")
+        make_engine(case, evaluator_from_spec(spec), "scripted")
     for spec in navigators:
         make_navigator(spec, make_engine(case, "priority", spec), deterministic)
 

@@ -30,7 +30,7 @@ from training.config import RunConfig
 from training.runs.backends import BackendError
 from training.search.genetic import GAConfig, run_ga
 
-DEFAULT_CONFIG = Path(__file__).with_name("configs") / "ga.toml"
+DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "ga.toml"
 
 
 def parse_args(argv: list[str] | None = None) -> SearchArgs:

@@ -1,57 +1,30 @@
-"""``cmdp-calibrate``: fit the event floor's numbers on the pymunk floor (issue 30, item 3).
+"""The event floor's calibration fitted on the pymunk floor (``cmdp-calibrate``,
+``training/commands/calibrate.py``; the method is that command's documentation): the pymunk
+floors played with their walks recorded (``WalkRecorder``, ``pymunk_floors``), Eq. 1's walks
+fitted per crew type (``fit_walks``), then a fixed point of cheap event floors matching each
+crew type's crew-seconds walking, working and loading (``fit``).
 
-    cmdp-calibrate [--case FILE] [--seeds 0-19] [--evaluator priority] [--workers N]
-                   [--iterations 8] [--out FILE]
-
-Runs the case's pymunk floors (the paper's, the ground truth) on the seeds with the evaluator
-(Eq. 9 by default) and the scripted navigator, recording every walk (from the second a crew
-heads for a target to its reach: ``WalkRecorder``) beside the event floor's Eq. 1 time for the
-same walk from the same place, and each crew type's crew-seconds walking, working and loading
-(``cmdp_pymunk.timeuse``). Then it fits the event floor's numbers per crew type
-(``cmdp_pymunk.eventfloor.calibration``):
-
-- ``dock_s`` and ``walk_factor``: least squares of walk time = walk_factor * Eq. 1 time +
-  dock_s over the recorded walks (the turn-and-dock allowance per arrival, and the rest);
-- then a fixed point of a few rounds of cheap event floors on the same seeds, matching the
-  sums: walk_factor <- walk_factor * walking(pymunk) / walking(event) (the event floor's
-  walks are its own, not the pymunk floor's); a task takes work / (pace (1 - invasion))
-  (Eq. 2), so 1 - task_invasion <- (1 - task_invasion) * working(event) / working(pymunk);
-  ``fetch_invasion`` likewise from loading.
-
-The file is written (whole or not at all) to ``--out``, by default beside the case file as
-``<stem>.event.toml`` (the built-in case: ``cmdp_pymunk/cases/precast_floor.event.toml``),
-where ``--fidelity event`` finds it. It records the seeds, the evaluator and this command.
-Fit on training seeds (0-19), validate on others (``cmdp-validate-event-floor``).
+It sits here, beside the training side's run machinery, not in ``cmdp_pymunk/eventfloor``
+(which holds the calibration as data, ``calibration.py``): it plays floors with the scripted
+navigator and the named evaluators (``agents``) on worker processes (``training.runs``),
+which the simulation core may not import.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import shlex
-import sys
 import time
-from pathlib import Path
 
 import numpy as np
+from cmdp_pymunk.report import stall_report
 
-import cmdp_pymunk
 from agents.navigator import Navigator
-from agents.specs import make_evaluator
-from cmdp_pymunk.cases.load import BUILTIN_CASE, CaseError, load_case
-from cmdp_pymunk.eventfloor.calibration import (
-    Calibration,
-    CrewTypeCalibration,
-    beside,
-    fingerprint,
-    write_calibration,
-)
+from agents.specs import evaluator_from_spec
+from cmdp_pymunk.eventfloor.calibration import Calibration, CrewTypeCalibration, fingerprint
 from cmdp_pymunk.eventfloor.walks import WalkPlanner
 from cmdp_pymunk.policy import best_target
-from cmdp_pymunk.rollout import Episode, play, stall_report
+from cmdp_pymunk.rollout import Episode, play
 from cmdp_pymunk.timeuse import totals
-from training.cli import OneLineParser, plain, positive_int
-from training.compare import seed_list
 from training.runs.backends import open_backend
 from training.runs.runner import TIME_USE, EpisodeRunner, episode_row, make_engine
 
@@ -101,9 +74,9 @@ class WalkRecorder:
                 self.open[i] = (site.time_s, target, crew.stats.reaches, float(walk.times[-1]))
 
 
-def _pymunk_job(runner: EpisodeRunner, evaluator: str, seed: int) -> tuple[dict, list]:
+def pymunk_job(runner: EpisodeRunner, evaluator: str, seed: int) -> tuple[dict, list]:
     """One pymunk floor of Eq. 9 (or ``evaluator``) with its walks recorded: (row, walks)."""
-    engine = make_engine(runner.case, make_evaluator(evaluator), "scripted")
+    engine = make_engine(runner.case, evaluator_from_spec(evaluator), "scripted")
     engine.stall_s = runner.stall_s
     navigator = Navigator()
     engine.reset(seed)
@@ -187,7 +160,7 @@ def fit(case, pymunk_rows: list[dict], seeds: list[int], evaluator: str = "prior
         worst = max((abs(got[ct][c] / target[ct][c] - 1.0) for ct in target for c in FITTED
                      if target[ct][c] > 0 and ct in got), default=0.0)
         progress(f"  round {round_}: event floor mean makespan "
-                 f"{_mean([r['makespan_s'] for r in rows]):,.0f} s; largest crew-type "
+                 f"{mean_of_done([r['makespan_s'] for r in rows]):,.0f} s; largest crew-type "
                  f"mismatch {100 * worst:.1f} %")
         if round_ == iterations or worst < 0.005:
             break
@@ -199,90 +172,30 @@ def fit(case, pymunk_rows: list[dict], seeds: list[int], evaluator: str = "prior
     return calibration, rows
 
 
-def _mean(values) -> float:
+def mean_of_done(values) -> float:
     done = [v for v in values if v]
     return float(np.mean(done)) if done else math.nan
 
-
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = OneLineParser(prog="cmdp-calibrate", description=plain(__doc__),
-                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    cmdp_pymunk.add_version_flag(p)
-    p.add_argument("--case", type=Path, default=None,
-                   help="case file (TOML); default: the built-in case")
-    p.add_argument("--seeds", type=seed_list, default=list(range(20)),
-                   help="training seeds to fit on, e.g. 0-19 (default)")
-    p.add_argument("--evaluator", default="priority",
-                   help="the strategy whose pymunk floors are matched (default: priority, Eq. 9)")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="processes for the pymunk floors (default: every core)")
-    p.add_argument("--iterations", type=positive_int, default=8,
-                   help="fixed-point rounds at most (default 8)")
-    p.add_argument("--out", type=Path, default=None,
-                   help="where to write the calibration (default: <case stem>.event.toml "
-                        "beside the case file)")
-    return p.parse_args(argv)
+def pymunk_floors(case, evaluator: str, seeds: list[int],
+                  workers: int | None) -> tuple[list[dict], list[tuple[str, float, float]]]:
+    """The case's pymunk floors on ``seeds`` (``evaluator``, the scripted navigator) on
+    ``workers`` processes: their episode rows and every recorded walk (``WalkRecorder``)."""
+    with open_backend(pymunk_job, (case, 3600.0), workers) as backend:
+        results = backend.map([(evaluator, s) for s in seeds])
+    return [row for row, _ in results], [w for _, recorded in results for w in recorded]
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    case_path = args.case if args.case is not None else BUILTIN_CASE
-    try:
-        case = load_case(case_path)
-    except CaseError as err:
-        print(err, file=sys.stderr)
-        return 2
-    out = args.out if args.out is not None else beside(case_path)
-    if not out.parent.is_dir():
-        print(f"cmdp-calibrate: --out {out}: no such folder; fix: create it or give another "
-              "path", file=sys.stderr)
-        return 2
-    seeds = args.seeds
-    given = argv if argv is not None else sys.argv[1:]
-    command = " ".join(["cmdp-calibrate", *(shlex.quote(a) for a in given)])
-    fitted_on = (f"{args.evaluator}, seeds {_seed_text(seeds)}, pymunk floor, cmdp-pymunk "
-                 f"{cmdp_pymunk.__version__}")
-    print(f"cmdp-calibrate: {case.case.name}: {len(seeds)} pymunk floors ({args.evaluator}, "
-          f"scripted navigator), then the event floor fitted to them")
-    start = time.perf_counter()
-    with open_backend(_pymunk_job, (case, 3600.0), args.workers) as backend:
-        results = backend.map([(args.evaluator, s) for s in seeds])
-    pymunk_rows = [row for row, _ in results]
-    walks = [w for _, recorded in results for w in recorded]
-    unfinished = [s for s, r in zip(seeds, pymunk_rows, strict=True) if not r["finished"]]
-    print(f"  pymunk floors: {time.perf_counter() - start:.0f} s; mean makespan "
-          f"{_mean([r['makespan_s'] for r in pymunk_rows]):,.0f} s"
-          + (f"; unfinished seeds {unfinished} left out" if unfinished else ""))
-    print(f"  {len(walks)} walks recorded; least squares per crew type: "
-          + ", ".join(f"{ct} {f:.2f} x + {d:.1f} s" for ct, (f, d) in fit_walks(walks).items()))
-    calibration, rows = fit(case, pymunk_rows, seeds, args.evaluator, args.iterations,
-                            fitted_on, command, walks=walks)
-    write_calibration(calibration, out)
+def fit_table(calibration: Calibration, pymunk_rows: list[dict], rows: list[dict]) -> str:
+    """Per crew type, the fitted numbers and the crew-hours of ``FITTED`` on both floors."""
     target, got = crew_type_sums(pymunk_rows), crew_type_sums(rows)
-    print(f"\n{'crew type':<10}{'walk factor':>12}{'dock s':>8}{'task inv.':>10}"
-          f"{'fetch inv.':>11}   "
-          + "   ".join(f"{c} pymunk/event (crew-h)" for c in FITTED))
+    lines = [f"{'crew type':<10}{'walk factor':>12}{'dock s':>8}{'task inv.':>10}"
+             f"{'fetch inv.':>11}   "
+             + "   ".join(f"{c} pymunk/event (crew-h)" for c in FITTED)]
     for ct in sorted(target):
         c = calibration.of(ct)
         cells = "   ".join(f"{target[ct][k] / 3600:>9.1f} /{got.get(ct, {}).get(k, 0) / 3600:>6.1f}"
                            for k in FITTED)
-        print(f"{ct:<10}{c.walk_factor:>12.3f}{c.dock_s:>8.1f}{c.task_invasion:>10.3f}"
-              f"{c.fetch_invasion:>11.3f}"
-              f"   {cells}")
-    print(f"\nwrote {out} (use it with --fidelity event; validate on other seeds with "
-          "cmdp-validate-event-floor)")
-    return 0
-
-
-def _seed_text(seeds: list[int]) -> str:
-    if seeds == list(range(seeds[0], seeds[-1] + 1)):
-        return f"{seeds[0]}-{seeds[-1]}"
-    return ",".join(map(str, seeds))
-
-
-def entry_point() -> None:
-    sys.exit(main())
-
-
-if __name__ == "__main__":
-    entry_point()
+        lines.append(f"{ct:<10}{c.walk_factor:>12.3f}{c.dock_s:>8.1f}{c.task_invasion:>10.3f}"
+                     f"{c.fetch_invasion:>11.3f}"
+                     f"   {cells}")
+    return "\n".join(lines)

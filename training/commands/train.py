@@ -24,10 +24,9 @@ import sys
 from pathlib import Path
 
 import cmdp_pymunk
-
-from . import stage1, stage2
-from .cli import add_ray_option
-from .scaffold import TrainingInterrupted
+from training import stage1, stage2
+from training.cli import add_ray_option
+from training.scaffold import TrainingInterrupted
 
 STAGES = {"stage1": (stage1, stage1.Stage1Config, "the shared target-reaching policy "
                      "(section 4.2)"),

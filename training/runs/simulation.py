@@ -1,88 +1,9 @@
-"""``cmdp-simulate``: simulate a whole floor without training, and look at the result.
-
-    cmdp-simulate [--case FILE] [--evaluator priority|nearest|ga:PATH|cpsat|MODEL.zip]
-                  [--navigator scripted|MODEL.zip] [--seed N] [--episodes N] [--out DIR] [--gif]
-                  [--workers N] [--ray [ADDRESS]] [--fidelity pymunk|event [--calibration PATH]]
-                  [--cpsat-s SECONDS] [--ifc MODEL.ifc [--ifc-start ISO-DATETIME]]
-                  [--calendar FILE.toml] [--start ISO-DATETIME] [--working-hours HH:MM-HH:MM]
-                  [--working-days DAYS] [--holidays DATES]
-
-Writes into DIR: ``summary.json`` (makespan, tasks finished, per crew the simulated seconds
-it spent reaching and idle by cause (its keys ``reaching_steps`` and ``idle_steps`` count
-steps of the case's ``step_s``, 1 s by default), distance, material trips, crane waits, the
-makespan lower bound and the ratio to it, seed, case, versions; with ``--cpsat-s`` CP-SAT's
-schedule bound, agents/cpsat.py), ``events.csv`` (the event log), ``schedule.csv`` (every task
-of the case: its type, component, crew, status, start, end, duration, pauses; unstarted ones
-with empty times), ``schedule.xml`` (the same schedule as MS Project XML, MSPDI, with the
-precedences as finish-to-start links and the crews as resources:
-``cmdp_pymunk.exchange.mspdi``; dated by the working calendar, else from Mon 2026-01-05 08:00
-on 08:00-16:00 Mon-Fri), ``gantt_agents.png``, ``gantt_tasks.png``, ``resource_profile.png``
-(crews busy per type and the crane's lifts over time), ``trajectories.png`` (an episode that
-stalled or reached the time limit says so on its charts instead of a makespan), with ``--gif``
-``rollout.gif``, and ``case.json`` (the resolved case). With ``--episodes N`` each episode
-(seeds N0, N0 + 1, ...) gets its own ``seed-K/`` folder and DIR gets ``makespans.csv``,
-``makespans.json`` (mean, spread, P50/P80/P90), ``makespan_histogram.png`` and ``s_curve.png``
-(tasks ended over time, with the spread over seeds). With ``--ifc MODEL.ifc`` (a case made by
-``cmdp-import-ifc`` from that model) each episode's folder also gets ``MODEL-4d.ifc``: the
-model with the simulated schedule as an IfcWorkSchedule
-(``cmdp_pymunk.cases.ifc_export.export_4d``; IFC4 or IFC2X3, as the model), simulated second
-0 at ``--ifc-start``.
-
-A working calendar (the case's ``[calendar]``, replaced by ``--calendar FILE.toml``'s, its
-entries overridden by ``--start``, ``--working-hours``, ``--working-days``, ``--holidays``;
-``--start`` alone gives one with 08:00-16:00, Mon-Fri) turns simulated seconds into dates
-(``cmdp_pymunk.workcalendar``): simulated time is working time, second 0 the start or the next
-working moment. Then ``schedule.csv`` gets ``start`` and ``end`` dates, the Gantt charts a date
-axis, ``summary.json`` a ``calendar`` entry (the calendar, second 0, the finish date),
-``makespans.csv`` a ``finish`` date per seed and ``makespans.json`` the dates of the mean,
-P50/P80/P90, min and max (its ``calendar`` entry), the 4D
-export the calendar's dates, and ``case.json`` the calendar used. Without one nothing changes.
-
-The episodes run through ``cmdp-evaluate``'s episode runner (``training/runs/runner.py``): in this
-process (the default, ``--workers 1``), in ``--workers N`` worker processes, or on Ray actors
-with ``--ray`` (a Ray started here) or ``--ray ADDRESS`` (a cluster; docs/ray.md). A worker
-plays its seed and sends back the summary and the event log; this process writes each seed's
-folder (atomically, charts and IFC included) in seed order as the results arrive, under one
-progress bar over the episodes. The same seeds give the same files whatever the backend and
-the number of workers. The GIF's seed (the first) is played in this process, which renders it.
-With ``--evaluator cpsat`` the plan is solved here and saved as ``DIR/cpsat_plan.json``, which
-the workers replay.
-
-Disruptions (crane breakdowns, late deliveries, absences, weather stops; docs/disruptions.md)
-strike when the case has a ``[disruptions]`` table, e.g. ``--case
-cmdp_pymunk/cases/precast_floor_disrupted.toml`` (the built-in floor with a disruption
-profile). Then ``summary.json`` says what struck (``disruptions``: per kind, how many, their
-downtime and the crew-seconds they kept crews from working) and what it cost
-(``disruption_cost``: the makespan of the same seed on the case without its disruptions,
-played by the same evaluator and low level on the same backend; every task meets the same
-pace in both, so the delay is the disruptions' alone), the console says it per seed, and with
-``--episodes N`` ``makespans.json`` gives the mean delay with its 95 % interval. Measuring the
-cost plays each floor twice, so it is on only for a case with disruptions (a planner's first
-question of one), and ``--no-disruption-cost`` turns it off.
-
-``--fidelity event`` runs the episodes on the event floor (``cmdp_pymunk.eventfloor``,
-docs/event-floor.md): crews walk shortest paths and time jumps from event to event, about 50
-times faster than the pymunk floor (the default, the paper's, the ground truth), with walk
-times and Eq. 2's invasion calibrated on it (``--calibration PATH``; by default the case's
-``<stem>.event.toml``, else a built-in one for the same floor, else none: the command says it
-runs uncalibrated and how to calibrate, ``cmdp-calibrate``). It is stage 2 without a low
-level: a trained ``--navigator`` is refused. ``summary.json`` and ``makespans.json`` record
-``fidelity`` and ``calibration`` (its file or "uncalibrated", fingerprint and numbers), the
-console header and the charts' titles name the event floor, and its crews are placed at events
-only, so there is no ``trajectories.png`` (the GIF shows them jump along their walks). With
-``--episodes 1000`` add ``--no-seed-charts``: each seed's Gantt charts take about a second,
-the histogram and the S-curve are still drawn.
-
-An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
-is stopped and reported in prose (``rollout.stall_text``: when, each walking crew's target and
-how far it stands from it, what the others do, the tasks on and queued) with a picture,
-``stall.png`` in its folder (``media.charts.stall_picture``: the crews where they stand, the
-targets, the ways they meant to walk, their last minutes of path), drawn even with
-``--no-charts``; ``summary.json``'s ``stalled`` keeps the report as data. The command then
-exits with 1.
-A bad case file exits with 2 and a message naming the file, the entry and the fix.
+"""The run behind ``cmdp-simulate`` (``training/commands/simulate.py``): its arguments as
+data, the seeds played (here, on worker processes or on Ray), each seed's files (summary,
+events, schedule, MS Project XML, 4D IFC, charts) and the makespans over the seeds; the
+command parses its options into ``SimulateArgs`` and calls ``simulate``. What each file
+holds is the command's documentation (``cmdp-simulate --help``, docs/simulating.md).
 """
-
 from __future__ import annotations
 
 import json
@@ -92,17 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 # Only light modules at the top: Ctrl-C during the heavy imports (numpy, pymunk, PettingZoo,
-# torch) lands inside main(), which turns it into one line and exit 130.
-from training.cli import (
-    OneLineParser,
-    add_calendar_options,
-    add_ray_option,
-    calendar_of,
-    non_negative_int,
-    plain,
-    positive_int,
-    positive_seconds,
-)
+# torch) lands inside the command's main(), which turns it into one line and exit 130.
+from training.cli import calendar_of
 
 DEFAULT_IFC_START = "2026-01-05T08:00:00"  # second 0 of the 4D export without a calendar
 MSPDI_FILE = "schedule.xml"  # the schedule as MS Project XML (cmdp_pymunk.exchange.mspdi)
@@ -143,84 +55,6 @@ class SimulateArgs:
     calibration: Path | None = None  # the event floor's (None: the case's, if any)
     seed_charts: bool = True  # each seed's Gantt charts and trajectories (with ``charts``)
 
-
-def parse_args(argv: list[str] | None = None) -> SimulateArgs:
-    import cmdp_pymunk
-    from agents.specs import EVALUATOR_HELP
-    from training.fidelity import add_fidelity_options
-
-    p = OneLineParser(prog="cmdp-simulate", description=plain(__doc__), epilog=(
-        "Writes into --out: summary.json, events.csv, schedule.csv, schedule.xml (MS "
-        "Project XML), case.json, gantt_agents.png, gantt_tasks.png, resource_profile.png, "
-        "trajectories.png (--gif: rollout.gif); with "
-        "--episodes N each seed in seed-K/, and makespans.csv, makespans.json, "
-        "makespan_histogram.png and s_curve.png in --out. Disruptions (crane breakdowns, "
-        "late deliveries, absences, weather stops) strike with a case that has a "
-        "[disruptions] table, e.g. --case cmdp_pymunk/cases/precast_floor_disrupted.toml "
-        "(docs/disruptions.md); summary.json then reports their count, downtime and cost "
-        "against the same seed undisrupted (--no-disruption-cost skips that second floor). "
-        "Exit status 1 if an episode stalled or timed out, 2 for a bad case or option. "
-        "docs/simulating.md"))
-    cmdp_pymunk.add_version_flag(p)
-    p.add_argument("--case", type=Path, default=None, help="case file (default: built-in)")
-    p.add_argument("--evaluator", default="priority",
-                   help=EVALUATOR_HELP + " (default: priority)")
-    p.add_argument("--navigator", default="scripted",
-                   help="scripted, or a stage-1 reaching model .zip (default: scripted)")
-    p.add_argument("--seed", type=non_negative_int, default=0,
-                   help="the (first) episode's seed (default 0)")
-    p.add_argument("--episodes", type=positive_int, default=1,
-                   help="episodes on seeds SEED, SEED + 1, ...: each in DIR/seed-K, with "
-                        "P50/P80/P90, a histogram and an S-curve in DIR (default 1)")
-    p.add_argument("--out", type=Path, default=Path("out/simulate"),
-                   help="the folder to write into (default out/simulate)")
-    p.add_argument("--gif", action="store_true", help="also write rollout.gif")
-    p.add_argument("--stall-s", type=positive_seconds, default=3600.0,
-                   help="stop an episode in which no task moves on for this long (default 3600)")
-    p.add_argument("--max-time-s", type=positive_seconds, default=None,
-                   help="time limit per episode (default: the case's)")
-    p.add_argument("--no-charts", action="store_true", help="skip the PNG charts")
-    p.add_argument("--no-seed-charts", action="store_true",
-                   help="skip each seed's Gantt charts and trajectories (about a second a "
-                        "seed); with --episodes N the histogram and the S-curve are still "
-                        "drawn")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.add_argument("--deterministic", action="store_true",
-                   help="a model navigator takes its argmax action instead of sampling (it "
-                        "stops with a message when a crew repeats a blocked move)")
-    p.add_argument("--cpsat-s", type=positive_seconds, default=None, metavar="SECONDS",
-                   help="also solve the case as a schedule with CP-SAT for this long and report "
-                        "its proven makespan bound in summary.json (and the plan that "
-                        "--evaluator cpsat replays; default for it: 20 s)")
-    p.add_argument("--ifc", type=Path, default=None, metavar="MODEL.ifc",
-                   help="also write the schedule into a copy of this IFC model (the one the "
-                        "case was imported from) as 4D: MODEL-4d.ifc")
-    p.add_argument("--ifc-start", type=iso_datetime, default=None,
-                   metavar="ISO-DATETIME",
-                   help="the date and time of simulated second 0 in the 4D schedule, elapsed "
-                        f"time, without a working calendar (default {DEFAULT_IFC_START})")
-    add_calendar_options(p, "schedule.csv, the charts, summary.json, makespans.json and the "
-                         "4D export")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="worker processes for the episodes, or Ray actors with --ray (default: "
-                        "this process; with --ray, every CPU of the Ray)")
-    add_ray_option(p)
-    p.add_argument("--no-disruption-cost", action="store_true",
-                   help="on a case with disruptions, do not also play each seed without them "
-                        "(what they cost: summary.json's disruption_cost; measuring it doubles "
-                        "the work). A case without disruptions is played once either way")
-    add_fidelity_options(p)
-    p.add_argument("--stochastic", action="store_true",
-                   help="accepted for old scripts; sampling is the default now")
-    a = p.parse_args(argv)
-    return SimulateArgs(a.case, a.evaluator, a.navigator, a.seed, a.episodes, a.out, a.gif,
-                        a.stall_s, a.max_time_s, not a.no_charts, not a.no_progress,
-                        a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray,
-                        a.calendar, a.start, a.working_hours, a.working_days, a.holidays,
-                        not a.no_disruption_cost, a.fidelity, a.calibration,
-                        not a.no_seed_charts)
-
-
 def with_calendar(case, args: SimulateArgs):
     """The case with the working calendar the options give: the case's ``[calendar]``, or
     ``--calendar FILE``'s, with ``--start``, ``--working-hours``, ``--working-days`` and
@@ -237,20 +71,6 @@ def with_calendar(case, args: SimulateArgs):
     if calendar == case.calendar:
         return case
     return case.model_copy(update={"calendar": calendar})
-
-
-def iso_datetime(text: str) -> str:
-    """An ``argparse`` type: an ISO 8601 date and time, e.g. 2026-01-05T08:00:00."""
-    import argparse
-    import datetime
-
-    try:
-        datetime.datetime.fromisoformat(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an ISO date and time; fix: give e.g. "
-                                         "2026-01-05T08:00:00") from None
-    return text
-
 
 def calendar_line(calendar) -> str:
     """``calendar 08:00-16:00 Mon-Fri, second 0 = Fri 2026-01-09 15:00`` (and, when the start
@@ -279,7 +99,7 @@ def mspdi_dates(calendar) -> str:
 
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
-    from cmdp_pymunk.rollout import (
+    from cmdp_pymunk.report import (
         crew_summary,
         disruption_summary,
         episode_reach_rate,
@@ -429,11 +249,11 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
 
 
 def seed_cost(data: dict, undisrupted: dict | None) -> dict | None:
-    """``summary.json``'s ``disruption_cost`` of a seed (``rollout.disruption_cost``), from
+    """``summary.json``'s ``disruption_cost`` of a seed (``report.disruption_cost``), from
     its summary and the row of its undisrupted floor; None when not measured."""
     if undisrupted is None:
         return None
-    from cmdp_pymunk.rollout import disruption_cost
+    from cmdp_pymunk.report import disruption_cost
 
     cost = disruption_cost(data["makespan_s"], undisrupted["makespan_s"], data["disruptions"])
     cost["undisrupted_finished"] = undisrupted["finished"]
@@ -489,41 +309,42 @@ class Progress:
         return f"interrupted {doing}; {kept}{self.resume}"
 
 
-def main(argv: list[str] | None = None) -> int:
-    """The command; Ctrl-C at any moment ends it with one line and exit status 130."""
-    progress = Progress()
-    try:
-        from cmdp_pymunk.interrupt import sigint_guard
-
-        with sigint_guard():
-            return _main(argv, progress)
-    except KeyboardInterrupt:
-        print(f"\ncmdp-simulate: {progress.interrupted()}", file=sys.stderr)
-        return 130
-
-
-class _Stop(Exception):
+class Stopped(Exception):
     """An episode that cannot go on (its low level got stuck, its worker was lost): leave the
     backend (its workers stop now) and exit 1 with this line."""
 
 
-def _main(argv: list[str] | None, progress: Progress) -> int:
+class BadInput(Exception):
+    """A case, option or file found unfit before any episode: exit 2 with this line."""
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """What a run needs before anything is built: the case (with its calendar), the floor
+    (``training.fidelity.Floor``), the evaluator, the case's label and its lower bound."""
+
+    case: object
+    floor: object
+    evaluator: object
+    case_label: str
+    lb: object
+
+
+def load_inputs(args: SimulateArgs) -> Inputs:
+    """The case, the floor (``--fidelity``, ``--calibration``: checked and its calibration
+    found before anything is built or run) and the evaluator; ``--ifc``'s model opened, so a
+    model that cannot take the schedule fails now. ``BadInput`` naming the fix."""
     import cmdp_pymunk
-    from agents.specs import make_evaluator, make_navigator
+    from agents.specs import evaluator_from_spec
     from cmdp_pymunk.bounds import lower_bound
     from training.fidelity import resolve_floor
-    from training.runs.backends import BackendError, open_backend
-    from training.runs.runner import make_engine
 
-    args = parse_args(argv)
     try:
         case = with_calendar(cmdp_pymunk.load_case(args.case), args)
-        # the floor (--fidelity, --calibration): checked and its calibration found before
-        # anything is built or run
         floor = resolve_floor(case, args.case, args.fidelity, args.calibration,
                               {"--navigator": [args.navigator]})
-        evaluator = make_evaluator(args.evaluator)
-        if args.ifc is not None:  # before simulating: a model that cannot take it fails now
+        evaluator = evaluator_from_spec(args.evaluator)
+        if args.ifc is not None:
             from cmdp_pymunk.cases.ifc_export import open_for_4d
             from cmdp_pymunk.cases.ifc_import import IfcUnavailable
 
@@ -531,14 +352,86 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
                 open_for_4d(args.ifc, case)
             except IfcUnavailable as err:  # the message says how to install the extra
                 raise ValueError(str(err)) from None
-    except cmdp_pymunk.CaseError as err:
-        print(f"cmdp-simulate: {err}", file=sys.stderr)
-        return 2
-    except ValueError as err:
-        print(f"cmdp-simulate: {err}", file=sys.stderr)
-        return 2
+    except ValueError as err:  # CaseError is a ValueError
+        raise BadInput(str(err)) from None
     case_label = str(args.case) if args.case else "built-in (precast_floor.toml)"
-    lb = lower_bound(case)
+    return Inputs(case, floor, evaluator, case_label, lower_bound(case))
+
+
+def solve_cpsat(args: SimulateArgs, case, evaluator):
+    """CP-SAT's schedule bound (``--cpsat-s``) and the plan ``--evaluator cpsat`` replays,
+    announced on the console; None when neither asked for it."""
+    if args.cpsat_s is None and args.evaluator != "cpsat":
+        return None
+    from agents.cpsat import DEFAULT_TIME_LIMIT_S, solve
+
+    cpsat = solve(case, args.cpsat_s or DEFAULT_TIME_LIMIT_S)
+    print(f"cmdp-simulate: CP-SAT schedule bound {cpsat.bound_s:.0f} s "
+          f"({'optimal' if cpsat.optimal else 'not proven optimal'}; best schedule "
+          f"{cpsat.makespan_s or float('nan'):.0f} s, {cpsat.wall_s:.1f} s)")
+    if args.evaluator == "cpsat":
+        evaluator.use(cpsat)
+    return cpsat
+
+
+def check_workers(args: SimulateArgs, case, spec: str, pool) -> None:
+    """Every worker can load the evaluator and the navigator, and with the disruptions' cost
+    the evaluator can play the case without them: ``BadInput`` naming the fix."""
+    from training.runs.runner import check_worker
+
+    problems = [p for p in pool.check_each(check_worker, [spec], [args.navigator],
+                                           args.deterministic) if p]
+    if problems:
+        raise BadInput(f"{problems[0]}; fix: put the file at the same path on every node (a "
+                       "shared file system), docs/ray.md")
+    if measures_cost(args, case):  # an evaluator that cannot play the plain case
+        from cmdp_pymunk.disruptions import undisrupted  # fails now, not in a worker
+        from training.runs.runner import check_specs
+
+        try:
+            check_specs(undisrupted(case), [spec], [args.navigator], args.deterministic)
+        except ValueError as err:
+            raise BadInput(f"the case without its disruptions (what they cost): {err}; fix: "
+                           "add --no-disruption-cost") from None
+
+
+def announce(args: SimulateArgs, inputs: Inputs, pool) -> None:
+    """The run's first lines: the case, the bound, the strategy and the floor, and what the
+    options leave out or add."""
+    case, floor = inputs.case, inputs.floor
+    print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, "
+          f"{len(case.tasks)} tasks), lower bound {inputs.lb.lower_bound_s:.0f} s, evaluator "
+          f"{args.evaluator}, navigator {args.navigator}, {floor.label()}"
+          + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
+          flush=True)
+    if floor.fidelity == "event" and args.charts and args.seed_charts:
+        print("cmdp-simulate: the event floor places crews at events, not along their "
+              "walks: no trajectories.png", flush=True)
+    if args.episodes >= 100 and args.charts and args.seed_charts:
+        print("cmdp-simulate: each seed's Gantt charts take about a second to draw; "
+              "--no-seed-charts keeps the histogram and the S-curve alone", flush=True)
+    if floor.uncalibrated_note(args.case):
+        print(f"cmdp-simulate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
+              flush=True)
+    if case.calendar is not None:
+        print(f"cmdp-simulate: {calendar_line(case.calendar)}", flush=True)
+    if measures_cost(args, case):
+        print("cmdp-simulate: the case has disruptions: each seed is also played "
+              "without them, for what they cost (--no-disruption-cost to skip)",
+              flush=True)
+
+
+def simulate(args: SimulateArgs, progress: Progress) -> int:
+    """The whole run: inputs checked, the backend opened, the seeds played and written, the
+    makespans over the seeds; returns the exit status (1 if an episode stalled or timed out).
+    ``BadInput`` (exit 2) before any episode, ``Stopped`` (exit 1) when one cannot go on,
+    ``BackendError`` (exit 2) when the workers or Ray cannot run them."""
+    from agents.specs import make_navigator
+    from training.runs.backends import open_backend
+    from training.runs.runner import make_engine
+
+    inputs = load_inputs(args)
+    case, floor, evaluator = inputs.case, inputs.floor, inputs.evaluator
     # The scripted navigator only parks idle crews: let the engine skip their seconds
     # (park_idle); it reads the state, not the rays, so none are cast. A trained navigator gets
     # every crew's decision, as in the paper. The workers build their engines with the same
@@ -546,80 +439,27 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic,
                    POSITION_LOG_EVERY_S, *floor.runner_args)
     workers = args.workers or (1 if args.ray is None else None)
-    try:
-        # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
-        with open_backend(_simulate_job, runner_args, workers, args.ray) as pool:
-            cpsat = None
-            if args.cpsat_s is not None or args.evaluator == "cpsat":
-                from agents.cpsat import DEFAULT_TIME_LIMIT_S, solve
+    # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
+    with open_backend(_simulate_job, runner_args, workers, args.ray) as pool:
+        cpsat = solve_cpsat(args, case, evaluator)
+        try:  # the evaluator is prepared for the case here (a misfit: exit 2)
+            engine = make_engine(case, evaluator, args.navigator, args.max_time_s,
+                                 POSITION_LOG_EVERY_S, *floor.runner_args)
+            navigator = make_navigator(args.navigator, engine, args.deterministic)
+        except ValueError as err:
+            raise BadInput(str(err)) from None
+        spec = args.evaluator
+        if args.evaluator == "cpsat":  # the workers replay the plan solved here
+            from agents.cpsat import save_plan
 
-                cpsat = solve(case, args.cpsat_s or DEFAULT_TIME_LIMIT_S)
-                print(f"cmdp-simulate: CP-SAT schedule bound {cpsat.bound_s:.0f} s "
-                      f"({'optimal' if cpsat.optimal else 'not proven optimal'}; best schedule "
-                      f"{cpsat.makespan_s or float('nan'):.0f} s, {cpsat.wall_s:.1f} s)")
-                if args.evaluator == "cpsat":
-                    evaluator.use(cpsat)
-            try:  # the evaluator is prepared for the case here (a misfit: exit 2)
-                engine = make_engine(case, evaluator, args.navigator, args.max_time_s,
-                                     POSITION_LOG_EVERY_S, *floor.runner_args)
-                navigator = make_navigator(args.navigator, engine, args.deterministic)
-            except ValueError as err:
-                print(f"cmdp-simulate: {err}", file=sys.stderr)
-                return 2
-            spec = args.evaluator
-            if args.evaluator == "cpsat":  # the workers replay the plan solved here
-                from agents.cpsat import save_plan
-
-                spec = f"cpsat:{save_plan(args.out / 'cpsat_plan.json', case, cpsat)}"
-            from training.runs.runner import check_worker
-
-            problems = [p for p in pool.check_each(check_worker, [spec], [args.navigator],
-                                                   args.deterministic) if p]
-            if problems:
-                print(f"cmdp-simulate: {problems[0]}; fix: put the file at the same path on "
-                      "every node (a shared file system), docs/ray.md", file=sys.stderr)
-                return 2
-            if measures_cost(args, case):  # an evaluator that cannot play the plain case
-                from cmdp_pymunk.disruptions import undisrupted  # fails now, not in a worker
-                from training.runs.runner import check_specs
-
-                try:
-                    check_specs(undisrupted(case), [spec], [args.navigator], args.deterministic)
-                except ValueError as err:
-                    print(f"cmdp-simulate: the case without its disruptions (what they cost): "
-                          f"{err}; fix: add --no-disruption-cost", file=sys.stderr)
-                    return 2
-            args.out.mkdir(parents=True, exist_ok=True)
-            write_json(args.out / "case.json", case.model_dump(mode="json"))
-            progress.out = args.out
-            print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, "
-                  f"{len(case.tasks)} tasks), lower bound {lb.lower_bound_s:.0f} s, evaluator "
-                  f"{args.evaluator}, navigator {args.navigator}, {floor.label()}"
-                  + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
-                  flush=True)
-            if floor.fidelity == "event" and args.charts and args.seed_charts:
-                print("cmdp-simulate: the event floor places crews at events, not along their "
-                      "walks: no trajectories.png", flush=True)
-            if args.episodes >= 100 and args.charts and args.seed_charts:
-                print("cmdp-simulate: each seed's Gantt charts take about a second to draw; "
-                      "--no-seed-charts keeps the histogram and the S-curve alone", flush=True)
-            if floor.uncalibrated_note(args.case):
-                print(f"cmdp-simulate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
-                      flush=True)
-            if case.calendar is not None:
-                print(f"cmdp-simulate: {calendar_line(case.calendar)}", flush=True)
-            if measures_cost(args, case):
-                print("cmdp-simulate: the case has disruptions: each seed is also played "
-                      "without them, for what they cost (--no-disruption-cost to skip)",
-                      flush=True)
-            rows, finishes, failed = _episodes(args, case, case_label, lb, cpsat, spec, engine,
-                                               navigator, pool, progress, floor)
-    except BackendError as err:
-        print(f"cmdp-simulate: {err}", file=sys.stderr)
-        return 2
-    except _Stop as err:
-        print(f"cmdp-simulate: {err}", file=sys.stderr)
-        return 1
+            spec = f"cpsat:{save_plan(args.out / 'cpsat_plan.json', case, cpsat)}"
+        check_workers(args, case, spec, pool)
+        args.out.mkdir(parents=True, exist_ok=True)
+        write_json(args.out / "case.json", case.model_dump(mode="json"))
+        progress.out = args.out
+        announce(args, inputs, pool)
+        rows, finishes, failed = play_seeds(args, case, inputs.case_label, inputs.lb, cpsat,
+                                            spec, engine, navigator, pool, progress, floor)
     progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
         stats = write_makespans(args.out, rows, case.calendar)
@@ -627,6 +467,13 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
             from media.episodes import draw_episodes
 
             draw_episodes(args.out, stats, finishes, len(case.tasks), case.calendar)
+    report_files(args, case)
+    return 1 if failed else 0
+
+
+def report_files(args: SimulateArgs, case) -> None:
+    """The run's last lines: where the GIF, the MS Project schedule, the 4D model, the
+    charts and the tables are."""
     if args.gif:
         gif = args.out if args.episodes == 1 else args.out / f"seed-{args.seed}"
         print(f"cmdp-simulate: GIF {gif / 'rollout.gif'}")
@@ -640,7 +487,6 @@ def _main(argv: list[str] | None, progress: Progress) -> int:
     what = ("charts, summary" if args.charts and (args.seed_charts or args.episodes > 1)
             else "summary")
     print(f"cmdp-simulate: {what}, schedule.csv and events.csv in {args.out}")
-    return 1 if failed else 0
 
 
 def measures_cost(args: SimulateArgs, case) -> bool:
@@ -648,7 +494,7 @@ def measures_cost(args: SimulateArgs, case) -> bool:
     return args.disruption_cost and bool(case.disruptions)
 
 
-def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, engine,
+def play_seeds(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, engine,
               navigator, pool, progress: Progress,
               floor=None) -> tuple[list[dict], list[list[float]], bool]:
     """Every seed, in seed order: the GIF's seed played on ``engine`` here, the others on
@@ -660,7 +506,8 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
 
     from agents.models import PolicyStuck
     from cmdp_pymunk import interrupt
-    from cmdp_pymunk.rollout import run_episode, seconds_and_hours, stall_text
+    from cmdp_pymunk.report import seconds_and_hours, stall_text
+    from cmdp_pymunk.rollout import run_episode
     from cmdp_pymunk.schedule import finish_times
     from training.runs.backends import WorkerLost, Workers
 
@@ -715,11 +562,11 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
                             pool.runner.playing = None
                     base = next(remote) if cost else None  # the seed without disruptions
                 except WorkerLost:
-                    raise _Stop(f"seed {seed}: lost with its worker (it died twice); seeds "
+                    raise Stopped(f"seed {seed}: lost with its worker (it died twice); seeds "
                                 f"before it are kept in {args.out}; to finish, rerun with "
                                 f"--seed {seed} --episodes {args.episodes - k}") from None
                 if run.stuck:
-                    raise _Stop(f"seed {seed}: {run.stuck}")
+                    raise Stopped(f"seed {seed}: {run.stuck}")
                 progress.doing = f"while writing seed {seed}'s files"
                 # A Ctrl-C while a seed's files are written is held until all of them are: a
                 # seed's folder is either complete or not started.
@@ -766,7 +613,7 @@ def _episodes(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, e
 
 def cost_text(data: dict) -> str:
     """A seed's disruptions and their cost, for the console."""
-    from cmdp_pymunk.rollout import seconds_and_hours, struck_text
+    from cmdp_pymunk.report import seconds_and_hours, struck_text
 
     text = struck_text(data["disruptions"])
     cost = data["disruption_cost"]
@@ -785,7 +632,7 @@ def write_makespans(out: Path, rows: list[dict], calendar=None) -> dict:
     disruptions and their cost); with a working calendar, the finish dates too: a ``finish``
     column and a ``calendar`` entry dating the mean, P50/P80/P90, min and max."""
     from cmdp_pymunk.events import write_atomic
-    from cmdp_pymunk.rollout import makespan_stats, seconds_and_hours
+    from cmdp_pymunk.report import makespan_stats, seconds_and_hours
     from cmdp_pymunk.workcalendar import calendar_datetime, finish_dates, iso
 
     costs = [r.get("disruption_cost") for r in rows]
@@ -873,7 +720,7 @@ def mean_cost(rows: list[dict]) -> dict:
 
 def mean_cost_text(stats: dict) -> str:
     """The disruptions over the seeds and their mean cost, for the console."""
-    from cmdp_pymunk.rollout import struck_text
+    from cmdp_pymunk.report import struck_text
 
     text = f"disruptions per floor on average: {struck_text(stats['disruptions'])}"
     cost = stats["disruption_cost"]
@@ -887,11 +734,3 @@ def mean_cost_text(stats: dict) -> str:
             f"({cost['delay_pct_mean']:+.1f}{ci_pct} %; mean, 95 % interval) against "
             f"{cost['undisrupted_mean_s']:,.0f} s on the same {cost['paired_seeds']} seeds "
             "without them")
-
-
-def entry_point() -> None:
-    sys.exit(main())
-
-
-if __name__ == "__main__":
-    entry_point()

@@ -29,7 +29,7 @@ from training.config import RunConfig
 from training.runs.backends import BackendError
 from training.search.rule import RuleSearchConfig, search_rule
 
-DEFAULT_CONFIG = Path(__file__).with_name("configs") / "rule_search.toml"
+DEFAULT_CONFIG = Path(__file__).parents[1] / "configs" / "rule_search.toml"
 
 
 def parse_args(argv: list[str] | None = None) -> SearchArgs:

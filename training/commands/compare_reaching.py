@@ -1,7 +1,7 @@
 """Compare a trained reaching policy with the scripted navigator, seed by seed (issue 4's bar).
 
-    python -m training.compare_reaching NAVIGATOR_RUN POLICY_RUN [--max-ratio 1.10]
-                                        [--min-reach 0.95]
+    python -m training.commands.compare_reaching NAVIGATOR_RUN POLICY_RUN [--max-ratio 1.10]
+                                                 [--min-reach 0.95]
 
 Each RUN is the ``--out`` folder of ``cmdp-simulate --episodes N`` (one ``seed-S/summary.json``
 per episode), made on the same seeds. Prints a Markdown table (makespan, tasks, reach rate per
@@ -17,7 +17,7 @@ import json
 import sys
 from pathlib import Path
 
-from cmdp_pymunk.rollout import makespan_stats
+from cmdp_pymunk.report import makespan_stats
 
 
 def load_run(folder: Path) -> dict[int, dict]:

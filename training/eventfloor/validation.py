@@ -1,52 +1,25 @@
-"""``cmdp-validate-event-floor``: the event floor against the pymunk floor, seed by seed.
+"""The event floor against the pymunk floor, seed by seed (``cmdp-validate-event-floor``,
+``training/commands/validate_event_floor.py``; what is compared and issue 30's criteria are
+that command's documentation): each floor's rows over the seeds (the pymunk floor's kept
+between runs of the same case), the comparison and its Markdown table.
 
-    cmdp-validate-event-floor [--case FILE] [--seeds 100-139] [--strategies priority,nearest,...]
-                              [--calibration FILE] [--workers N] [--out DIR]
-
-Runs every strategy on every seed on both floors (the same seeds, so the same drawn paces and
-disruptions: common random numbers) and prints, per strategy: each floor's mean and P80
-makespan and their gap, the per-seed correlation of the two floors' makespans, and the paired
-difference to Eq. 9 on each floor (mean and 95 % interval); then whether the strategies rank
-the same, Eq. 9's crew-seconds per crew type and category (time use) on both, and the
-seconds of CPU a floor costs on each. Issue 30's criteria are checked and printed: correlation
->= 0.9 for Eq. 9, mean and P80 within 3 %, time use within 15 %, the same ranking, paired
-differences within +-50 % of the pymunk floor's.
-
-A paired difference measured on 40 seeds carries an interval of about +-400 s on either floor,
-as wide as the differences themselves, so the event floor also runs ``--event-seeds`` (default
-the validation seeds and the next 260, 300 in all: a few seconds a strategy): its paired
-differences and ranking are taken there, and checked against the pymunk floor's (inside its
-95 % interval, within +-50 % of its mean, the same order).
-
-The pymunk floors' rows are kept in ``--out`` (``pymunk_rows.json``, by case and seed) and
-reused by the next run on the same case (re-calibrating and validating again costs only the
-event floors); ``--fresh`` runs them again.
-
-Writes ``validation.json`` (every number, per-seed makespans, the settings and versions) and
-``validation.md`` (the tables, as docs/event-floor.md shows them) into ``--out``. Validate on
-seeds the calibration was not fitted on (it was fitted on 0-19; the default here is 100-139).
+It sits beside ``training/eventfloor/fitting.py`` rather than in ``cmdp_pymunk/eventfloor``:
+it plays the agents' strategies on the run machinery's worker processes, which the
+simulation core may not import.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-import cmdp_pymunk
-from cmdp_pymunk.cases.load import BUILTIN_CASE, CaseError, load_case
-from cmdp_pymunk.eventfloor.calibration import calibration_for
-from cmdp_pymunk.rollout import versions
 from cmdp_pymunk.timeuse import CATEGORIES, totals
-from training.cli import OneLineParser, plain, positive_int
-from training.compare import seed_list
 from training.runs.backends import open_backend
 from training.runs.paired import mean_ci, p80
-from training.runs.runner import TIME_USE, EpisodeRunner, check_specs
+from training.runs.runner import TIME_USE, EpisodeRunner
 
 DEFAULT_STRATEGIES = ("priority", "nearest", "ga:models/ga_priorities.json",
                       "student:models/searched_rule.json", "models/stage2_desired_position.zip")
@@ -57,7 +30,7 @@ TIME_USE_SHOWN = ("walking", "working", "loading", "idle_predecessor", "idle_are
                   "waiting_crane", "no_target", "disrupted")
 
 
-def _job(runner: EpisodeRunner, strategy: str, seed: int) -> dict:
+def floor_job(runner: EpisodeRunner, strategy: str, seed: int) -> dict:
     start = time.process_time()
     row = runner.run(strategy, "scripted", seed)
     row["cpu_s"] = time.process_time() - start
@@ -73,7 +46,7 @@ def floor_rows(runner_args: tuple, strategies: list[str], seeds: list[int],
     jobs = [(s, seed) for s in strategies for seed in seeds
             if str(seed) not in kept.get(s, {})]
     if jobs:
-        with open_backend(_job, runner_args, workers) as backend:
+        with open_backend(floor_job, runner_args, workers) as backend:
             rows = backend.map(jobs)
         for (strategy, seed), row in zip(jobs, rows, strict=True):
             kept.setdefault(strategy, {})[str(seed)] = row
@@ -251,98 +224,39 @@ def markdown(result: dict, seeds_text: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    p = OneLineParser(prog="cmdp-validate-event-floor", description=plain(__doc__),
-                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    cmdp_pymunk.add_version_flag(p)
-    p.add_argument("--case", type=Path, default=None,
-                   help="case file (TOML); default: the built-in case")
-    p.add_argument("--seeds", type=seed_list, default=list(range(100, 140)),
-                   help="held-out seeds (default 100-139)")
-    p.add_argument("--strategies", default=",".join(DEFAULT_STRATEGIES),
-                   help="comma-separated strategies as cmdp-evaluate takes them; the first "
-                        "must be priority (Eq. 9, the reference)")
-    p.add_argument("--event-seeds", type=seed_list, default=None,
-                   help="seeds for the event floor's paired differences and ranking (default: "
-                        "the validation seeds and the next 260)")
-    p.add_argument("--fresh", action="store_true",
-                   help="run the pymunk floors again instead of reusing --out's rows")
-    p.add_argument("--calibration", type=Path, default=None,
-                   help="the event floor's calibration (default: beside the case, or built in)")
-    p.add_argument("--workers", type=positive_int, default=None,
-                   help="processes for the floors (default: every core)")
-    p.add_argument("--out", type=Path, default=Path("runs/validate_event_floor"),
-                   help="folder for validation.json and validation.md")
-    return p.parse_args(argv)
-
-
-def main(argv: list[str] | None = None) -> int:
-    args = parse_args(argv)
-    case_path = args.case if args.case is not None else BUILTIN_CASE
-    strategies = [s.strip() for s in args.strategies.split(",") if s.strip()]
-    if not strategies or strategies[0] != REFERENCE:
-        print(f"cmdp-validate-event-floor: --strategies {args.strategies!r}: the first must "
-              f"be {REFERENCE} (Eq. 9, the reference of the paired differences); fix: put it "
-              "first", file=sys.stderr)
-        return 2
-    try:
-        case = load_case(case_path)
-        calibration = calibration_for(case, case_path, args.calibration)
-        check_specs(case, strategies, ["scripted"], False)
-    except (CaseError, ValueError) as err:
-        print(f"cmdp-validate-event-floor: {err}", file=sys.stderr)
-        return 2
-    if not calibration.calibrated:
-        print("cmdp-validate-event-floor: the event floor runs uncalibrated (no calibration "
-              "beside the case); fit one with cmdp-calibrate first for a fair comparison")
-    seeds = args.seeds
-    print(f"cmdp-validate-event-floor: {case.case.name}, {len(strategies)} strategies x "
-          f"{len(seeds)} seeds on both floors")
-    many_seeds = args.event_seeds or sorted(set(seeds) | set(range(seeds[-1] + 1,
-                                                                   seeds[-1] + 261)))
-    start = time.perf_counter()
+def event_floors(case, calibration, strategies: list[str], seeds: list[int],
+                 many_seeds: list[int], workers: int | None) -> tuple[dict, dict]:
+    """The event floor's rows on the validation ``seeds`` and on ``many_seeds`` (its paired
+    differences and ranking, module doc), each strategy -> rows in seed order."""
     event_args = (case, 3600.0, None, False, None, "event", calibration)
-    event_many = floor_rows(event_args, strategies, many_seeds, args.workers)
+    event_many = floor_rows(event_args, strategies, many_seeds, workers)
     event = {s: [r for r, seed in zip(rows, many_seeds, strict=True) if seed in set(seeds)]
              for s, rows in event_many.items()} if set(seeds) <= set(many_seeds) \
-        else floor_rows(event_args, strategies, seeds, args.workers)
-    print(f"  event floors: {time.perf_counter() - start:.1f} s ({len(many_seeds)} seeds)")
-    args.out.mkdir(parents=True, exist_ok=True)
-    cache = args.out / "pymunk_rows.json"
+        else floor_rows(event_args, strategies, seeds, workers)
+    return event, event_many
+
+
+def kept_pymunk_rows(case, strategies: list[str], seeds: list[int], workers: int | None,
+                     out: Path, fresh: bool) -> dict[str, list[dict]]:
+    """The pymunk floor's rows, those of an earlier run on the very same case taken from
+    ``out/pymunk_rows.json`` (unless ``fresh``) and the file rewritten whole with the new."""
+    cache = out / "pymunk_rows.json"
     kept = {}
-    if cache.is_file() and not args.fresh:
+    if cache.is_file() and not fresh:
         stored = json.loads(cache.read_text(encoding="utf-8"))
         kept = stored["rows"] if stored.get("case") == case_key(case) else {}
-    start = time.perf_counter()
-    pymunk = floor_rows((case, 3600.0), strategies, seeds, args.workers, kept)
+    pymunk = floor_rows((case, 3600.0), strategies, seeds, workers, kept)
     tmp = cache.with_suffix(".tmp")
     tmp.write_text(json.dumps({"case": case_key(case), "rows": kept}), encoding="utf-8")
     tmp.replace(cache)
-    print(f"  pymunk floors: {time.perf_counter() - start:.0f} s")
-    result = compare(pymunk, event, event_many)
-    ms = many_seeds
-    result["event_seeds"] = f"{ms[0]}-{ms[-1]}" if ms == list(range(ms[0], ms[-1] + 1)) \
-        else f"{len(ms)} seeds"
-    seeds_text = f"{seeds[0]}-{seeds[-1]}" if seeds == list(range(seeds[0], seeds[-1] + 1)) \
-        else ",".join(map(str, seeds))
-    table = markdown(result, seeds_text)
-    print("\n" + table)
-    record = {"case": case.case.name, "seeds": seeds, "strategies": strategies,
-              "calibration": calibration.model_dump(), "versions": versions(),
-              "command": "cmdp-validate-event-floor " + " ".join(
-                  argv if argv is not None else sys.argv[1:]), **result}
+    return pymunk
+
+
+
+def write_validation(out: Path, record: dict, table: str) -> None:
+    """``validation.json`` and ``validation.md``, each whole or not at all."""
     for name, text in (("validation.json", json.dumps(record, indent=1, default=str)),
                        ("validation.md", table)):
-        tmp = args.out / (name + ".tmp")
+        tmp = out / (name + ".tmp")
         tmp.write_text(text, encoding="utf-8")
-        tmp.replace(args.out / name)
-    print(f"wrote {args.out / 'validation.json'} and validation.md")
-    return 0
-
-
-def entry_point() -> None:
-    sys.exit(main())
-
-
-if __name__ == "__main__":
-    entry_point()
+        tmp.replace(out / name)
