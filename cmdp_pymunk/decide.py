@@ -47,6 +47,7 @@ from .state import (
     CrewState,
     CrewStatus,
     IdleCause,
+    ScopeKind,
     Site,
 )
 from .streams import RandomStreams
@@ -387,10 +388,21 @@ DECISION_TABLE: tuple[Rule, ...] = (
 TERMINAL_ROWS = {"c2", "c10"}  # rows after which no other row fires in the same step
 # The table's rows per crew state, in table order: a waiting or deregistered crew tries none.
 ROWS_BY_STATUS = {s: tuple(r for r in DECISION_TABLE if s in r.statuses) for s in CrewStatus}
+# A reaching crew's rows by its scope kind as well: their triggers read the kind first (c7 and
+# c5 a storage scope, c4 a paused task, c1 tasks, c10 tasks or none), so the others cannot
+# fire; the rows are tried for every crew at every event. Other states read no scope kind.
+_REACHING_KINDS = {"c7": (STORAGES,), "c5": (STORAGES,), "c4": (PAUSED,), "c1": (TASKS,),
+                   "c10": (NO_SCOPE, TASKS)}
+ROWS_BY_STATE = {(s, k): tuple(r for r in rows if s != REACHING
+                               or k in _REACHING_KINDS.get(r.code, ScopeKind))
+                 for s, rows in ROWS_BY_STATUS.items() for k in ScopeKind}
+# ... without c2 (``only_execution_fires``)
+_ROWS_BUT_EXECUTION = {state: tuple(r for r in rows if r.code != "c2")
+                       for state, rows in ROWS_BY_STATE.items()}
 
 
 def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
-    for rule in ROWS_BY_STATUS[crew.status]:
+    for rule in ROWS_BY_STATE[crew.status, crew.scope_kind]:
         if rule.trigger(crew, ctx):
             return rule
     return None
@@ -414,8 +426,8 @@ def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
             continue
         if settled is not None and settled.get(crew.index) == version:
             continue
-        for rule in ROWS_BY_STATUS[crew.status]:
-            if rule.code != "c2" and rule.trigger(crew, ctx):
+        for rule in _ROWS_BUT_EXECUTION[crew.status, crew.scope_kind]:
+            if rule.trigger(crew, ctx):
                 return False
     return True
 

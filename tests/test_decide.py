@@ -233,6 +233,8 @@ def test_no_state_fires_two_rows():
         hits = [r.code for r in decide.DECISION_TABLE if r.trigger(crew, ctx)]
         indexed = {r.code for r in decide.ROWS_BY_STATUS[status]}
         assert set(hits) <= indexed, (status.name, hits)
+        tried = {r.code for r in decide.ROWS_BY_STATE[status, kind]}  # a reaching crew's by kind
+        assert set(hits) <= tried, (status.name, kind.name, hits)
         if len(hits) > 1:
             overlaps.append((status.name, kind.name, paused, reached, load, done, assisted,
                              stock, current, pool.name, hits))

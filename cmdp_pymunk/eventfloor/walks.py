@@ -126,7 +126,7 @@ class _Path:
         """The indices, among a walk's points (its start first), of this path's points but
         the last that ``rect`` holds."""
         x0, y0, x1, y1 = rect
-        return [k + 1 for k, (x, y) in enumerate(zip(self.px[:-1], self.py[:-1]))
+        return [k + 1 for k, (x, y) in enumerate(zip(self.px[:-1], self.py[:-1], strict=True))
                 if x0 <= x <= x1 and y0 <= y <= y1]
 
 
