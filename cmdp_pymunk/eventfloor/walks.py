@@ -121,11 +121,19 @@ class _Path:
         self.px, self.py = px.tolist(), py.tolist()
         self.steps = np.hypot(np.diff(px), np.diff(py)).tolist()
         self.held: dict[Rect, list[int]] = {}  # rect -> indices into a walk's points
+        # the box around its points but the last: most areas lie off a path, and are told so
+        # by four comparisons
+        self.box = (float(px[:-1].min()), float(py[:-1].min()), float(px[:-1].max()),
+                    float(py[:-1].max())) if len(px) > 1 else (math.inf, math.inf, -math.inf,
+                                                               -math.inf)
 
     def points_in(self, rect: Rect) -> list[int]:
         """The indices, among a walk's points (its start first), of this path's points but
         the last that ``rect`` holds."""
         x0, y0, x1, y1 = rect
+        bx0, by0, bx1, by1 = self.box
+        if x0 > bx1 or x1 < bx0 or y0 > by1 or y1 < by0:
+            return []
         return [k + 1 for k, (x, y) in enumerate(zip(self.px[:-1], self.py[:-1], strict=True))
                 if x0 <= x <= x1 and y0 <= y <= y1]
 
@@ -225,21 +233,18 @@ class WalkPlanner:
         x, y = float(start[0]), float(start[1])
         speed = walking_velocities(crew, self._congestion(site, path, start), self.lateral_m_s)
         # each step's length over its Eq. 1 velocity, summed in order (numpy's cumsum did the
-        # same additions), times the walk factor
-        times = [0.0]
-        elapsed = 0.0
-        for length, v in zip((math.hypot(px[0] - x, py[0] - y), *path.steps), speed,
-                             strict=True):
+        # same additions), times the walk factor; and the metres at each point
+        # (``Walk.distance_at``), from the path's kept steps
+        elapsed = math.hypot(px[0] - x, py[0] - y) / speed[0]
+        metres = float(np.hypot(px[0] - x, py[0] - y))
+        times, distances = [0.0, elapsed * walk_factor], [0.0, metres]
+        for length, v in zip(path.steps, speed[1:], strict=True):
             elapsed += length / v
             times.append(elapsed * walk_factor)
-        times[-1] += dock_s  # turning to the target and docking at it, once per arrival
-        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
-        # the metres at each point (``Walk.distance_at``) from the path's kept steps
-        distances = [0.0]
-        metres = 0.0
-        for length in (float(np.hypot(px[0] - x, py[0] - y)), *path.steps):
             metres += length
             distances.append(metres)
+        times[-1] += dock_s  # turning to the target and docking at it, once per arrival
+        arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
         return Walk(target, task, now_s, [x, *px], [y, *py], times, arrival, distances)
 
     def path(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
