@@ -232,11 +232,11 @@ class WalkMotion:
         now, then = site.time_s, site.time_s + k
         cap = site.case.simulation.reevaluate_after_steps
         positions, world, walks = engine.positions, engine.world, self.walks
-        had_target = span.had_target
+        moving, had_target = span.moving, span.had_target  # as the crews stand now
         for crew in site.crews:
             i = crew.index
             walk = walks[i]
-            if walk is None or not crew.moving:
+            if walk is None or not moving[i]:
                 had_target[i] = False
                 continue
             if crew.scope:

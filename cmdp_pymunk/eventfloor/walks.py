@@ -231,15 +231,20 @@ class WalkPlanner:
         path = self.path(site, crew, start, target, task)
         px, py = path.px, path.py
         x, y = float(start[0]), float(start[1])
-        speed = walking_velocities(crew, self._congestion(site, path, start), self.lateral_m_s)
+        congestion = self._congestion(site, path, start)
+        # Eq. 1's velocity at each point, worked out once per congestion index (most points
+        # lie outside every area, at 1)
+        indices = list(dict.fromkeys(congestion))
+        velocity = dict(zip(indices, walking_velocities(crew, indices, self.lateral_m_s),
+                            strict=True))
         # each step's length over its Eq. 1 velocity, summed in order (numpy's cumsum did the
         # same additions), times the walk factor; and the metres at each point
         # (``Walk.distance_at``), from the path's kept steps
-        elapsed = math.hypot(px[0] - x, py[0] - y) / speed[0]
+        elapsed = math.hypot(px[0] - x, py[0] - y) / velocity[congestion[0]]
         metres = float(np.hypot(px[0] - x, py[0] - y))
         times, distances = [0.0, elapsed * walk_factor], [0.0, metres]
-        for length, v in zip(path.steps, speed[1:], strict=True):
-            elapsed += length / v
+        for length, index in zip(path.steps, congestion[1:], strict=True):
+            elapsed += length / velocity[index]
             times.append(elapsed * walk_factor)
             metres += length
             distances.append(metres)
