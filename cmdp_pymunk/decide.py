@@ -410,6 +410,7 @@ def first_rule(crew: CrewState, ctx: Context) -> Rule | None:
 
 # each state's last row: c2 firing first, when it is the last, means no other row fires
 _LAST_ROW = {s: rows[-1] for s, rows in ROWS_BY_STATUS.items() if rows}
+_EXECUTION = next(r for r in DECISION_TABLE if r.code == "c2")  # the last of its states' rows
 
 
 def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
@@ -435,18 +436,22 @@ def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
 def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}
-    for crew in ctx.site.crews:
+    site, settled, reached = ctx.site, ctx.settled, ctx.reached
+    for crew in site.crews:
         if crew.status == LEFT or crew.absent:  # away (a disruption): no decisions
             continue
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):
-            rule = first_rule(crew, ctx)
-            if rule is None or (rule.code == "c2" and rule is _LAST_ROW[crew.status]):
-                ctx.settled[crew.index] = ctx.site.version
-            if rule is None:
+            for rule in ROWS_BY_STATE[crew.status, crew.scope_kind]:  # ``first_rule``
+                if rule.trigger(crew, ctx):
+                    break
+            else:  # no row fires
+                settled[crew.index] = site.version
                 break
+            if rule is _EXECUTION:  # c2, its state's last row: no other row fires
+                settled[crew.index] = site.version
             rule.effect(crew, ctx)
-            ctx.reached.pop(crew.index, None)
+            reached.pop(crew.index, None)
             codes.append(rule.code)
             if rule.code in TERMINAL_ROWS:
                 break
