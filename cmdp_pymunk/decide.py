@@ -54,7 +54,6 @@ from .streams import RandomStreams
 
 MAX_ROWS_PER_STEP = 3
 EPS = construct.EPS
-_UNSTARTED = (QUEUE, WAIT)  # the pools of the tasks not yet started
 
 
 @dataclass
@@ -334,9 +333,14 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     the outlet (and deregistration) when no task of its type is queued or waiting."""
     site = ctx.site
     tasks = site.tasks
-    remaining = [tasks[i] for i in site.tasks_of_crew_type[crew.type]
-                 if tasks[i].pool in _UNSTARTED]
-    if not remaining:
+    queued, waiting = [], False  # its tasks not yet started: queued (in order), or waiting
+    for i in site.tasks_of_crew_type[crew.type]:  # one pass: asked at every c10
+        pool = tasks[i].pool
+        if pool == QUEUE:
+            queued.append(tasks[i])
+        elif pool == WAIT:
+            waiting = True
+    if not queued and not waiting:
         crew.clear_scope()
         crew.scope_kind = OUTLET
         crew.scope = {site.outlet_target: -1}
@@ -351,7 +355,6 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     # each queued task's space conflicts looked at once (the scope, then the idle cause); a
     # task whose work point the crew cannot reach yet (behind decks not laid) waits as for a
     # predecessor, or the crew would walk for it forever
-    queued = [t for t in remaining if t.pool == QUEUE]
     if site.reach is not None:
         queued = [t for t in queued if site.reachable(crew, t)]
     executable = [t for t in queued if site.executable(t)]

@@ -123,9 +123,9 @@ class _Path:
         self.held: dict[Rect, list[int]] = {}  # rect -> indices into a walk's points
         # the box around its points but the last: most areas lie off a path, and are told so
         # by four comparisons
-        self.box = (float(px[:-1].min()), float(py[:-1].min()), float(px[:-1].max()),
-                    float(py[:-1].max())) if len(px) > 1 else (math.inf, math.inf, -math.inf,
-                                                               -math.inf)
+        xs, ys = self.px[:-1], self.py[:-1]
+        self.box = (min(xs), min(ys), max(xs), max(ys)) if xs else \
+            (math.inf, math.inf, -math.inf, -math.inf)
 
     def points_in(self, rect: Rect) -> list[int]:
         """The indices, among a walk's points (its start first), of this path's points but
