@@ -51,10 +51,10 @@ def main(argv: list[str] | None = None) -> None:
         floor.run()
         e_cpu, e_wall = time.process_time() - cpu, time.perf_counter() - wall
         rows.append((seed, pymunk, floor.makespan_s, p_cpu, e_cpu, p_wall, e_wall,
-                     floor.events_run))
+                     floor.spans_run))
         print(f"seed {seed}: pymunk {pymunk or float('nan'):,.0f} s in {p_cpu:.2f} CPU s; "
               f"event {floor.makespan_s or float('nan'):,.0f} s in {1000 * e_cpu:.1f} CPU ms "
-              f"({floor.events_run} events)")
+              f"({floor.spans_run} events)")
     p_cpu, e_cpu = np.mean([r[3] for r in rows]), np.mean([r[4] for r in rows])
     p_wall, e_wall = np.mean([r[5] for r in rows]), np.mean([r[6] for r in rows])
     print(f"\n{case.case.name}, {len(rows)} seeds, {args.evaluator}:")

@@ -47,13 +47,13 @@ from .state import (
     CrewState,
     CrewStatus,
     IdleCause,
+    ScopeKind,
     Site,
 )
 from .streams import RandomStreams
 
 MAX_ROWS_PER_STEP = 3
 EPS = construct.EPS
-_UNSTARTED = (QUEUE, WAIT)  # the pools of the tasks not yet started
 
 
 @dataclass
@@ -335,9 +335,14 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     the outlet (and deregistration) when no task of its type is queued or waiting."""
     site = ctx.site
     tasks = site.tasks
-    remaining = [tasks[i] for i in site.tasks_of_crew_type[crew.type]
-                 if tasks[i].pool in _UNSTARTED]
-    if not remaining:
+    queued, waiting = [], False  # its tasks not yet started: queued (in order), or waiting
+    for i in site.tasks_of_crew_type[crew.type]:  # one pass: asked at every c10
+        pool = tasks[i].pool
+        if pool == QUEUE:
+            queued.append(tasks[i])
+        elif pool == WAIT:
+            waiting = True
+    if not queued and not waiting:
         crew.clear_scope()
         crew.scope_kind = OUTLET
         crew.scope = {site.outlet_target: -1}
@@ -352,7 +357,6 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     # each queued task's space conflicts looked at once (the scope, then the idle cause); a
     # task whose work point the crew cannot reach yet (behind decks not laid) waits as for a
     # predecessor, or the crew would walk for it forever
-    queued = [t for t in remaining if t.pool == QUEUE]
     if site.reach is not None:
         queued = [t for t in queued if site.reachable(crew, t)]
     executable = [t for t in queued if site.executable(t)]
@@ -389,10 +393,21 @@ DECISION_TABLE: tuple[Row, ...] = (
 TERMINAL_ROWS = {"c2", "c10"}  # rows after which no other row fires in the same step
 # The table's rows per crew state, in table order: a waiting or deregistered crew tries none.
 ROWS_BY_STATUS = {s: tuple(r for r in DECISION_TABLE if s in r.statuses) for s in CrewStatus}
+# A reaching crew's rows by its scope kind as well: their triggers read the kind first (c7 and
+# c5 a storage scope, c4 a paused task, c1 tasks, c10 tasks or none), so the others cannot
+# fire; the rows are tried for every crew at every event. Other states read no scope kind.
+_REACHING_KINDS = {"c7": (STORAGES,), "c5": (STORAGES,), "c4": (PAUSED,), "c1": (TASKS,),
+                   "c10": (NO_SCOPE, TASKS)}
+ROWS_BY_STATE = {(s, k): tuple(r for r in rows if s != REACHING
+                               or k in _REACHING_KINDS.get(r.code, ScopeKind))
+                 for s, rows in ROWS_BY_STATUS.items() for k in ScopeKind}
+# ... without c2 (``only_execution_fires``)
+_ROWS_BUT_EXECUTION = {state: tuple(r for r in rows if r.code != "c2")
+                       for state, rows in ROWS_BY_STATE.items()}
 
 
 def first_rule(crew: CrewState, ctx: Context) -> Row | None:
-    for rule in ROWS_BY_STATUS[crew.status]:
+    for rule in ROWS_BY_STATE[crew.status, crew.scope_kind]:
         if rule.trigger(crew, ctx):
             return rule
     return None
@@ -400,6 +415,7 @@ def first_rule(crew: CrewState, ctx: Context) -> Row | None:
 
 # each state's last row: c2 firing first, when it is the last, means no other row fires
 _LAST_ROW = {s: rows[-1] for s, rows in ROWS_BY_STATUS.items() if rows}
+_EXECUTION = next(r for r in DECISION_TABLE if r.code == "c2")  # the last of its states' rows
 
 
 def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
@@ -416,8 +432,8 @@ def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
             continue
         if settled is not None and settled.get(crew.index) == version:
             continue
-        for rule in ROWS_BY_STATUS[crew.status]:
-            if rule.code != "c2" and rule.trigger(crew, ctx):
+        for rule in _ROWS_BUT_EXECUTION[crew.status, crew.scope_kind]:
+            if rule.trigger(crew, ctx):
                 return False
     return True
 
@@ -425,18 +441,22 @@ def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
 def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}
-    for crew in ctx.site.crews:
+    site, settled, reached = ctx.site, ctx.settled, ctx.reached
+    for crew in site.crews:
         if crew.status == LEFT or crew.absent:  # away (a disruption): no decisions
             continue
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):
-            rule = first_rule(crew, ctx)
-            if rule is None or (rule.code == "c2" and rule is _LAST_ROW[crew.status]):
-                ctx.settled[crew.index] = ctx.site.version
-            if rule is None:
+            for rule in ROWS_BY_STATE[crew.status, crew.scope_kind]:  # ``first_rule``
+                if rule.trigger(crew, ctx):
+                    break
+            else:  # no row fires
+                settled[crew.index] = site.version
                 break
+            if rule is _EXECUTION:  # c2, its state's last row: no other row fires
+                settled[crew.index] = site.version
             rule.effect(crew, ctx)
-            ctx.reached.pop(crew.index, None)
+            reached.pop(crew.index, None)
             codes.append(rule.code)
             if rule.code in TERMINAL_ROWS:
                 break

@@ -79,8 +79,9 @@ class Advance:
         second (nothing changes between the spans' ends) and as they stand at its end."""
         k = span.seconds
         self.elapsed += k
-        for i, r in enumerate(span.rewards):
-            self.rewards[i] += r
+        if any(span.rewards):  # none on a motion without actions: adding 0.0 changes nothing
+            for i, r in enumerate(span.rewards):
+                self.rewards[i] += r
         if k == 1:
             for name, v in span.terms.items():
                 self.terms[name] += v
@@ -229,7 +230,8 @@ class Engine:
         crews = site.crews
         n = len(crews)
         self.spans_run += 1
-        span = Span(k, [c.moving for c in crews], [c.moving and bool(c.scope) for c in crews],
+        moving = [c.moving for c in crews]
+        span = Span(k, moving, [m and bool(c.scope) for m, c in zip(moving, crews, strict=True)],
                     [0.0] * n, [None] * n, self._no_rewards, terms_before=self._terms,
                     timeouts=[0] * n, disrupted=bool(site.disrupted))
         quiet = motion.quiet(self)

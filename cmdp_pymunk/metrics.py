@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from .physics import COMPONENT, CREW, STORAGE, TASK_AREA, WALL
-from .state import CrewStatus, Site
+from .state import REACHING, WAITING, Site
 
 if TYPE_CHECKING:
     from .motion import Span
@@ -59,24 +59,26 @@ class Counters:
         are read from ``span.states`` where the motion took them, else as the crew stands
         now (a second is counted by the state it ends in)."""
         k = span.seconds
-        states = span.states
+        states, moving, had_target = span.states, span.moving, span.had_target
+        windows = self.window
         for crew in self.site.crews:
             i = crew.index
-            stats, window = crew.stats, self.window[i]
+            stats = crew.stats
             disruption, status, idle_cause = states[i] if states is not None else \
                 (crew.disruption, crew.status, crew.idle_cause)
             if disruption:  # kept from working by a disruption, whatever it does
                 stats.idle_steps[disruption] += k
-            if span.moving[i]:
+            if moving[i]:
+                window = windows[i]
                 stats.distance_m += span.distance_m[i]
-                if span.had_target[i]:
+                if had_target[i]:
                     stats.reaching_steps += k
                     window["reaching"] += k
                     timeouts = span.timeouts[i]  # still after it past a step cap (its clock)
                     if timeouts:
                         stats.reach_timeouts += timeouts
                         window["timeouts"] += timeouts
-                elif status == CrewStatus.REACHING and idle_cause:
+                elif status == REACHING and idle_cause:
                     stats.idle_steps[idle_cause] += k
                 contacts = span.contacts[i]
                 if contacts is not None:
@@ -85,5 +87,5 @@ class Counters:
                     stats.congestion_entries += entries
                     window["collisions"] += hits
                     window["congestion"] += entries
-            elif status == CrewStatus.WAITING:
+            elif status == WAITING:
                 stats.crane_wait_steps += k

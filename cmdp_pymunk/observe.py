@@ -42,6 +42,8 @@ from . import disruptions
 from .physics import N_KINDS, STORAGE, Physics
 from .state import CrewState, Pool, Site
 
+_UNSTARTED = (Pool.QUEUE, Pool.WAIT)  # as module names: asked per target at every decision
+
 VELOCITY_FEATURES = 3
 MEMORY_FEATURES = 4
 VALUES_PER_RAY = 4
@@ -333,17 +335,20 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
                    + disruptions.feature_size(site.case), dtype=np.float32)
     out[:CREW_FEATURES] = (position[0] / half_w, position[1] / half_h, math.cos(heading),
                            math.sin(heading), crew.load / crew.capacity if crew.capacity else 0.0)
-    mine = {site.tasks[t].component: site.tasks[t] for t in site.tasks_of_crew_type[crew.type]}
+    tasks = site.tasks
+    mine = {tasks[t].component: tasks[t] for t in site.tasks_of_crew_type[crew.type]}
     spec = crew.spec
     end = CREW_FEATURES + TARGET_FEATURES * site.n_targets
-    rows = out[CREW_FEATURES:end].reshape(site.n_targets, TARGET_FEATURES)
     if end < len(out):
         disruptions.features(site, out[end:])
-    n_comp = len(site.components)
-    for target in range(site.n_targets):
-        row = rows[target]
-        tx, ty = site.target_xy[target]
-        kind = 0 if target < n_comp else (1 if target < site.outlet_target else 2)
+    n_comp, outlet, scope = len(site.components), site.outlet_target, crew.scope
+    x, y = position[0], position[1]
+    # every target's row as plain floats, written into the array at once (one float32 cast
+    # each, as element by element): a write per float cost more than the rest
+    values: list[float] = []
+    for target, (tx, ty) in enumerate(site.target_points):
+        row = [0.0] * TARGET_FEATURES
+        kind = 0 if target < n_comp else (1 if target < outlet else 2)
         row[kind] = 1.0
         row[3] = -1.0
         row[4], row[5] = tx / half_w, ty / half_h
@@ -354,8 +359,9 @@ def evaluation_observation(site: Site, crew: CrewState, position, heading: float
             remaining = 1.0 - task.progress / task.work
             row[7] = spec.mean_seconds(task.work) * remaining / EXPECTED_TIME_SCALE_S
             row[10] = task.all_successors / n_tasks
-            row[11] = sum(site.tasks[o].pool in (Pool.QUEUE, Pool.WAIT)
-                          for o in task.conflicts) / n_tasks
-        row[8] = 1.0 if target in crew.scope else 0.0
-        row[9] = math.hypot(tx - position[0], ty - position[1]) / diag
+            row[11] = sum(tasks[o].pool in _UNSTARTED for o in task.conflicts) / n_tasks
+        row[8] = 1.0 if target in scope else 0.0
+        row[9] = math.hypot(tx - x, ty - y) / diag
+        values += row
+    out[CREW_FEATURES:end] = values
     return np.clip(out, bounds[0], bounds[1], out=out)

@@ -266,9 +266,11 @@ class Site:
             t.conflicts = tuple(np.flatnonzero(conflicting[t.index]).tolist())
         for t in self.tasks:
             t.all_successors = len(_descendants(t.index, succ))
+        of_component: list[list[int]] = [[] for _ in case.components]  # in task order
+        for t in self.tasks:
+            of_component[t.component].append(t.index)
         self.components = [
-            ComponentState(i, c.id, c.kind, c.shape,
-                           tuple(t.index for t in self.tasks if t.component == i))
+            ComponentState(i, c.id, c.kind, c.shape, tuple(of_component[i]))
             for i, c in enumerate(case.components)]
         n_comp = len(self.components)
         self.storages = [

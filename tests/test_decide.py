@@ -233,6 +233,8 @@ def test_no_state_fires_two_rows():
         hits = [r.code for r in decide.DECISION_TABLE if r.trigger(crew, ctx)]
         indexed = {r.code for r in decide.ROWS_BY_STATUS[status]}
         assert set(hits) <= indexed, (status.name, hits)
+        tried = {r.code for r in decide.ROWS_BY_STATE[status, kind]}  # a reaching crew's by kind
+        assert set(hits) <= tried, (status.name, kind.name, hits)
         if len(hits) > 1:
             overlaps.append((status.name, kind.name, paused, reached, load, done, assisted,
                              stock, current, pool.name, hits))
@@ -249,3 +251,11 @@ def test_waiting_and_deregistered_crews_try_no_row():
     # in test_no_state_fires_two_rows)
     assert decide.ROWS_BY_STATUS[CrewStatus.WAITING] == ()
     assert decide.ROWS_BY_STATUS[CrewStatus.DEREGISTERED] == ()
+
+
+def test_execution_is_the_last_row_its_crews_try():
+    """``apply_decision_table`` settles a crew when c2 fires: that no other row would fire
+    holds only while c2 is the last row of every state (and scope kind) it is tried in."""
+    c2 = next(r for r in decide.DECISION_TABLE if r.code == "c2")
+    holders = [rows for rows in decide.ROWS_BY_STATE.values() if c2 in rows]
+    assert holders and all(rows[-1] is c2 for rows in holders)

@@ -236,8 +236,8 @@ def test_a_walks_congestion_from_its_kept_path_is_congestion_along_it():
         walk = planner.walk(site, crew, start, task.component, 0.0, 1.0)
         path = planner.path(site, crew, start, task.component, task.index)
         got = planner._congestion(site, path, start)
-        want = congestion_along(site, walk.xs[:-1], walk.ys[:-1])
-        assert got.tolist() == want.tolist(), trial
+        want = congestion_along(site, np.asarray(walk.xs[:-1]), np.asarray(walk.ys[:-1]))
+        assert got == want.tolist(), trial
         # and its metres at each point are its steps' (made from the kept path's steps)
         steps = np.hypot(np.diff(walk.xs), np.diff(walk.ys))
         assert walk.distances == np.concatenate(((0.0,), np.cumsum(steps))).tolist()

@@ -152,6 +152,8 @@ class WalkMotion:
         self._calibration = calibration
         self.planner: WalkPlanner | None = None
         self.walks: list[Walk | None] = []
+        # per crew, the (values, scope) its walk was last chosen by (``replan``)
+        self._chosen_by: list[tuple | None] = []
         self._fitted: dict = {}
         self._settled: dict | None = None  # the last table's ``decide.Context.settled``
         self._disruption_edges: tuple | None = None  # (windows, their edges): see its use
@@ -179,6 +181,7 @@ class WalkMotion:
 
     def begin(self, engine: Engine) -> None:
         self.walks = [None] * len(engine.case.crews)
+        self._chosen_by = [None] * len(engine.case.crews)
         self._settled = None
 
     def quiet(self, engine: Engine) -> bool:
@@ -206,9 +209,10 @@ class WalkMotion:
         soonest = min(engine.max_time_s - now,
                       construct.next_change_in(site, engine.positions, self.invasion_of))
         every = site.case.simulation.reevaluate_after_steps
+        walks = self.walks
         for crew in site.crews:
-            walk = self.walks[crew.index] if crew.moving and not crew.absent else None
-            if walk is None:
+            walk = walks[crew.index]
+            if walk is None or not crew.moving:
                 continue
             if walk.arrival_s > now:
                 soonest = min(soonest, walk.arrival_s - now)
@@ -227,19 +231,20 @@ class WalkMotion:
         span.states = crew_states(site)
         now, then = site.time_s, site.time_s + k
         cap = site.case.simulation.reevaluate_after_steps
-        positions, world = engine.positions, engine.world
+        positions, world, walks = engine.positions, engine.world, self.walks
+        moving, had_target = span.moving, span.had_target  # as the crews stand now
         for crew in site.crews:
             i = crew.index
-            walk = self.walks[i]
-            if walk is None or not crew.moving:
-                span.had_target[i] = False
+            walk = walks[i]
+            if walk is None or not moving[i]:
+                had_target[i] = False
                 continue
             if crew.scope:
                 walked = walk.distance_at(now)  # asked at the last event (kept there)
                 span.distance_m[i] = walk.distance_at(then) - walked
                 span.timeouts[i] = tick_reach_clock(crew, k, cap)
             else:
-                span.had_target[i] = False
+                had_target[i] = False
             xy = walk.at(then)
             positions[i] = xy
             world.place(i, xy, walk.heading())
@@ -258,26 +263,32 @@ class WalkMotion:
     def replan(self, engine: Engine) -> None:
         """Each crew on the move heads for its best target: a new walk from where it stands
         when that target changed (or it has none yet); none for a crew without values."""
-        site = engine.site
+        site, walks, chosen_by = engine.site, self.walks, self._chosen_by
         for crew in site.crews:
             i = crew.index
             if not crew.moving:
-                self.walks[i] = None
+                walks[i] = None
+                continue
+            walk = walks[i]
+            values, scope = crew.values, crew.scope
+            # the values and scope its walk was chosen by (a crew's dicts are replaced, never
+            # changed in place): the same best target, asked for every crew at every event
+            by = chosen_by[i]
+            if walk is not None and by is not None and by[0] is values and by[1] is scope:
                 continue
             target = best_target(crew)
-            walk = self.walks[i]
             if target < 0:
                 # values asked from outside come before any time passes: the walk holds until
                 # they do (so values from outside run as the same rule injected)
                 if i not in engine.pending:
-                    self.walks[i] = None
+                    walks[i] = None
                 continue
-            task = crew.scope.get(target, -1)
-            if walk is not None and walk.target == target and walk.task == task:
-                continue
-            fitted = self._fitted[crew.type]
-            self.walks[i] = self.planner.walk(site, crew, engine.positions[i], target,
-                                              site.time_s, fitted.walk_factor, fitted.dock_s)
+            task = scope.get(target, -1)
+            if walk is None or walk.target != target or walk.task != task:
+                fitted = self._fitted[crew.type]
+                walks[i] = self.planner.walk(site, crew, engine.positions[i], target,
+                                             site.time_s, fitted.walk_factor, fitted.dock_s)
+            chosen_by[i] = (values, scope)
 
     def _next_disruption_change(self, engine: Engine, now: float) -> float:
         """The next whole second at which a disruption window opens or closes."""

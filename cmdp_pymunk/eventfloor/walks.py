@@ -58,62 +58,59 @@ def congestion_along(site: Site, xs: np.ndarray, ys: np.ndarray) -> np.ndarray:
         axis=1, initial=1.0)
 
 
-def walking_velocities(crew: CrewState, congestion: np.ndarray,
-                       lateral_m_s: float) -> np.ndarray:
+def walking_velocities(crew: CrewState, congestion, lateral_m_s: float) -> list[float]:
     """The crew's forward maximum (m/s) under Eq. 1 at each congestion index:
     max(c * I_area * v_f, v_min), v_min the lower of v_f and the lateral velocity
-    (``move.velocity_limits``)."""
+    (``move.velocity_limits``). On plain floats: a walk has a few dozen points, where
+    numpy's per-call cost is most of the work."""
     v_f = crew.spec.velocity_m_s
     c = crew.spec.carry_deceleration if crew.load > 0.0 else 1.0
-    return np.maximum(c * congestion * v_f, min(v_f, lateral_m_s))
+    v_min = min(v_f, lateral_m_s)
+    return [max(c * index * v_f, v_min) for index in congestion]
 
 
 @dataclass(eq=False)
 class Walk:
     """One walk: where it goes, the points it passes and when (seconds from its start, the
-    calibrated walk factor applied), and when it arrives (a simulated second)."""
+    calibrated walk factor applied), and when it arrives (a simulated second).
+
+    The points, times and metres are plain lists of floats: every event looks up where each
+    walker is and how far it walked, and on lists a lookup costs a bisection, not numpy's
+    per-call overhead (the same numbers)."""
 
     target: int
     task: int  # the task index behind a component target, or -1
     start_s: float
-    xs: np.ndarray
-    ys: np.ndarray
-    times: np.ndarray  # cumulative seconds at each point, ``times[-1]`` the whole walk
+    xs: list[float]
+    ys: list[float]
+    times: list[float]  # cumulative seconds at each point, ``times[-1]`` the whole walk
     arrival_s: float
-    distances: list | None = None  # cumulative metres at each point (None: made when asked)
-    # Every event looks up where each walker is and how far it walked: on plain lists (the
-    # same numbers) a lookup costs a bisection, not numpy's per-call overhead; the last
-    # distance asked is kept, as each event asks again for the one the last event asked for.
-    _points: tuple = field(init=False, repr=False)
+    distances: list[float]  # cumulative metres at each point
+    # the last distance asked (time, metres): each event asks again for the one the last
+    # event asked for
     _last_distance: tuple = field(init=False, repr=False, default=(math.nan, 0.0))
-
-    def __post_init__(self):
-        self._points = (self.times.tolist(), self.xs.tolist(), self.ys.tolist())
 
     def at(self, time_s: float) -> tuple[float, float]:
         """Where the crew is at ``time_s`` (on the path's points; at the start before it,
         at the end after it)."""
-        times, xs, ys = self._points
+        xs = self.xs
         if time_s >= self.arrival_s:
-            return xs[-1], ys[-1]
-        k = bisect.bisect_right(times, time_s - self.start_s) - 1
+            return xs[-1], self.ys[-1]
+        k = bisect.bisect_right(self.times, time_s - self.start_s) - 1
         k = min(max(k, 0), len(xs) - 1)
-        return xs[k], ys[k]
+        return xs[k], self.ys[k]
 
     def distance_at(self, time_s: float) -> float:
         """Metres walked along the path by ``time_s`` (linear between its points)."""
         if self._last_distance[0] == time_s:
             return self._last_distance[1]
-        if self.distances is None:
-            steps = np.hypot(np.diff(self.xs), np.diff(self.ys))
-            self.distances = np.concatenate(((0.0,), np.cumsum(steps))).tolist()
-        metres = _interp(time_s - self.start_s, self._points[0], self.distances)
+        metres = _interp(time_s - self.start_s, self.times, self.distances)
         self._last_distance = (time_s, metres)
         return metres
 
     def heading(self) -> float:
         """The heading of the walk's last step (rad)."""
-        _, xs, ys = self._points
+        xs, ys = self.xs, self.ys
         if len(xs) < 2:
             return 0.0
         return math.atan2(ys[-1] - ys[-2], xs[-1] - xs[-2])
@@ -121,21 +118,31 @@ class Walk:
 
 class _Path:
     """A kept path: its points from a free cell into the goal's reach region, the length of
-    each step between them, and which of its points (but the last) each area holds."""
+    each step between them, and which of its points (but the last) each area holds; as plain
+    lists of floats, what a walk is made of."""
 
     def __init__(self, px: np.ndarray, py: np.ndarray):
-        self.px, self.py = px, py
-        self.steps = np.hypot(np.diff(px), np.diff(py))
-        self.held: dict[Rect, np.ndarray] = {}  # rect -> indices into a walk's points
+        self.px, self.py = px.tolist(), py.tolist()
+        self.steps = np.hypot(np.diff(px), np.diff(py)).tolist()
+        self.held: dict[Rect, list[int]] = {}  # rect -> indices into a walk's points
+        # the box around its points but the last: most areas lie off a path, and are told so
+        # by four comparisons
+        xs, ys = self.px[:-1], self.py[:-1]
+        self.box = (min(xs), min(ys), max(xs), max(ys)) if xs else \
+            (math.inf, math.inf, -math.inf, -math.inf)
 
-    def points_in(self, rect: Rect) -> np.ndarray:
+    def points_in(self, rect: Rect) -> list[int]:
         """The indices, among a walk's points (its start first), of this path's points but
         the last that ``rect`` holds."""
-        px, py = self.px[:-1], self.py[:-1]
-        if type(rect) is Outline:
-            return np.flatnonzero(contains(rect, px, py)) + 1
-        return np.flatnonzero((px >= rect[0]) & (px <= rect[2]) & (py >= rect[1])
-                               & (py <= rect[3])) + 1
+        x0, y0, x1, y1 = rect  # an outline's bounding box, too
+        bx0, by0, bx1, by1 = self.box
+        if x0 > bx1 or x1 < bx0 or y0 > by1 or y1 < by0:
+            return []
+        if type(rect) is Outline:  # a polygon: its own test on the points in its box
+            px, py = np.asarray(self.px[:-1]), np.asarray(self.py[:-1])
+            return [int(k) + 1 for k in np.flatnonzero(contains(rect, px, py))]
+        return [k + 1 for k, (x, y) in enumerate(zip(self.px[:-1], self.py[:-1], strict=True))
+                if x0 <= x <= x1 and y0 <= y <= y1]
 
 
 class _Radius:
@@ -230,20 +237,27 @@ class WalkPlanner:
         task = crew.scope.get(target, -1)
         path = self.path(site, crew, start, target, task)
         px, py = path.px, path.py
-        xs = np.concatenate(((start[0],), px))
-        ys = np.concatenate(((start[1],), py))
-        first = math.hypot(px[0] - start[0], py[0] - start[1])
-        speed = walking_velocities(crew, self._congestion(site, path, start), self.lateral_m_s)
-        times = np.empty(len(xs))
-        times[0] = 0.0
-        np.cumsum(np.concatenate(((first,), path.steps)) / speed, out=times[1:])
-        times *= walk_factor
+        x, y = float(start[0]), float(start[1])
+        congestion = self._congestion(site, path, start)
+        # Eq. 1's velocity at each point, worked out once per congestion index (most points
+        # lie outside every area, at 1)
+        indices = list(dict.fromkeys(congestion))
+        velocity = dict(zip(indices, walking_velocities(crew, indices, self.lateral_m_s),
+                            strict=True))
+        # each step's length over its Eq. 1 velocity, summed in order (numpy's cumsum did the
+        # same additions), times the walk factor; and the metres at each point
+        # (``Walk.distance_at``), from the path's kept steps
+        elapsed = math.hypot(px[0] - x, py[0] - y) / velocity[congestion[0]]
+        metres = float(np.hypot(px[0] - x, py[0] - y))
+        times, distances = [0.0, elapsed * walk_factor], [0.0, metres]
+        for length, index in zip(path.steps, congestion[1:], strict=True):
+            elapsed += length / velocity[index]
+            times.append(elapsed * walk_factor)
+            metres += length
+            distances.append(metres)
         times[-1] += dock_s  # turning to the target and docking at it, once per arrival
         arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
-        # the metres at each point (``Walk.distance_at``) from the path's kept steps
-        lengths = np.concatenate(((np.hypot(px[0] - start[0], py[0] - start[1]),), path.steps))
-        distances = np.concatenate(((0.0,), np.cumsum(lengths))).tolist()
-        return Walk(target, task, now_s, xs, ys, times, arrival, distances)
+        return Walk(target, task, now_s, [x, *px], [y, *py], times, arrival, distances)
 
     def path(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
              task: int) -> _Path:
@@ -261,20 +275,22 @@ class WalkPlanner:
             path = layer.paths[key] = self._path(radius, goal, region, cell, layer)
         return path
 
-    def _congestion(self, site: Site, path: _Path, start: tuple[float, float]) -> np.ndarray:
+    def _congestion(self, site: Site, path: _Path, start: tuple[float, float]) -> list[float]:
         """``congestion_along(site, xs[:-1], ys[:-1])`` of the walk ``xs`` from ``start``
         along ``path`` (a test holds the two equal). Which of a path's points an area holds
         never changes, so it is kept per path and area: a walk looks up only the areas on
         the plane now, instead of testing every point against every area."""
-        out = np.ones(len(path.px))  # the start, then the path's points but the last
+        out = [1.0] * len(path.px)  # the start, then the path's points but the last
         x, y = start
+        held_by = path.held
         for rect, index in congestion_areas(site):
-            held = path.held.get(rect)
+            held = held_by.get(rect)
             if held is None:
-                held = path.held[rect] = path.points_in(rect)
-            if held.size:
-                out[held] = np.minimum(out[held], index)
-            if inside(x, y, rect) and index < out[0]:
+                held = held_by[rect] = path.points_in(rect)
+            for k in held:
+                if index < out[k]:
+                    out[k] = index
+            if index < out[0] and inside(x, y, rect):
                 out[0] = index
         return out
 
