@@ -52,11 +52,44 @@ student's own states, fit, make the student the next base) are
 
 from __future__ import annotations
 
+import io
+import json
+import pickle
 import sys
 import time
 from pathlib import Path
 
+import gymnasium
 import numpy as np
+import torch
+from gymnasium import spaces
+from scipy.optimize import minimize
+from stable_baselines3.common.vec_env import DummyVecEnv
+from tqdm import tqdm
+
+import cmdp_pymunk
+from agents.candidates import CANDIDATE_COLUMNS, observation_bounds, type_columns
+from agents.features import ALL_FEATURES, FEATURE_NAMES, FloorFacts, candidate_features
+from agents.lookahead import LookaheadEvaluator
+from agents.navigator import Navigator
+from agents.specs import evaluator_from_spec, make_lookahead
+from agents.student import StudentEvaluator
+from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.evaluate import PriorityEvaluator
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.rollout import run_episode
+from training.cli import OneLineParser, add_ray_option, seed_list
+from training.research.label_noise import noise
+from training.research.labelling import Labeller
+from training.research.relabel import _relabel_job, replace_option
+from training.runs.backends import BackendError, open_backend
+from training.stage2 import (
+    DEFAULT_CONFIG,
+    Stage2Config,
+    crew_types,
+    new_candidate_model,
+    student_weights,
+)
 
 FIT_DEFAULTS = {"tau_s": 300.0, "l2": 1.0}
 
@@ -66,7 +99,6 @@ FIT_DEFAULTS = {"tau_s": 300.0, "l2": 1.0}
 def lookahead_settings(candidates: int, futures: int | str):
     """``LookaheadSettings`` for ``--candidates`` and ``--futures`` (an int, or "expected"), as
     ``--evaluator lookahead:candidates=K+futures=F`` reads them."""
-    from agents.specs import make_lookahead
 
     return make_lookahead(f"candidates={candidates}+futures={futures}").settings
 
@@ -85,7 +117,6 @@ def teacher_options(text: str) -> str:
     """``--teacher``: the lookahead's options (``candidates=3+futures=16+race=4+floor=event+
     base=SPEC``; a leading ``lookahead:`` is allowed), checked by building the lookahead once
     (a bad option or a missing base file fails here, naming the fix)."""
-    from agents.specs import make_lookahead
 
     options = text.removeprefix("lookahead:")
     try:
@@ -98,7 +129,6 @@ def teacher_options(text: str) -> str:
 def features_option(text: str) -> tuple[str, ...]:
     """``--features``: ``all`` (``ALL_FEATURES``), ``first`` (``FEATURE_NAMES``) or names from
     ``ALL_FEATURES`` joined by commas, each once."""
-    from agents.features import ALL_FEATURES, FEATURE_NAMES
 
     if text in ("all", "first"):
         return ALL_FEATURES if text == "all" else FEATURE_NAMES
@@ -119,15 +149,6 @@ def label_floor(case_path: str | None, seed: int, candidates: int = 3,
     (``decision_state``). ``teacher``: the lookahead's options (``teacher_options``), instead
     of ``candidates`` and ``futures`` (a base rule of Eq. 9); ``features``: the candidate
     features kept (default ``FEATURE_NAMES``)."""
-    import cmdp_pymunk
-    from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
-    from agents.lookahead import LookaheadEvaluator
-    from agents.navigator import Navigator
-    from agents.specs import evaluator_from_spec, make_lookahead
-    from cmdp_pymunk.engine import Engine
-    from cmdp_pymunk.evaluate import PriorityEvaluator
-    from cmdp_pymunk.rollout import run_episode
-    from training.research.labelling import Labeller
 
     features = tuple(features or FEATURE_NAMES)
     case = cmdp_pymunk.load_case(case_path)
@@ -159,7 +180,8 @@ def label_floor(case_path: str | None, seed: int, candidates: int = 3,
     start = time.perf_counter()
     run_episode(engine, navigator, seed, stall_s=3600.0, progress=False)
     return {"seed": seed, "makespan_s": engine.makespan_s, "rows": rows,
-            "wall_s": time.perf_counter() - start, "overrides": lookahead.teacher.summary()["overrides"],
+            "wall_s": time.perf_counter() - start,
+            "overrides": lookahead.teacher.summary()["overrides"],
             "teacher": f"lookahead:{options}", "candidates": spec.settings.candidates,
             "features": features, "acting": acting or "", "states": snapshots}
 
@@ -172,9 +194,7 @@ def decision_state(engine, low_level, i: int, candidates: list[int]) -> bytes:
     without running the teacher again; a branch from it with the low level's copy is the
     teacher's own branch (the scripted navigator keeps state: a fresh one walks differently).
     A pickle of this code's classes: read it with the same commit."""
-    import pickle
 
-    from cmdp_pymunk.evaluate import PriorityEvaluator
 
     # A clone rebuilds the original's world as the lookahead's own branches do at this
     # decision (a second rebuild from the same data changes nothing; tested).
@@ -189,7 +209,6 @@ def save_labels(path: Path, result: dict, candidates: int | None = None) -> None
     marks the floor as done): per decision the crew type, the candidates' Eq. 9 values,
     features and makespans (NaN-padded to ``candidates``, default the teacher's), the
     teacher's choice; the feature names, the teacher and the acting policy."""
-    from agents.features import FEATURE_NAMES
 
     rows = result["rows"]
     names = tuple(result.get("features") or FEATURE_NAMES)
@@ -201,16 +220,12 @@ def save_labels(path: Path, result: dict, candidates: int | None = None) -> None
         m = len(values)
         v[r, :m], phi[r, :m], makespan[r, :m] = values, features, makespans
     if result.get("states"):
-        import pickle
 
-        from cmdp_pymunk.events import write_atomic
 
         # written before the label file, whose presence marks the floor as done
         write_atomic(path.with_name(path.name.replace(".npz", ".states.pkl")),
                      pickle.dumps(result["states"], protocol=pickle.HIGHEST_PROTOCOL))
-    import io
 
-    from cmdp_pymunk.events import write_atomic
 
     blob = io.BytesIO()
     np.savez_compressed(blob, crew_type=np.array([r[0] for r in rows], dtype="U8"), values=v,
@@ -229,18 +244,13 @@ def _label_job(runner, case_path, seed, candidates, futures, acting=None, states
 
 
 def label(args) -> int:
-    from tqdm import tqdm
 
-    from training.cli import seed_list
-    from training.runs.backends import open_backend
 
     teacher = label_teacher(args)  # bad settings fail before any floor runs
     features = features_option(args.features)
-    import cmdp_pymunk
 
     cmdp_pymunk.load_case(args.case)  # and so does a bad case file
     if args.acting:
-        from agents.specs import evaluator_from_spec
 
         evaluator_from_spec(args.acting)  # so does a missing or unreadable acting policy
     out = Path(args.out)
@@ -295,7 +305,6 @@ def load_labels(folders: Path | str | list) -> dict:
     folders in order) as one set of arrays, with ``feature_names``: the features' columns,
     which every file must share (a file written before they were stored holds
     ``FEATURE_NAMES``)."""
-    from agents.features import FEATURE_NAMES
 
     folders = [folders] if isinstance(folders, (str, Path)) else list(folders)
     files = [f for folder in folders for f in label_files(folder)]
@@ -356,7 +365,6 @@ def fit_weights(data: dict, tau_s: float, l2: float,
     ``weights="gap"``: each decision's cross-entropy weighted by ``choice_weights`` (over the
     crew type's rows), so the fit spends itself where a choice costs seconds. L-BFGS from a
     fixed start: the same labels give the same weights."""
-    from scipy.optimize import minimize
 
     if weights not in FIT_WEIGHTS:
         raise ValueError(f"fit weights {weights!r}: give one of {', '.join(FIT_WEIGHTS)}")
@@ -412,7 +420,6 @@ def select_features(data: dict, names: tuple[str, ...] | None) -> dict:
 
 
 def fit(args) -> int:
-    from agents.student import StudentEvaluator
 
     data = load_labels([Path(f) for f in args.labels])
     data = select_features(data, features_option(args.features) if args.features else None)
@@ -452,7 +459,6 @@ def choice_rows(data: dict, cap: int, types: tuple[str, ...] = ()) \
     padded with zeros) and the mask of real candidates. ``types``: typed rows, each ending in
     the one-hot of the decision's ``crew_type`` over this vocabulary (``CREW_TYPES``; a type
     outside it: zeros)."""
-    from agents.candidates import CANDIDATE_COLUMNS, observation_bounds, type_columns
 
     values, features = data["values"], data["features"]
     names = tuple(data.get("feature_names", CANDIDATE_COLUMNS[1:]))
@@ -488,11 +494,7 @@ def choice_venv(cap: int, types: int = 0):
     """A vector env with only the spaces of a masked-choice floor (``training.candidate_loop``;
     ``types``: that many crew-type columns a row): enough to build the model without running
     floors."""
-    import gymnasium
-    from gymnasium import spaces
-    from stable_baselines3.common.vec_env import DummyVecEnv
 
-    from agents.candidates import observation_bounds
 
     low, high = observation_bounds(cap, types)
 
@@ -517,7 +519,6 @@ def new_choice_model(cap: int, start_rule: str, seed: int, typed: bool = False,
     """A fresh masked-choice MaskablePPO (``training.stage2``'s, from
     ``training/configs/stage2_candidate.toml``) that starts as Eq. 9 or as ``start_rule``
     (typed: a per-type student, ``Stage2Config.typed``); ``hold_choice`` is saved with it."""
-    from training.stage2 import DEFAULT_CONFIG, Stage2Config, crew_types, new_candidate_model
 
     settings = Stage2Config.load(DEFAULT_CONFIG.with_name("stage2_candidate.toml")).model_dump()
     config = Stage2Config.model_validate({**settings, "candidates": cap,
@@ -549,7 +550,6 @@ def fit_choice_model(data: dict, cap: int, start_rule: str = "", seed: int = 0,
     ``validation`` share of the seeds); returns the model and a report. ``typed``: typed
     rows from the labels' ``crew_type`` and a per-type term (``Stage2Config.typed``);
     ``hold_choice``: saved with the model."""
-    import torch
 
     settings = {**MODEL_FIT_DEFAULTS, **(settings or {})}
     torch.manual_seed(seed)
@@ -621,7 +621,6 @@ def fit_model(args) -> int:
     data = load_labels([Path(f) for f in args.labels])
     cap = args.candidates or data["values"].shape[1]
     if args.start_rule and not args.candidates:
-        from agents.student import StudentEvaluator
 
         # the rule's own candidate count (labels of fewer leave the other rows masked)
         cap = max(cap, StudentEvaluator.load(args.start_rule).candidates)
@@ -642,9 +641,7 @@ def fit_model(args) -> int:
 def save_model(model, out: Path, meta: dict, command: str) -> None:
     """The model zip and ``NAME.distill.json`` (``meta``) beside it, each written whole and
     moved into place (the zip last, so a zip always has its json)."""
-    import json
 
-    from cmdp_pymunk.events import write_atomic
 
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(out.stem + ".tmp.zip")
@@ -662,10 +659,7 @@ def student_model(args) -> int:
     ``args.student`` (``agents.student``; no training): the default stage-2 candidate config
     with the student's ``candidates``, the per-type weights in the policy's per-type term
     (``CandidateScorer.start_from_student``), ``--hold-choice`` saved with it."""
-    import json
 
-    from agents.student import StudentEvaluator
-    from training.stage2 import student_weights
 
     cap = StudentEvaluator.load(args.student).candidates  # a bad file fails here, named
     student = student_weights(args.student, cap, "student-model")  # and other features here
@@ -686,14 +680,8 @@ def student_model(args) -> int:
 def relabel(args) -> int:
     """``relabel`` (``training.research.relabel``): the label folders' floors replayed, with
     other features, into ``--out`` (resumes; each file written whole)."""
-    import io
 
-    from tqdm import tqdm
 
-    import cmdp_pymunk
-    from cmdp_pymunk.events import write_atomic
-    from training.research.relabel import _relabel_job, replace_option
-    from training.runs.backends import open_backend
 
     features = features_option(args.features)
     replace = [replace_option(r) for r in args.replace]
@@ -739,8 +727,6 @@ def add_relabel_parser(sub) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from training.cli import OneLineParser, add_ray_option
-    from training.runs.backends import BackendError
 
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = OneLineParser(prog="python -m training.research.distill",
@@ -829,7 +815,6 @@ def main(argv: list[str] | None = None) -> int:
     add_relabel_parser(sub)
     args = parser.parse_args(argv)
     args.argv = argv
-    from training.research.label_noise import noise
 
     commands = {"label": label, "fit": fit, "fit-model": fit_model,
                 "student-model": student_model, "noise": noise,

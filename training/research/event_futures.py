@@ -29,10 +29,12 @@ import numpy as np
 import cmdp_pymunk
 from agents.navigator import Navigator
 from agents.priority import PriorityEvaluator
+from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import Evaluator
 from cmdp_pymunk.eventfloor import WalkMotion, calibration_for
 from cmdp_pymunk.rollout import run_episode
 from cmdp_pymunk.state import ScopeKind
+from training.cli import seed_list
 
 SCENARIO_BASE = 7_000_000  # far from the lookahead's and label_noise's keys
 
@@ -108,7 +110,6 @@ def split(rows: list[dict]) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from training.cli import seed_list
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     cmdp_pymunk.add_version_flag(p)
@@ -123,7 +124,6 @@ def main(argv: list[str] | None = None) -> None:
     rows, cpu, branches = [], 0.0, 0
     for seed in args.seeds:
         probe = FutureProbe(calibration, args.futures, args.every, args.candidates, seed)
-        from cmdp_pymunk.engine import Engine
 
         engine = Engine(case, evaluator=probe, park_idle=True)
         run_episode(engine, Navigator(), seed, 3600.0, progress=False)

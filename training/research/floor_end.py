@@ -18,6 +18,12 @@ from pathlib import Path
 
 import numpy as np
 
+import cmdp_pymunk
+from agents.specs import evaluator_from_spec
+from cmdp_pymunk.events import write_atomic
+from training.cli import OneLineParser, seed_list
+from training.runs.runner import EpisodeRunner
+
 
 def floor_end(tasks, makespan_s: float, last: str = "R", then: str = "F") -> dict:
     """For one finished floor (``tasks`` with ``type``, ``started_s`` and ``ended_s``): the
@@ -36,7 +42,6 @@ def floor_end(tasks, makespan_s: float, last: str = "R", then: str = "F") -> dic
 def floor_row(runner, strategy: str, seed: int, last: str, then: str) -> dict:
     """One seed's floor under ``strategy`` (the scripted navigator), as ``floor_end``'s row;
     ValueError if the floor did not finish."""
-    from agents.specs import evaluator_from_spec
 
     engine, _ = runner.play(evaluator_from_spec(strategy), "scripted", seed)
     if engine.makespan_s is None:
@@ -45,7 +50,6 @@ def floor_row(runner, strategy: str, seed: int, last: str, then: str) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from training.cli import OneLineParser, seed_list
 
     p = OneLineParser(prog="python -m training.research.floor_end",
                       description=__doc__.split("\n")[0])
@@ -56,9 +60,6 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--case", default=None, help="case file (default: built-in)")
     p.add_argument("--out", default="", help="also write the rows and means (JSON) here")
     args = p.parse_args(sys.argv[1:] if argv is None else argv)
-    import cmdp_pymunk
-    from agents.specs import evaluator_from_spec
-    from training.runs.runner import EpisodeRunner
 
     try:
         case = cmdp_pymunk.load_case(args.case)
@@ -84,7 +85,6 @@ def main(argv: list[str] | None = None) -> int:
           f"{means['started_after']:.2f}, running at it {means['running_at_it']:.2f}; the last "
           f"{args.then} task's duration {means['last_then_duration_s']:,.0f} s")
     if args.out:
-        from cmdp_pymunk.events import write_atomic
 
         write_atomic(Path(args.out), json.dumps({"strategy": args.strategy, "rows": rows,
                                                  "means": means}, indent=1))

@@ -34,7 +34,11 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import torch
 
+from agents.student import StudentEvaluator
+from cmdp_pymunk.events import write_atomic
+from training.cli import OneLineParser
 from training.research import distill
 
 CV_DEFAULTS = {"folds": 5, "fractions": (1.0,), "seed": 0}
@@ -77,7 +81,6 @@ def mlp_scorer(train: dict, hidden: int, epochs: int = 600, lr: float = 3e-3,
                weight_decay: float = 1e-3, seed: int = 0):
     """V' + net_type(phi), net_type a tanh network per crew type fitted by the same
     gap-weighted cross-entropy as the linear student (features standardised on ``train``)."""
-    import torch
 
     flat = train["features"].reshape(-1, train["features"].shape[2])
     mean, scale = flat.mean(0), flat.std(0) + 1e-6
@@ -127,7 +130,6 @@ def base_scores(data: dict, path: str | Path) -> np.ndarray:
     """A student file's scores of the labels' candidates, V' + w_type . phi (its own features,
     taken from the labels' columns by name; a crew type it has no weights for scores V'),
     NaN where the candidate is padding. ValueError naming the file and the missing columns."""
-    from agents.student import StudentEvaluator
 
     student = StudentEvaluator.load(path)
     have = list(data["feature_names"])
@@ -185,7 +187,6 @@ def noisy_best(data: dict, reference: np.ndarray | None = None) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from training.cli import OneLineParser
 
     argv = list(sys.argv[1:] if argv is None else argv)
     p = OneLineParser(prog="python -m training.research.label_cv",
@@ -256,7 +257,6 @@ def main(argv: list[str] | None = None) -> int:
     print(f"label_cv: the teacher's own noisy best, for scale: {nb['mean_s']:+.1f} ± "
           f"{nb['ci95_s']:.1f} s a decision (biased low)")
     if args.out:
-        from cmdp_pymunk.events import write_atomic
         write_atomic(Path(args.out), json.dumps(report, indent=1) + "\n")
     return 0
 

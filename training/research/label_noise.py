@@ -27,10 +27,19 @@ import functools
 import itertools
 import json
 import math
+import pickle
 import sys
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
+
+from agents.lookahead import LookaheadSettings, run_branch
+from agents.specs import make_lookahead
+from cmdp_pymunk.evaluate import PriorityEvaluator
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.streams import EXPECTED
+from training.runs.backends import open_backend
 
 LARGE_S = 500.0  # a candidate difference this large is a clear call in its future
 SCENARIO_BASE = 5_000_000  # far from the keys the lookahead draws (decision x futures)
@@ -45,8 +54,6 @@ def teacher_future(teacher: str):
     """The future the teacher's branches ran in (``streams.EXPECTED`` or None: the floor's
     own), or ``False`` for a sampled-futures teacher, whose branches cannot be replayed here.
     ``teacher``: a label file's spec, ``lookahead:candidates=K+futures=F``."""
-    from agents.specs import make_lookahead
-    from cmdp_pymunk.streams import EXPECTED
 
     settings = make_lookahead(teacher.partition(":")[2]).settings
     if settings.expected_paces:
@@ -56,7 +63,6 @@ def teacher_future(teacher: str):
 
 def load_states(path: Path) -> list[tuple]:
     """The decisions' floors of a ``seed-N.states.pkl`` (``decision_state``), in row order."""
-    import pickle
 
     with open(path, "rb") as f:
         blobs = pickle.load(f)
@@ -75,8 +81,6 @@ def _states(path: str) -> list[tuple]:
 def candidate_makespan(path: str, row: int, k: int, scenario) -> float:
     """Candidate ``k`` of decision ``row`` of a ``.states.pkl``, played to the end by Eq. 9 in
     future ``scenario``, with the teacher's low level (``decision_state``)."""
-    from agents.lookahead import LookaheadSettings, run_branch
-    from cmdp_pymunk.evaluate import PriorityEvaluator
 
     engine, low_level, i, candidates = _states(path)[row]
     base = PriorityEvaluator()  # the labelling lookahead's base (``distill.label_floor``)
@@ -173,10 +177,7 @@ def _finite(x, digits: int):
 
 
 def noise(args) -> int:
-    from tqdm import tqdm
 
-    from cmdp_pymunk.events import write_atomic
-    from training.runs.backends import open_backend
 
     if args.every < 1 or args.futures < 1:
         raise ValueError(f"--every {args.every} --futures {args.futures}: both must be >= 1")

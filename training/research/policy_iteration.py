@@ -45,6 +45,7 @@ weights: each label floor is seeded by its seed, the lookahead's futures by its 
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 import time
@@ -52,9 +53,20 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
+import cmdp_pymunk
 from agents.features import POLICY_ITERATION_FEATURES
+from agents.specs import evaluator_from_spec
+from agents.student import StudentEvaluator
+from cmdp_pymunk.bounds import lower_bound
+from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.interrupt import sigint_guard
+from training.cli import OneLineParser, positive_int, positive_seconds, seed_list
 from training.research import distill
+from training.runs.backends import BackendError, open_backend
+from training.runs.paired import markdown_table, summarize
+from training.runs.strategies import episode_job, read_log
 
 REPORT_SEEDS = tuple(range(100, 140)) + tuple(range(200, 240))  # the results' seeds: never
 # trained on (docs/results.md)
@@ -141,8 +153,6 @@ def plan_rounds(args: IterationArgs) -> list[Round]:
 def check(args: IterationArgs):
     """Every option, before any floor runs: the case, the start, the teacher, the features,
     the seeds, and OUT's earlier settings. The case; ValueError naming the option and the fix."""
-    import cmdp_pymunk
-    from agents.specs import evaluator_from_spec
 
     if args.rounds < 1:
         raise ValueError(f"--rounds {args.rounds}: give 1 or more")
@@ -212,7 +222,6 @@ def check_earlier_run(args: IterationArgs) -> None:
 def label_round(args: IterationArgs, plan: Round, bar) -> None:
     """The round's label floors not labelled yet: the base acts, the teacher labels; each
     ``seed-N.npz`` written as its floor ends (``distill.save_labels``)."""
-    from training.runs.backends import open_backend
 
     plan.labels.mkdir(parents=True, exist_ok=True)
     todo = [s for s in plan.seeds if not (plan.labels / f"seed-{s}.npz").exists()]
@@ -233,8 +242,6 @@ def fit_round(args: IterationArgs, plans: list[Round], plan: Round) -> tuple[dic
     ``aggregate``, to every round's so far), written to ``student.json``; a kept student with
     other weights makes the kept selection episodes stale (they are dropped). Returns the
     labels fitted and the fit's report."""
-    from agents.student import StudentEvaluator
-    from cmdp_pymunk.events import write_atomic
 
     folders = [p.labels for p in plans[:plan.number]] if args.aggregate else [plan.labels]
     data = distill.load_labels(folders)
@@ -251,7 +258,6 @@ def fit_round(args: IterationArgs, plans: list[Round], plan: Round) -> tuple[dic
             "fit": report}
     if not plan.student.is_file() or _weights(plan.student) != _weights_of(student):
         # the kept student episodes (if any) played other weights: Eq. 9's and the base's stay
-        from training.runs.strategies import read_log
 
         spec = f"student:{plan.student}"
         write_atomic(plan.episodes, "".join(json.dumps(r) + "\n" for r in read_log(plan.episodes)
@@ -272,9 +278,6 @@ def evaluate_round(args: IterationArgs, case, plan: Round, bar) -> list[dict]:
     """Eq. 9, the base and the new student on the selection seeds (pymunk floor, scripted
     navigator, ``cmdp-evaluate``'s episodes); each row appended to ``episodes.jsonl`` as it
     ends, the kept ones reused."""
-    from cmdp_pymunk.events import write_atomic
-    from training.runs.backends import open_backend
-    from training.runs.strategies import episode_job, read_log
 
     specs = selection_strategies(plan)
     kept = {(r["strategy"], r["seed"]): r for r in read_log(plan.episodes)}
@@ -395,11 +398,7 @@ def rounds_table(reports: list[dict]) -> str:
 
 def run(args: IterationArgs) -> int:
     """Check everything, then the rounds not reported yet (module doc)."""
-    from tqdm import tqdm
 
-    from cmdp_pymunk.bounds import lower_bound
-    from cmdp_pymunk.events import write_atomic
-    from training.runs.paired import markdown_table, summarize
 
     case = check(args)
     bound_s = lower_bound(case).lower_bound_s
@@ -453,7 +452,6 @@ def kept_text(args: IterationArgs) -> str:
             continue
         labelled = len(distill.label_files(plan.labels))
         if labelled:
-            from training.runs.strategies import read_log
 
             episodes = len(read_log(plan.episodes))
             parts.append(f"round {plan.number}: {labelled} of {len(plan.seeds)} label floors"
@@ -462,9 +460,7 @@ def kept_text(args: IterationArgs) -> str:
 
 
 def parse_args(argv: list[str]) -> IterationArgs:
-    import argparse
 
-    from training.cli import OneLineParser, positive_int, positive_seconds, seed_list
 
     def features(text: str) -> tuple[str, ...]:
         try:
@@ -515,8 +511,6 @@ def parse_args(argv: list[str]) -> IterationArgs:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from cmdp_pymunk.interrupt import sigint_guard
-    from training.runs.backends import BackendError
 
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(argv)

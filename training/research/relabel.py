@@ -24,6 +24,16 @@ import time
 
 import numpy as np
 
+import cmdp_pymunk
+from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
+from agents.lookahead import LookaheadEvaluator
+from agents.navigator import Navigator
+from agents.specs import evaluator_from_spec, make_lookahead
+from cmdp_pymunk.engine import Engine
+from cmdp_pymunk.evaluate import PriorityEvaluator
+from cmdp_pymunk.rollout import run_episode
+from training.research.labelling import CandidatesOnly, Labeller
+
 
 def replace_specs(text: str, replace: list[tuple[str, str]]) -> str:
     for old, new in replace:
@@ -45,15 +55,6 @@ def relabel_floor(path: str, features: tuple[str, ...],
     """The arrays of label file ``path`` with the candidates' ``features`` computed again on
     the replayed floor (module doc); ValueError where the floor cannot be replayed or went
     elsewhere. ``case_path``: the case the labels were made on (None: the built-in one)."""
-    import cmdp_pymunk
-    from agents.features import FEATURE_NAMES, FloorFacts, candidate_features
-    from agents.lookahead import LookaheadEvaluator
-    from agents.navigator import Navigator
-    from agents.specs import evaluator_from_spec, make_lookahead
-    from cmdp_pymunk.engine import Engine
-    from cmdp_pymunk.evaluate import PriorityEvaluator
-    from cmdp_pymunk.rollout import run_episode
-    from training.research.labelling import CandidatesOnly, Labeller
 
     old = dict(np.load(path))
     acting = replace_specs(str(old.get("acting", "")), replace)
