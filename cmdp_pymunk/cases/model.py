@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import datetime as dt
 import difflib
+import functools
 import math
 import re
 from typing import Annotated
@@ -461,6 +462,17 @@ def parse_working_hours(value: object) -> tuple[int, int]:
     """``"08:00-16:00"`` -> (28800, 57600): the working day's opening and closing, in seconds
     after midnight. The close may be ``24:00`` (midnight); it must come after the opening (a
     shift across midnight is not supported)."""
+    if isinstance(value, str):
+        return _parsed_hours(value)
+    return _parse_working_hours(value)  # not a string: its error
+
+
+@functools.lru_cache(maxsize=64)  # read at every date a schedule converts (a few per task)
+def _parsed_hours(value: str) -> tuple[int, int]:
+    return _parse_working_hours(value)
+
+
+def _parse_working_hours(value: object) -> tuple[int, int]:
     match = _HOURS.match(value) if isinstance(value, str) else None
     if match is None:
         raise ValueError(f"{_quoted(value)} is not a time range; fix: write opening and closing as "

@@ -58,6 +58,9 @@ TEXT_FIELDS = (("188743731", "Text1", "Component"), ("188743734", "Text2", "Task
                ("188743737", "Text3", "Crew"))
 
 
+_DECLARATION = "<?xml version='1.0' encoding='UTF-8'?>\n"  # as ElementTree writes it
+
+
 def default_calendar() -> Calendar:
     """The calendar of a run without one: :data:`DEFAULT_START`, 08:00-16:00, Mon-Fri."""
     return Calendar(start=DEFAULT_START)
@@ -263,7 +266,9 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
         _add(element, "Work", iso_duration(finish - start))
 
     ET.indent(project)
-    return ET.tostring(project, encoding="UTF-8", xml_declaration=True) + b"\n"
+    # serialised to a str and encoded once: ElementTree's own UTF-8 writer resets a codec on
+    # each of its ~19,000 writes (four fifths of the file's time); the bytes are the same
+    return (_DECLARATION + ET.tostring(project, encoding="unicode") + "\n").encode("utf-8")
 
 
 def write_mspdi(path: str | Path, events: Sequence[Event], case, end_s: float | None = None,
