@@ -33,8 +33,8 @@ from pathlib import Path
 
 import cmdp_pymunk
 from cmdp_pymunk.cases.levers import make_variant
-from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.eventfloor.calibration import calibration_for
+from cmdp_pymunk.events import write_atomic
 from training.compare import seed_list
 from training.runs.backends import open_backend
 from training.runs.paired import mean_ci, paired, percentile
@@ -133,6 +133,7 @@ def table(result: dict) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--case", type=Path, default=None)
     p.add_argument("--seeds", type=seed_list, default=seed_list("100-109"))
     p.add_argument("--variant", action="append", default=None)

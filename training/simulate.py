@@ -279,6 +279,7 @@ def mspdi_dates(calendar) -> str:
 
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
+    from cmdp_pymunk.cost import run_cost_fields
     from cmdp_pymunk.rollout import (
         crew_summary,
         disruption_summary,
@@ -286,7 +287,6 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         episode_seed_bound,
         versions,
     )
-    from cmdp_pymunk.cost import run_cost_fields
     from cmdp_pymunk.timeuse import time_use
 
     site = engine.site
