@@ -1,5 +1,5 @@
-"""The chart of a plan search (``cmdp-plan``, training/search/plan.py): every plan that played
-all the search seeds as a point of P80 makespan against mean cost, the Pareto front of them
+"""The chart of a plan search (``cmdp-plan``, training/search/plan_search.py): every plan that
+played all the search seeds as a point of P80 makespan against mean cost, the Pareto front of them
 joined by a line, the case as written and the chosen plan marked. Rendered off-screen (Agg),
 written whole (``write_atomic``)."""
 

@@ -1,5 +1,5 @@
-"""``cmdp-plan`` (training/search/plan.py): the search space, the pruner's rungs, the Pareto
-front by hand, and whole searches on the tiny case's event floor that find a planted best
+"""``cmdp-plan`` (training/search/plan_search.py): the search space, the pruner's rungs, the
+Pareto front by hand, and whole searches on the tiny case's event floor that find a planted best
 plan, resume without playing a floor twice, and refuse bad settings before anything runs."""
 
 import json
@@ -11,7 +11,12 @@ from cmdp_pymunk import TINY_CASE, load_case
 from cmdp_pymunk.cases.load import case_from_dict
 from media.pareto import pareto_front
 from training import plan
-from training.search.plan import PlanConfig, plan_changes, search_space, study_storage
+from training.search.plan_search import (
+    PlanConfig,
+    plan_changes,
+    search_space,
+    study_storage,
+)
 
 optuna = pytest.importorskip("optuna")
 

@@ -18,7 +18,7 @@ plan as a case file: ``cmdp-simulate --case DIR/plan.toml``), ``plans/planK.toml
 ``trials.csv``, ``summary.json``, ``plan.journal`` (Optuna's study:
 ``--resume`` continues it)
 and ``episodes.jsonl`` (every floor played; a resumed run plays none twice). The logic is
-``training.search.plan``.
+``training.search.plan_search``.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ DEFAULT_OUT = Path("runs/plan")
 def parse_args(argv: list[str] | None = None):
     from training.compare import seed_list
     from training.fidelity import CALIBRATION_HELP
-    from training.search.plan import OBJECTIVES, PlanConfig
+    from training.search.plan_search import OBJECTIVES, PlanConfig
 
     d = PlanConfig()
     p = OneLineParser(prog="cmdp-plan", description=plain(__doc__))
@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     from cmdp_pymunk.cases.load import CaseError
     from training.fidelity import resolve_floor
     from training.runs.backends import BackendError
-    from training.search.plan import search_plans, trial_rows, write_outputs
+    from training.search.plan_search import search_plans, trial_rows, write_outputs
 
     a, config = parse_args(argv)
     try:
