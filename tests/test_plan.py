@@ -147,3 +147,16 @@ def test_bad_settings_are_refused_before_anything_runs(tmp_path, capsys, extra, 
     err = capsys.readouterr().err
     assert words in err and "fix:" in err
     assert not (out / "episodes.jsonl").exists()
+
+
+@pytest.mark.slow
+def test_the_same_search_on_one_or_two_workers_tries_the_same_plans(tmp_path):
+    case_path = planted_case(tmp_path)
+    trials = {}
+    for workers in ("1", "2"):
+        out = tmp_path / f"w{workers}"
+        args = ["--case", str(case_path), "--objective", "cost", "--out", str(out), *ARGS]
+        args[args.index("--workers") + 1] = workers
+        assert plan.main(args) == 0
+        trials[workers] = (out / "trials.csv").read_text()
+    assert trials["1"] == trials["2"]
