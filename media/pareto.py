@@ -37,7 +37,7 @@ def draw_pareto(points: list[dict], path: Path, base: str, chosen: str,
     xy = [(p["p80_s"], p["cost_mean"]) for p in points]
     if xy:
         ax.scatter([x / 3600 for x, _ in xy], [y for _, y in xy], s=18, color="0.6",
-                   label=f"plans tried ({len(xy)})", zorder=2)
+                   label=f"plans on every search seed ({len(xy)})", zorder=2)
         front = pareto_front(xy)
         ax.plot([xy[i][0] / 3600 for i in front], [xy[i][1] for i in front], "-o",
                 color="tab:blue", ms=5, label="Pareto front", zorder=3)
