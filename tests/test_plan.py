@@ -98,7 +98,6 @@ def test_a_search_finds_the_planted_cheapest_plan_and_writes_its_outputs(tmp_pat
         assert seeds == list(range(len(seeds)))  # a prefix of 0-5: pruned plans stop early
 
 
-@pytest.mark.slow
 def test_a_resumed_search_plays_no_floor_twice(tmp_path):
     case_path = planted_case(tmp_path)
     out = tmp_path / "plan"
@@ -119,7 +118,6 @@ def test_a_resumed_search_plays_no_floor_twice(tmp_path):
     assert len(study.trials) == 5
 
 
-@pytest.mark.slow
 def test_a_pareto_search_keeps_the_front(tmp_path):
     case_path = planted_case(tmp_path)
     out = tmp_path / "front"
