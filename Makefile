@@ -17,7 +17,7 @@ $(VENV)/.installed: setup.cfg pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet torch==2.13.0 $(if $(TORCH_INDEX),--index-url $(TORCH_INDEX))
-	$(PY) -m pip install --quiet -e '.[dev,onnx,ifc,mspdi-test]'
+	$(PY) -m pip install --quiet -e '.[dev,onnx,ifc,mspdi-test,plan]'
 	touch $@
 
 demo: $(VENV)/.installed

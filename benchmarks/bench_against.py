@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 import cmdp_pymunk
-from training.compare import seed_list
+from training.cli import seed_list
 
 
 def load_base(checkout: Path, into: Path):

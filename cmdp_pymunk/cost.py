@@ -24,7 +24,7 @@ from .cases.model import Case, Cost
 from .events import Event
 
 __all__ = ["Cost", "cost_model", "crews_by_type", "crane_lifts", "run_cost", "case_cost",
-           "with_crew_rates_scaled"]
+           "with_crew_rates_scaled", "run_cost_fields", "cost_percentiles"]
 
 
 def cost_model(case: Case) -> Cost:
@@ -79,3 +79,28 @@ def case_cost(case: Case, makespan_s: float | None, lifts: int,
         cost = with_crew_rates_scaled(cost, crew_rate_factor)
     return run_cost(makespan_s, crews_by_type(case), lifts, cost)
 
+
+
+def run_cost_fields(case: Case, makespan_s: float | None, events: Iterable[Event]) -> dict:
+    """What one run of ``case`` cost, as a summary reports it: ``crane_lifts`` (in
+    ``events``), ``cost`` at the case's rates and ``cost_crew_rates_x2`` at doubled crew rates
+    (``case_cost``; None for a run that did not finish, ``makespan_s`` None)."""
+    lifts = crane_lifts(events)
+    return {"crane_lifts": lifts, "cost": case_cost(case, makespan_s, lifts),
+            "cost_crew_rates_x2": case_cost(case, makespan_s, lifts, 2.0)}
+
+
+def cost_percentiles(runs: Iterable[Mapping]) -> dict:
+    """Over several runs' ``run_cost_fields`` (runs without a cost left out): the cost's mean,
+    P50 and P80 (``numpy.percentile``, linear, as the makespan's), the mean at doubled crew
+    rates and how many runs were costed; None for each without any."""
+    import numpy as np
+
+    runs = list(runs)
+    costs = [r["cost"] for r in runs if r.get("cost") is not None]
+    doubled = [r["cost_crew_rates_x2"] for r in runs if r.get("cost_crew_rates_x2") is not None]
+    return {"cost_runs": len(costs),
+            "cost_mean": float(np.mean(costs)) if costs else None,
+            "cost_p50": float(np.percentile(costs, 50)) if costs else None,
+            "cost_p80": float(np.percentile(costs, 80)) if costs else None,
+            "cost_crew_rates_x2_mean": float(np.mean(doubled)) if doubled else None}

@@ -99,6 +99,7 @@ def mspdi_dates(calendar) -> str:
 
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
+    from cmdp_pymunk.cost import run_cost_fields
     from cmdp_pymunk.report import (
         crew_summary,
         disruption_summary,
@@ -120,6 +121,8 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
         "makespan_s": makespan,
+        # what the floor cost beside its makespan (docs/levers.md, "Cost beside time")
+        **run_cost_fields(site.case, makespan if site.done else None, engine.log.events),
         "tasks_finished": site.tasks_ended, "tasks_total": len(site.tasks),
         "all_finished": site.done, "simulated_s": site.time_s,
         "lower_bound": lb.as_dict(),
@@ -631,6 +634,7 @@ def write_makespans(out: Path, rows: list[dict], calendar=None) -> dict:
     """``makespans.csv`` (a row per seed) and ``makespans.json`` (``makespan_stats``, the
     disruptions and their cost); with a working calendar, the finish dates too: a ``finish``
     column and a ``calendar`` entry dating the mean, P50/P80/P90, min and max."""
+    from cmdp_pymunk.cost import cost_percentiles
     from cmdp_pymunk.events import write_atomic
     from cmdp_pymunk.report import makespan_stats, seconds_and_hours
     from cmdp_pymunk.workcalendar import calendar_datetime, finish_dates, iso
@@ -650,7 +654,8 @@ def write_makespans(out: Path, rows: list[dict], calendar=None) -> dict:
     write_atomic(out / "makespans.csv", "\n".join(lines) + "\n")
     # the floor the episodes ran on first, so that no event-floor result passes for pymunk's
     stats = {"fidelity": rows[0].get("fidelity", "pymunk"),
-             "calibration": rows[0].get("calibration"), **makespan_stats(rows)}
+             "calibration": rows[0].get("calibration"), **makespan_stats(rows),
+             **cost_percentiles(rows)}  # cost P50/P80 beside the makespan's
     stats["disruptions"] = mean_struck([r.get("disruptions") for r in rows])
     stats["disruption_cost"] = mean_cost(rows) if measured else None
     stats["calendar"] = finish_dates(calendar, {k: stats[f"{k}_s"] for k in (

@@ -1,0 +1,45 @@
+"""benchmarks/validate_variants.py (issue 42 item 4): a variant on its base's calibration, the
+event floor against the pymunk floor. The full run is a benchmark (docs/event-floor.md); here
+one variant of the tiny case on 2 seeds, its numbers recomputed from the per-seed makespans."""
+
+import importlib.util
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from cmdp_pymunk import TINY_CASE, load_case
+
+PATH = Path(__file__).resolve().parents[1] / "benchmarks" / "validate_variants.py"
+spec = importlib.util.spec_from_file_location("validate_variants", PATH)
+vv = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(vv)
+
+
+def test_relative_error_by_hand():
+    assert vv.relative_error(103.0, 100.0) == pytest.approx(0.03)
+    assert vv.relative_error(None, 100.0) is None
+
+
+def test_one_variant_on_two_seeds_both_floors(tmp_path, capsys):
+    assert vv.main(["--case", str(TINY_CASE), "--seeds", "0-1", "--variant", "crews.RC+1",
+                    "--workers", "1", "--out", str(tmp_path)]) == 0
+    result = json.loads((tmp_path / "validate_variants.json").read_text())
+    base, more = result["entries"]
+    assert (base["entry"], more["entry"]) == ("base", "crews.RC+1")
+    for e in (base, more):
+        for floor in ("pymunk", "event"):
+            ms = e[floor]["makespans_s"]
+            assert len(ms) == 2 and e[floor]["mean_s"] == pytest.approx(np.mean(ms))
+        # the tiny floor's two floors stay close (measured about 1 %; loosely here)
+        assert abs(e["mean_error"]) < 0.10
+        assert e["mean_error"] == pytest.approx(e["event"]["mean_s"] / e["pymunk"]["mean_s"] - 1)
+    # one more RC crew shortens the tiny floor on both floors (measured about -790 s)
+    for floor in ("pymunk", "event"):
+        diffs = np.subtract(more[floor]["makespans_s"], base[floor]["makespans_s"])
+        assert more[floor]["vs_base_diff_mean_s"] == pytest.approx(diffs.mean())
+        assert diffs.mean() < 0
+    assert isinstance(more["diff_inside_pymunk_interval"], bool)
+    assert "| crews.RC+1 |" in capsys.readouterr().out
+    assert load_case(TINY_CASE).case.name in result["case"]
