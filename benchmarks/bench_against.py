@@ -68,6 +68,7 @@ def play(env, rng, seed) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--base", type=Path, required=True, help="root of the other checkout")
     p.add_argument("--rounds", type=int, default=3)
     p.add_argument("--seeds", type=seed_list, default=list(range(10)))

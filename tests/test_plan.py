@@ -10,7 +10,7 @@ import pytest
 from cmdp_pymunk import TINY_CASE, load_case
 from cmdp_pymunk.cases.load import case_from_dict
 from media.pareto import pareto_front
-from training import plan
+from training.commands import plan
 from training.search.plan_search import (
     PlanConfig,
     plan_changes,
