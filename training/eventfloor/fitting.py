@@ -16,13 +16,13 @@ import math
 import time
 
 import numpy as np
-from cmdp_pymunk.report import stall_report
 
 from agents.navigator import Navigator
 from agents.specs import evaluator_from_spec
 from cmdp_pymunk.eventfloor.calibration import Calibration, CrewTypeCalibration, fingerprint
 from cmdp_pymunk.eventfloor.walks import WalkPlanner
 from cmdp_pymunk.policy import best_target
+from cmdp_pymunk.report import stall_report
 from cmdp_pymunk.rollout import Episode, play
 from cmdp_pymunk.timeuse import totals
 from training.runs.backends import open_backend

@@ -87,6 +87,18 @@ class EvaluateArgs:
         return self.cpsat_bound or "cpsat" in self.strategies
 
 
+
+def write_tables(out: Path, name: str, rows: list[dict], fields: list[str],
+                 summary: list[dict], table: str, time_use: list[dict]) -> None:
+    """A comparison's tables, each whole: ``episodes.csv``, ``NAME.csv``/``.md``/``.json``
+    (the summary) and ``time_use.csv`` (if any)."""
+    write_atomic(out / "episodes.csv", csv_text(rows, fields))
+    write_atomic(out / f"{name}.csv", csv_text(summary, list(summary[0])))
+    write_atomic(out / f"{name}.md", table)
+    write_atomic(out / f"{name}.json", json.dumps(summary, indent=1) + "\n")
+    if time_use:
+        write_atomic(out / "time_use.csv", csv_text(time_use, list(time_use[0])))
+
 def episode_job(runner: EpisodeRunner, spec: str, navigator: str, seed: int,
                  cost: bool = False) -> dict:
     """One episode's row; ``cost``: the same seed also on the case without its disruptions,
@@ -337,12 +349,7 @@ def compare_strategies(args: EvaluateArgs) -> int:
     # A Ctrl-C while the results are written is held until all of them are.
     interrupt.enter()
     try:
-        write_atomic(args.out / "episodes.csv", csv_text(rows, fields))
-        write_atomic(args.out / "summary.csv", csv_text(summary, list(summary[0])))
-        write_atomic(args.out / "summary.md", table)
-        write_atomic(args.out / "summary.json", json.dumps(summary, indent=1) + "\n")
-        if time_use:
-            write_atomic(args.out / "time_use.csv", csv_text(time_use, list(time_use[0])))
+        write_tables(args.out, "summary", rows, fields, summary, table, time_use)
         write_atomic(args.out / "settings.json",
                      json.dumps(settings, indent=2, default=str) + "\n")
         if args.figures:
@@ -465,12 +472,7 @@ def compare_whatif(args: EvaluateArgs) -> int:
                 "versions": versions()}
     interrupt.enter()  # a Ctrl-C while the results are written is held until all are
     try:
-        write_atomic(args.out / "episodes.csv", csv_text(rows, fields))
-        write_atomic(args.out / "whatif.csv", csv_text(summary, list(summary[0])))
-        write_atomic(args.out / "whatif.md", table)
-        write_atomic(args.out / "whatif.json", json.dumps(summary, indent=1) + "\n")
-        if time_use:
-            write_atomic(args.out / "time_use.csv", csv_text(time_use, list(time_use[0])))
+        write_tables(args.out, "whatif", rows, fields, summary, table, time_use)
         for e in entries:
             if e.changes:
                 (args.out / "variants").mkdir(exist_ok=True)
