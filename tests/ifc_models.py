@@ -37,6 +37,12 @@ width) and 12.02 (the leg's), columns 0.4 x 0.4 m (z -3..0) at the L's six corne
 ``raised_storey(schema, elevation_m, placement_m, building_z_m)``: ``slabs_on_beams``' storey
 3 m up (slabs z 3..3.3 on crossing beams and columns), the building's only storey, its level
 stated by an Elevation, a placement (relative to the building's), both, or neither.
+
+``edge_beam_storey(schema, closed)``: storey "Level 1" (IFC2X3 by default), two rows of three
+slabs 4 x 3 m across a 4 m lane, 0.5 m cast-in-place joints between the bottom row's slabs
+and a 0.4 m cast-in-place beam on the floor along that row's outer edge (24 tasks); with
+``closed``, a second one along its lane edge closes the middle slab's JC area off. The model
+at x 400..413, y 299.6..310.
 """
 
 from __future__ import annotations
@@ -356,3 +362,35 @@ def notched_wide_slab_deck(schema: str = "IFC4"):
     made["W-F"] = add_assembled(f, body, storeys["Level 1"], "IfcSlab", "W-F",
                                 box(fx0 + 0.45, fy0 + 0.35, 0.9, 0.7), z=0.0, depth=0.07)[0]
     return f, made
+
+
+# the edge-beam storey (issue 41, reach rule (a)): (IFC class, name) -> (x0, y0, x1, y1,
+# z bottom, depth), metres; slabs 4 x 3 m, two rows 4 m apart, the model at x 400..413,
+# y 299.6..310 (the slabs' x in halves of a metre: exact in binary, so the joints touch the
+# slabs exactly after centring)
+EDGE_X0 = [400.0 + k * 4.5 for k in range(3)]  # the slabs' left edges: 0.5 m joints
+EDGE_STOREY = {
+    **{("IfcSlab", f"S-{k + 1}"): (x0, 300.0, x0 + 4.0, 303.0, 0.0, 0.25)
+       for k, x0 in enumerate(EDGE_X0)},  # the bottom row, joints J-1, J-2 between them
+    **{("IfcSlab", f"S-{k + 4}"): (x0, 307.0, x0 + 4.0, 310.0, 0.0, 0.25)
+       for k, x0 in enumerate(EDGE_X0)},  # the top row, 0.5 m apart, beyond a 4 m lane
+    **{("IfcBeam", f"J-{k + 1}"): (x0 + 4.0, 300.0, x0 + 4.5, 303.0, 0.0, 0.4)
+       for k, x0 in enumerate(EDGE_X0[:2])},
+    # the edge beam along the bottom row's outer edge, on the floor (a component)
+    ("IfcBeam", "B-E1"): (400.0, 299.6, 413.0, 300.0, 0.0, 0.4),
+}
+# the variant: a second edge beam along the bottom row's inner edge, the one facing the lane
+EDGE_CLOSING_BEAM = {("IfcBeam", "B-E2"): (400.0, 303.0, 413.0, 303.4, 0.0, 0.4)}
+
+
+def edge_beam_storey(schema: str = "IFC2X3", closed: bool = False):
+    """Issue 41's storey for the reach rule: IFC2X3 (placements, no Elevation), 24 tasks with
+    the default recipe. Bottom row: slabs S-1, S-2, S-3 (4 x 3 m, z 0..0.25) with 0.5 m
+    cast-in-place joints J-1, J-2 between them and B-E1, a 0.4 m beam on the floor (z 0..0.4)
+    along the row's outer edge, 13 m, from S-1's outer corner to S-3's; top row: S-4, S-5,
+    S-6, 4 m above across a lane, 0.5 m apart. S-2's JC area (1.2 m round it) holds no point
+    where a JCC (1.13 m radius, 1.03 m off components) fits along B-E1 (0.8 m beyond it) nor
+    beside the joints (0.5 m to the next slab), but does along the lane. ``closed``: B-E2, a
+    second 0.4 m beam along the row's lane edge, 13 m, closes that edge off too: no JCC can
+    stand in S-2's JC area anywhere. Returns (file, {name: element})."""
+    return storey_of_boxes({**EDGE_STOREY, **(EDGE_CLOSING_BEAM if closed else {})}, schema)
