@@ -117,7 +117,8 @@ def narrow_lanes(rects: Sequence[Rect], min_width_m: float) -> list[tuple[int, i
     for i in range(len(rects)):
         for j in range(i + 1, len(rects)):
             gap = rects[i].side_gap(rects[j])
-            if gap is None or not 0 < gap < min_width_m:
+            # a gap within the tolerance is rounding (centring a floor), not a lane
+            if gap is None or not GEOMETRY_TOLERANCE_M < gap < min_width_m:
                 continue
             lane = lane_between(rects[i], rects[j])
             if any(k not in (i, j) and lane.overlaps(r) for k, r in enumerate(rects)):
