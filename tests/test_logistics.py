@@ -11,7 +11,6 @@ import cmdp_pymunk
 from cmdp_pymunk import construct, decide
 from cmdp_pymunk.adapters.decision_loop import DecisionLoop, make_decision_env
 from cmdp_pymunk.cases.load import REORDER_CASE, case_from_dict
-from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import make_evaluator
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 from cmdp_pymunk.logistics import (
