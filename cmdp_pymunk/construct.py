@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 
@@ -81,7 +82,8 @@ def crane_ready(task: TaskState) -> bool:
 
 
 def advance(site: Site, positions, log: events.EventLog, dt: float,
-            invasion_of: Callable[[Site, list, CrewState, Rect], float] | None = None) -> None:
+            invasion_of: Callable[[Site, list, CrewState, Rect], float] | None = None,
+            logistics: LiftQuestion | None = None) -> None:
     """One step of P_cons for every crew that tasks or fetches, then the crane. A weather
     stop halts all of it; an absent crew does nothing (``site.disrupted``, ``disruptions``).
 
@@ -89,7 +91,12 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
     fetching in ``area``; default ``invasion``, the crews standing in it now. The event floor
     (``cmdp_pymunk.eventfloor``), whose crews are not on the plane between events, passes its
     calibrated expectation and steps ``dt`` of many seconds between events: every rate is
-    constant within such a step, so one step of ``dt`` is ``dt`` steps of one second."""
+    constant within such a step, so one step of ``dt`` is ``dt`` steps of one second.
+
+    ``logistics``: the logistics role's question (``LiftQuestion``; the engine's
+    ``logistics.Logistics`` bound to it): a crew that fetches asks it whether to ask for the
+    next lift now at each decision level its storage reaches (``consider_lift``); None: the
+    case's reorder point decides (``reorder``)."""
     now = site.disrupted
     disrupted = bool(now)  # once, not per crew
     invaded = invasion if invasion_of is None else invasion_of
@@ -106,17 +113,24 @@ def advance(site: Site, positions, log: events.EventLog, dt: float,
         _serve_crane(site, log, dt)
     # after the crane's step: a lift asked for at the end of this step starts counting down in
     # the next, on the pymunk floor (dt 1) and on the event floor (dt many seconds) alike
-    for crew in fetching:
-        reorder(site, log, crew)
+    if logistics is None:
+        for crew in fetching:
+            reorder(site, log, crew)
+    else:
+        for crew in fetching:
+            consider_lift(site, log, crew, logistics)
 
 
-def next_change_in(site: Site, positions, invasion_of=invasion) -> float:
+def next_change_in(site: Site, positions, invasion_of=invasion,
+                   levels: Callable[[str], tuple[float, ...]] | None = None) -> float:
     """Seconds (not rounded) until P_cons next changes anything a rule reads, with every rate
     held as it is now (what the event floor jumps by; inf: nothing of P_cons will change).
     One term per rule, each beside the rule it times: a task ends or its crew's load runs out
     (``_work_left_s``), a load is full (``_fetch_left_s``), a storage is empty or down to its
-    reorder point (``_stock_left_s``), the crane's lift or assistance is done
-    (``_crane_left_s``). A weather stop halts every rate but the crane's stop."""
+    reorder point (``_stock_left_s``) or, with a logistics role (``levels``, its
+    ``Logistics.levels``), to its next decision level (``_level_left_s``), the crane's lift or
+    assistance is done (``_crane_left_s``). A weather stop halts every rate but the crane's
+    stop."""
     now = site.disrupted
     weather = bool(now) and now.weather
     soonest = _crane_left_s(site)
@@ -134,7 +148,10 @@ def next_change_in(site: Site, positions, invasion_of=invasion) -> float:
                 soonest = min(soonest, left)
                 drain[crew.storage] = drain.get(crew.storage, 0.0) + rate
     for s, rate in drain.items():
-        soonest = min(soonest, _stock_left_s(site, site.storages[s], rate))
+        storage = site.storages[s]
+        soonest = min(soonest, _stock_left_s(site, storage, rate, levels is None))
+        if levels is not None:
+            soonest = min(soonest, _level_left_s(storage, rate, levels(storage.material)))
     return soonest
 
 
@@ -191,11 +208,13 @@ def _fetch_left_s(site: Site, positions, crew: CrewState, invaded) -> tuple[floa
     return (crew.capacity - crew.load) / rate, rate
 
 
-def _stock_left_s(site: Site, storage: StorageState, rate: float) -> float:
+def _stock_left_s(site: Site, storage: StorageState, rate: float,
+                  reorder_point: bool = True) -> float:
     """Seconds until a storage drawn at ``rate`` is empty (c7), or down to its material's
-    reorder point with no lift asked for (``reorder_due``)."""
+    reorder point with no lift asked for (``reorder_due``; not with ``reorder_point`` False:
+    a logistics role decides instead)."""
     left = storage.stock / rate
-    at = site.case.materials[storage.material].reorder_at
+    at = site.case.materials[storage.material].reorder_at if reorder_point else 0.0
     if at > 0.0 and not storage.lift_pending and storage.stock > at + EPS:
         left = min(left, (storage.stock - at) / rate)
     return left
@@ -216,8 +235,66 @@ def reorder(site: Site, log: events.EventLog, crew: CrewState) -> None:
     as for any lift."""
     storage = site.storages[crew.storage]
     if reorder_due(site, storage):
-        storage.lift_pending = True
-        request_crane(site, log, CraneRequest(crew.index, "material", storage=storage.index))
+        order_lift(site, log, crew, storage)
+
+
+class LiftQuestion(Protocol):
+    """What ``advance`` asks of the logistics role (``logistics.Logistics`` bound to an
+    engine): the decision levels of a material, and whether to ask for the next lift now."""
+
+    def levels(self, material: str) -> tuple[float, ...]:
+        """Stock levels (in the material's unit) at which a crew fetching it asks."""
+
+    def lift_now(self, crew: int, storage: int) -> bool:
+        """Whether crew ``crew``, fetching at ``storage``, asks for the next lift now."""
+
+
+def decision_level(storage: StorageState, levels: tuple[float, ...]) -> float | None:
+    """The decision level a storage's stock has reached, if the logistics role was not asked
+    there yet since the storage's last lift landed (``StorageState.asked_at``): the lowest of
+    ``levels`` at or above the stock, with stock left and no lift asked for; None: no
+    decision is due. A jump past several levels asks once, at the lowest."""
+    if storage.lift_pending or storage.stock <= EPS:
+        return None
+    due = [level for level in levels
+           if storage.stock <= level + EPS and level < storage.asked_at]
+    return min(due) if due else None
+
+
+def consider_lift(site: Site, log: events.EventLog, crew: CrewState,
+                  logistics: LiftQuestion) -> None:
+    """The fetching ``crew``'s logistics decision: when its storage's stock has reached a
+    decision level (``decision_level``), the role is asked once there whether to ask for the
+    next lift now (``order_lift``); otherwise the storage runs on towards the next level or
+    empty (c7). With one level per material and "yes" always, this is ``reorder``."""
+    storage = site.storages[crew.storage]
+    level = decision_level(storage, logistics.levels(storage.material))
+    if level is None:
+        return
+    storage.asked_at = level
+    if logistics.lift_now(crew.index, storage.index):
+        order_lift(site, log, crew, storage)
+
+
+def _level_left_s(storage: StorageState, rate: float, levels: tuple[float, ...]) -> float:
+    """Seconds until a storage drawn at ``rate`` is down to its next decision level not yet
+    asked at (``decision_level``): where the event floor stops for the logistics role."""
+    if storage.lift_pending:
+        return math.inf
+    stock, left = storage.stock, math.inf
+    for level in levels:
+        if level < storage.asked_at and stock > level + EPS:
+            left = min(left, (stock - level) / rate)
+    return left
+
+
+def order_lift(site: Site, log: events.EventLog, crew: CrewState,
+               storage: StorageState) -> None:
+    """Ask the crane for ``storage``'s next lift on the fetching ``crew``'s behalf, before the
+    storage is empty (a reorder point's or the logistics role's request); the crew keeps
+    fetching."""
+    storage.lift_pending = True
+    request_crane(site, log, CraneRequest(crew.index, "material", storage=storage.index))
 
 
 def request_crane(site: Site, log: events.EventLog, request: CraneRequest) -> None:
@@ -278,6 +355,7 @@ def _complete(site: Site, log: events.EventLog, request: CraneRequest) -> None:
         lift = site.case.materials[storage.material].crane_lift_quantity
         storage.stock = min(storage.capacity, storage.stock + lift)
         storage.lift_pending = False
+        storage.asked_at = math.inf  # the logistics role is asked at every level again
         log.add(site.time_s, "crane_done", site.crews[request.crew].id, storage.id, "material")
         for crew in site.crews:
             # a crew waiting for a lift holds its storage; one waiting for hoisting holds none

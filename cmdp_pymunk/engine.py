@@ -36,7 +36,9 @@ Arguments
     outside), ``max_time_s`` (None: the
     case's), ``park_idle`` and ``stall_s`` (see ``env``), ``position_log_every_s`` (position
     events for trajectories; None: none), ``physics`` (what builds an episode's plane from the
-    case and the site, a ``physics.Physics``; default pymunk's ``world.World``).
+    case and the site, a ``physics.Physics``; default pymunk's ``world.World``),
+    ``logistics`` (``logistics.Logistics``: when a fetching crew asks for the next lift; None:
+    the case's reorder point, else c7 alone, the paper's).
 
 The engine owns the floor: its site (``site``), the plane behind the ``physics.Physics``
 protocol (only the engine and its stages touch it), the crews' poses (``pose(i)``), the event
@@ -55,6 +57,7 @@ from typing import Any
 from . import construct, decide, disruptions, events, move, reward
 from .cases.model import Case
 from .evaluate import TargetEvaluator, crews_needing_values, make_evaluator
+from .logistics import Logistics, make_logistics
 from .metrics import Counters
 from .motion import Motion, PhysicsMotion, Second, Span
 from .physics import Physics
@@ -99,7 +102,7 @@ class Engine:
                  park_idle: bool = False, stall_s: float | None = None,
                  position_log_every_s: float | None = None, *,
                  physics: Callable[[Case, Site], Physics] | None = None,
-                 motion: Motion | None = None):
+                 motion: Motion | None = None, logistics: Logistics | None = None):
         if stage not in (1, 2):
             raise ValueError(f"stage must be 1 (section 4.2's simplified CMDP) or 2 (the full "
                              f"CMDP), not {stage!r}")
@@ -107,6 +110,8 @@ class Engine:
         self.stage = stage
         self._evaluator: TargetEvaluator | None = None
         self.evaluator = evaluator  # checked against the case (``prepare``)
+        self._logistics: Logistics | None = None
+        self.logistics = logistics  # likewise
         sim = case.simulation
         self.max_time_s = float(max_time_s if max_time_s is not None else sim.max_time_s)
         if not math.isfinite(self.max_time_s) or self.max_time_s <= 0:
@@ -133,6 +138,9 @@ class Engine:
         self.log = events.EventLog()
         self.metrics: Counters | None = None
         self.pending: list[int] = []  # crews whose scopes wait for values
+        # (crew, storage) asked whether to lift now, waiting for an answer from outside
+        # (``logistics.FromOutside``; ``answer_lift``)
+        self.lift_questions: list[tuple[int, int]] = []
         # parked crews a low level moves out of another crew's way, until when (``make_way``)
         self.making_way: dict[int, float] = {}
         self.action_needed = False  # some crew needs a movement decision
@@ -161,6 +169,26 @@ class Engine:
             value = make_evaluator(value)
             value.prepare(self.case)
         self._evaluator = value
+
+    @property
+    def logistics(self) -> Logistics | None:
+        """Who decides when a fetching crew asks for the next lift (``logistics.Logistics``);
+        None: the case's reorder point (``Material.reorder_at``), else c7 alone. Set it to a
+        role: it is prepared for the case (a misfit raises here)."""
+        return self._logistics
+
+    @logistics.setter
+    def logistics(self, value: Logistics | None) -> None:
+        value = make_logistics(value)
+        if value is not None:
+            value.prepare(self.case)
+        self._logistics = value
+
+    @property
+    def lift_levels(self) -> Callable[[str], tuple[float, ...]] | None:
+        """The logistics role's decision levels by material, where the walk motion stops a
+        span (``construct.next_change_in``); None: the case's reorder point's."""
+        return None if self._logistics is None else self._logistics.levels
 
     # -- an episode ---------------------------------------------------------------------------
 
@@ -196,6 +224,7 @@ class Engine:
             disruptions.update(self.site, self.world, self.log, self.timeline)
         decide.apply_decision_table(self.context())
         self.pending = []
+        self.lift_questions = []
         self.making_way = {}
         self._evaluate()
         if self.timeline is not None:
@@ -265,6 +294,9 @@ class Engine:
         if self.pending:
             raise RuntimeError(f"crews {self.pending} wait for target values; call "
                                "set_target_values for each first")
+        if self.lift_questions:
+            raise RuntimeError(f"crews {[i for i, _ in self.lift_questions]} wait for an "
+                               "answer whether to lift now; call answer_lift for each first")
         site, motion = self.site, self.motion
         out = Advance(rewards=[0.0] * len(site.crews))
         self.metrics.open_window()
@@ -274,7 +306,8 @@ class Engine:
             self.metrics.count(span)
             out.add(span)
             truncated = site.time_s >= self.max_time_s - 1e-9 or self._stall_check()
-            if site.done or truncated or until is None or until() or self.pending:
+            if site.done or truncated or until is None or until() or self.pending or \
+                    self.lift_questions:
                 break  # pending: an evaluator asked between seconds values them
         self.metrics.close_window()
         out.terminated = site.done
@@ -337,6 +370,8 @@ class Engine:
             memo[id(self.log)] = events.EventLog()
         if self.evaluator is not None:
             memo[id(self.evaluator)] = self.evaluator
+        if self._logistics is not None:  # shared like the evaluator: no per-episode state
+            memo[id(self._logistics)] = self._logistics
         if motion is not None:  # neither the plane nor the motion's state is carried
             memo[id(self.world)] = None
             memo[id(self.motion)] = motion
@@ -379,8 +414,9 @@ class Engine:
         return self.motion.quiet(self)
 
     def decision_due(self) -> bool:
-        """A crew needs a movement decision or target values: where the idle jump stops."""
-        return self.action_needed or bool(self.pending)
+        """A crew needs a movement decision, target values or an answer whether to lift now:
+        where the idle jump stops."""
+        return self.action_needed or bool(self.pending) or bool(self.lift_questions)
 
     # -- what the engine needs from outside ---------------------------------------------------
 
@@ -412,6 +448,25 @@ class Engine:
                              f"{sorted(crew.scope)}; fix: give one value per target in scope")
         crew.values = dict(values)
         self.pending.remove(i)
+
+    def answer_lift(self, i: int, lift: bool) -> None:
+        """The answer from outside to crew i's question whether to ask for its storage's next
+        lift now (``lift_questions``, asked by ``logistics.FromOutside``): "yes" asks the
+        crane at this second (``construct.order_lift``), as a role answering inside the span
+        would; "no" lets the stock run on. Only a crew asked may answer: a ValueError names
+        them."""
+        asked = [q for q in self.lift_questions if q[0] == i]
+        if not asked:
+            crews = self.site.crews
+            waiting = ", ".join(f"{j} ({crews[j].id})" for j, _ in self.lift_questions) or \
+                "none"
+            raise ValueError(f"crew {i} ({crews[i].id}) was not asked whether to lift now; the "
+                             f"engine asks crews: {waiting}; fix: answer only crews in "
+                             "engine.lift_questions")
+        self.lift_questions.remove(asked[0])
+        storage = self.site.storages[asked[0][1]]
+        if lift and not storage.lift_pending:
+            construct.order_lift(self.site, self.log, self.site.crews[i], storage)
 
     def pose(self, i: int) -> tuple[float, float, float]:
         """Crew i's pose on the plane: x, y (m, the plane's centre at 0) and heading (rad,
@@ -445,7 +500,9 @@ class Engine:
         dt = k * self.case.simulation.step_s
         self.site.time_s += dt
         self.steps += k
-        construct.advance(self.site, self.positions, self.log, dt, self.motion.invasion_of)
+        role = self._logistics
+        construct.advance(self.site, self.positions, self.log, dt, self.motion.invasion_of,
+                          None if role is None else _LiftQuestion(self, role))
         self._construct_logged = len(self.log.events) != logged
         return self.context()
 
@@ -565,6 +622,22 @@ class Engine:
 
 def _never() -> bool:
     return False
+
+
+class _LiftQuestion:
+    """The logistics role bound to its engine: what ``construct.advance`` asks
+    (``construct.LiftQuestion``). Made per span, so a clone never asks the original."""
+
+    __slots__ = ("engine", "role")
+
+    def __init__(self, engine: Engine, role: Logistics):
+        self.engine, self.role = engine, role
+
+    def levels(self, material: str) -> tuple[float, ...]:
+        return self.role.levels(material)
+
+    def lift_now(self, crew: int, storage: int) -> bool:
+        return bool(self.role.lift_now(self.engine, crew, storage))
 
 
 __all__ = ["Engine", "Advance", "Second", "Span"]

@@ -8,6 +8,7 @@ and what the target evaluator values.
 
 from __future__ import annotations
 
+import math
 from collections import deque
 from dataclasses import dataclass, field
 from enum import IntEnum
@@ -142,6 +143,9 @@ class StorageState:
     target: int
     stock: float = 0.0
     lift_pending: bool = False
+    # the lowest decision level the logistics role was asked at since the last lift landed
+    # (``construct.decision_level``); inf: none yet
+    asked_at: float = math.inf
 
 
 @dataclass(eq=False)

@@ -58,6 +58,21 @@ The formulation: one shared policy makes the team's decisions in sequence
     PPO discounts by decision, not by second. Only real decisions enter the buffer: the
     simulation between two decisions is hidden inside ``step``.
 
+Logistics decisions (``logistics=True``; off by default, and then every space is as above)
+    Issue 42 item 6: the high level decides logistics too. A crew fetching at a storage whose
+    stock falls to one of the decision levels (``logistics_levels``, shares of the material's
+    crane lift: 0.75, 0.5 and 0.25 by default; ``logistics.Levels``) with no lift asked for
+    is a decision of the same policy: ask for the next lift now, or let the stock run on to
+    the next level or empty (the paper's c7). The engine asks through
+    ``logistics.FromOutside``, and the case's reorder point gives way to the policy. The
+    observation appends ``LOGISTICS_FEATURES`` floats to O^e (the actor reads them):
+    whether this decision is a lift's (1) or a target choice's (0), the storage's stock over
+    its capacity, the crane busy (1) and its queue over the number of crews; for a target
+    choice all but the first are 0. The action is ``Box(-1, 1, (3,))``: the desired position
+    (Eq. 4) as before, then the lift: above 0 asks for it now; a target choice ignores the
+    third float and a lift decision the first two. Answering "no" to every lift decision
+    plays the paper's c7 schedule (``tests/test_logistics.py``).
+
 Episode end
     ``terminated`` when every task has ended. ``truncated`` at the time limit, or when no task
     moves on for ``stall_s`` simulated seconds (the engine's own stall guard: ``engine.stalled``
@@ -75,7 +90,8 @@ Arguments (``DecisionLoop``)
     navigator, ``DEFAULT_LOW_LEVEL``; not called on the event floor), ``fidelity``
     (``"pymunk"`` or ``"event"``; another name: a ValueError naming both), ``calibration``
     (the event floor's; see above), ``max_time_s`` (None: the case's), ``park_idle`` (see
-    ``env``; for the scripted navigator), ``stall_s``, ``with_state``.
+    ``env``; for the scripted navigator), ``stall_s``, ``with_state``, ``logistics`` and
+    ``logistics_levels`` (see Logistics decisions).
 """
 
 from __future__ import annotations
@@ -93,11 +109,14 @@ from .. import observe
 from ..cases.load import Case, as_case
 from ..evaluate import desired_position_of_first_choice, desired_position_values
 from ..eventfloor import Calibration, calibration_for, make_floor
+from ..logistics import FromOutside
 from ..policy import LowLevel
 from ..reward import EVALUATION_TERMS
 from .global_state import global_state, state_bounds
 
 IDLE_CAUSES = ("predecessor", "area", "no_target")  # state.IdleCause's names
+# what a logistics decision appends to O^e (see the module doc's Logistics decisions)
+LOGISTICS_FEATURES = 4
 # the pymunk floor's low level when none is given, loaded on use (the core imports no agents)
 DEFAULT_LOW_LEVEL = "agents.navigator:Navigator"
 
@@ -126,14 +145,18 @@ class DecisionLoop:
                  make_low_level: Callable[[], LowLevel] | None = None, *,
                  fidelity: str = "pymunk", calibration: Calibration | str | Path | None = None,
                  max_time_s: float | None = None, park_idle: bool = False,
-                 stall_s: float | None = 3600.0, with_state: bool = False):
+                 stall_s: float | None = 3600.0, with_state: bool = False,
+                 logistics: bool = False,
+                 logistics_levels: tuple[float, ...] = (0.75, 0.5, 0.25)):
         case_path = case if isinstance(case, (str, Path)) else None
         case = as_case(case)
         self.case = case
         if fidelity == "event" and not isinstance(calibration, Calibration):
             calibration = calibration_for(case, case_path, calibration)
+        self.logistics = logistics
         self.engine = make_floor(case, fidelity, calibration, stage=2, evaluator=None,
-                                 max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s)
+                                 max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s,
+                                 logistics=FromOutside(logistics_levels) if logistics else None)
         self.fidelity = fidelity
         self.low_level: LowLevel | None = None  # the event floor has none: crews walk
         if self.engine.motion.takes_actions:
@@ -143,14 +166,21 @@ class DecisionLoop:
             if self.low_level is not None and self.low_level.reads_rays else None
         self.evaluation_bounds = observe.evaluation_bounds(case)
         self.actor_size = len(self.evaluation_bounds[0])
+        if logistics:  # the actor reads the logistics floats too
+            self.actor_size += LOGISTICS_FEATURES
         self.with_state = with_state
         self.state_bounds = state_bounds(case)
         low, high = self.evaluation_bounds
+        if logistics:
+            low = np.concatenate([low, np.zeros(LOGISTICS_FEATURES, np.float32)])
+            high = np.concatenate([high, np.ones(LOGISTICS_FEATURES, np.float32)])
         if with_state:
             low = np.concatenate([low, self.state_bounds[0]])
             high = np.concatenate([high, self.state_bounds[1]])
         self.low, self.high = low, high
         self.deciding: int | None = None  # the crew whose scope the next action values
+        # (crew, storage) whose lift the next action decides (``logistics``), else None
+        self.deciding_lift: tuple[int, int] | None = None
         self.terms = dict.fromkeys(EVALUATION_TERMS, 0.0)  # R_e's terms over the episode
 
     # -- the decisions ------------------------------------------------------------------------
@@ -164,6 +194,7 @@ class DecisionLoop:
         if self.rays is not None:
             self.rays.reset()
         self.deciding = None
+        self.deciding_lift = None
         self.terms = dict.fromkeys(EVALUATION_TERMS, 0.0)
         out = self._run()
         if out.terminated or out.truncated:  # a floor with nothing to choose: nothing to learn
@@ -172,7 +203,10 @@ class DecisionLoop:
 
     def decide(self, desired) -> Outcome:
         """The deciding crew's scope valued by Eq. 4 from ``desired`` (the action), then the
-        floor runs on to the next decision or the episode's end."""
+        floor runs on to the next decision or the episode's end. With ``logistics``, a lift
+        decision reads the action's third float instead (above 0: lift now; ``lift``)."""
+        if self.deciding_lift is not None:
+            return self.lift(float(desired[2]) > 0.0)
         i = self.deciding
         if i is None:
             raise RuntimeError("decide() with no crew deciding: the episode has ended; call "
@@ -191,6 +225,23 @@ class DecisionLoop:
         self.deciding = None
         self.engine.set_target_values(i, values)
         return self._run()
+
+    def lift(self, now: bool) -> Outcome:
+        """The deciding crew's logistics decision: ask for its storage's next lift ``now`` or
+        not (``Engine.answer_lift``), then the floor runs on to the next decision."""
+        if self.deciding_lift is None:
+            raise RuntimeError("lift() with no lift decision due: the next decision is a "
+                               "target choice (decide / value_scope), or the episode has "
+                               "ended")
+        i, _ = self.deciding_lift
+        self.deciding_lift = None
+        self.engine.answer_lift(i, now)
+        return self._run()
+
+    @property
+    def deciding_crew(self) -> int | None:
+        """The crew whose decision (a target choice or a lift) the next action makes."""
+        return self.deciding_lift[0] if self.deciding_lift is not None else self.deciding
 
     def _run(self) -> Outcome:
         """Advance with the low level until a crew must choose among several targets or the
@@ -214,9 +265,12 @@ class DecisionLoop:
         return self.low_level.actions(self.engine, observations)
 
     def _next_decision(self) -> bool:
-        """Take the next crew asked that must choose among several targets; value lone
-        targets 1."""
+        """Take the next lift question (``logistics``), else the next crew asked that must
+        choose among several targets; value lone targets 1."""
         engine = self.engine
+        if engine.lift_questions:
+            self.deciding_lift = engine.lift_questions[0]
+            return True
         while engine.pending:
             i = engine.pending[0]
             scope = engine.site.crews[i].scope
@@ -231,14 +285,28 @@ class DecisionLoop:
     def observe(self, out: np.ndarray | None = None) -> np.ndarray:
         """The deciding crew's O^e (then the global state with ``with_state``), into ``out``
         if given."""
-        engine, i = self.engine, self.deciding
+        engine, i = self.engine, self.deciding_crew
         if out is None:
             out = np.empty(len(self.low), np.float32)
-        out[:self.actor_size] = observe.evaluation_observation(
+        size = len(self.evaluation_bounds[0])
+        out[:size] = observe.evaluation_observation(
             engine.site, engine.site.crews[i], engine.positions[i], engine.pose(i)[2],
             self.evaluation_bounds)
+        if self.logistics:
+            out[size:self.actor_size] = self.logistics_features()
         if self.with_state:
             out[self.actor_size:] = self.state()
+        return out
+
+    def logistics_features(self) -> np.ndarray:
+        """The ``LOGISTICS_FEATURES`` floats (see the module doc's Logistics decisions)."""
+        out = np.zeros(LOGISTICS_FEATURES, np.float32)
+        if self.deciding_lift is None:
+            return out
+        site = self.engine.site
+        storage, crane = site.storages[self.deciding_lift[1]], site.crane
+        out[:] = (1.0, min(1.0, storage.stock / storage.capacity),
+                  float(crane.current is not None), min(1.0, len(crane.queue) / len(site.crews)))
         return out
 
     def state(self) -> np.ndarray:
@@ -249,10 +317,14 @@ class DecisionLoop:
 
     def teacher_action(self) -> np.ndarray:
         """The priority heuristic's choice (Eq. 9) for the deciding crew as a desired
-        position, so that Eq. 4 ranks its target first."""
+        position, so that Eq. 4 ranks its target first; with ``logistics``, then -1: the
+        paper's answer to a lift decision (never early, c7)."""
         engine, i = self.engine, self.deciding
-        return np.array(desired_position_of_first_choice(engine.site.crews[i], engine.site,
-                                                         engine.positions[i]), np.float32)
+        if i is None:  # a lift decision: the desired position is not read
+            return np.array([0.0, 0.0, -1.0], np.float32)
+        desired = desired_position_of_first_choice(engine.site.crews[i], engine.site,
+                                                   engine.positions[i])
+        return np.array((*desired, -1.0) if self.logistics else desired, np.float32)
 
     def end_info(self) -> dict:
         """The episode's end (see the module doc's Info)."""
@@ -276,7 +348,8 @@ class TargetEvaluationEnv(gym.Env):
     def __init__(self, floor: DecisionLoop):
         self.floor = floor
         self.observation_space = spaces.Box(floor.low, floor.high, dtype=np.float32)
-        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        # with logistics decisions a third float: lift now (above 0) or not
+        self.action_space = spaces.Box(-1.0, 1.0, (3 if floor.logistics else 2,), np.float32)
 
     def reset(self, seed: int | None = None, options: dict | None = None):
         super().reset(seed=seed)
@@ -298,10 +371,13 @@ def make_decision_env(case: Case | str | Path | None = None, fidelity: str = "py
                       make_low_level: Callable[[], LowLevel] | None = None,
                       max_time_s: float | None = None, park_idle: bool = True,
                       stall_s: float | None = 3600.0,
-                      with_state: bool = False) -> TargetEvaluationEnv:
+                      with_state: bool = False, logistics: bool = False,
+                      logistics_levels: tuple[float, ...] = (0.75, 0.5, 0.25)
+                      ) -> TargetEvaluationEnv:
     """The stage-2 Gymnasium env on one floor (the registered ids' entry point, see the module
     doc): ``DecisionLoop``'s arguments; ``park_idle`` True by default, as training parks the
     scripted navigator's idle crews (the event floor has no low level and ignores it)."""
     return TargetEvaluationEnv(DecisionLoop(
         case, make_low_level, fidelity=fidelity, calibration=calibration,
-        max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s, with_state=with_state))
+        max_time_s=max_time_s, park_idle=park_idle, stall_s=stall_s, with_state=with_state,
+        logistics=logistics, logistics_levels=logistics_levels))

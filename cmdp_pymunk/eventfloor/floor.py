@@ -17,8 +17,8 @@ end of a second on the pymunk floor: P_cons for the seconds jumped (``construct.
 log, the counting. Events (P_cons' own from ``construct.next_change_in``, beside its rules):
 
 - a task ends, or its crew's load runs out (c9, c3); a load is full, or the storage empty (c6,
-  c7), or down to its material's reorder point (``construct.reorder``); the crane's lift or
-  assistance is done;
+  c7), or down to its material's reorder point (``construct.reorder``) or, with a logistics
+  role, to its next decision level (``logistics``); the crane's lift or assistance is done;
 - a walk arrives (c1, c4, c5, c7, the outlet);
 - a disruption starts or ends (``disruptions.Timeline``), and a walker's re-evaluation is due
   (``reevaluate_after_steps`` seconds without a reach, section 3.6);
@@ -207,7 +207,8 @@ class WalkMotion:
         if not decide.only_execution_fires(ctx, settled):
             return 1
         soonest = min(engine.max_time_s - now,
-                      construct.next_change_in(site, engine.positions, self.invasion_of))
+                      construct.next_change_in(site, engine.positions, self.invasion_of,
+                                               engine.lift_levels))
         every = site.case.simulation.reevaluate_after_steps
         walks = self.walks
         for crew in site.crews:
@@ -317,9 +318,10 @@ class EventFloor(Engine):
                  seed: int | None = None, max_time_s: float | None = None,
                  park_idle: bool = False, stall_s: float | None = None,
                  position_log_every_s: float | None = None, *,
-                 calibration: Calibration | None = None):
+                 calibration: Calibration | None = None, logistics=None):
         super().__init__(case, stage, evaluator, seed, max_time_s, False, stall_s,
-                         position_log_every_s, motion=WalkMotion(calibration))
+                         position_log_every_s, motion=WalkMotion(calibration),
+                         logistics=logistics)
 
 
 def make_floor(case: Case, fidelity: str = "pymunk", calibration: Calibration | None = None,
