@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass
 
 import cmdp_pymunk
+from cmdp_pymunk import add_version_flag
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 from cmdp_pymunk.logistics import CraneIdle, Never, ReorderPoint
 from training.cli import seed_list
@@ -42,6 +43,7 @@ class Args:
 
 def parse(argv) -> Args:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_version_flag(p)
     p.add_argument("--seeds", default="100-139", help="seeds, e.g. 100-139 (default)")
     p.add_argument("--roles", default=",".join(ROLES),
                    help=f"comma-separated, of {', '.join(ROLES)} (never is always run)")
