@@ -25,8 +25,10 @@ demo: $(VENV)/.installed
 
 # The gate (about 2 min on 2 cores), the slow set (CI) and the nightly set (the full sweeps,
 # before a release; not in CI): docs/testing.md says what each covers and how long it takes.
+# The gate runs on both cores (pytest-xdist, a file's tests on one worker: they share its
+# fixtures and its planner caches).
 test: $(VENV)/.installed
-	$(PY) -m pytest -q -m "not slow and not nightly"
+	$(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not nightly"
 
 test-slow: $(VENV)/.installed
 	$(PY) -m pytest -q -m "slow and not nightly"
