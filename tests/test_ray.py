@@ -154,7 +154,9 @@ def test_workers_with_another_version_are_refused(cluster, tmp_path, capsys, mon
 
 def test_a_file_missing_on_a_worker_is_one_line(cluster, tmp_path, capsys, monkeypatch):
     """Here the driver sees the file and the workers do not: its check is skipped."""
-    monkeypatch.setattr(evaluate, "check_specs", lambda *a: None)
+    from training.runs import strategies
+
+    monkeypatch.setattr(strategies, "check_specs", lambda *a: None)
     missing = tmp_path / "nowhere.json"
     assert evaluate.main([*QUICK[:2], "--strategies", f"priority,ga:{missing}", *QUICK[4:],
                           "--seeds", "0", "--ray", cluster.address, "--out",
