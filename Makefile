@@ -31,7 +31,7 @@ test: $(VENV)/.installed
 	$(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not nightly"
 
 test-slow: $(VENV)/.installed
-	$(PY) -m pytest -q -m "slow and not nightly"
+	$(PY) -m pytest -q -n 2 --dist loadfile -m "slow and not nightly"
 
 test-nightly: $(VENV)/.installed
 	$(PY) -m pytest -q -m nightly
