@@ -169,33 +169,12 @@ class SeedRun:
     summary: dict | None
     events: list
     stuck: str = ""
-    files: dict = field(default_factory=dict)  # name -> contents (``seed_files``)
 
 
-def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb,
-             with_files: bool = False) -> SeedRun:
-    """What is kept of a finished (or stalled) episode on ``engine``; ``with_files``: its
-    schedule files' contents too (``seed_files``), made where the episode ran."""
-    data = summary(engine, episode, args, case_label, lb)
-    events = list(engine.log.events)
-    files = seed_files(events, engine.case, data.get("simulated_s")) if with_files else {}
-    return SeedRun(episode.seed, data, events, files=files)
-
-
-def seed_files(events: list, case, simulated_s: float | None) -> dict[str, str | bytes]:
-    """A seed's event log and schedules as their files' contents: ``events.csv``,
-    ``schedule.csv`` and ``schedule.xml`` (MS Project XML, for the planning tools). A worker
-    makes them beside its episode, so that a run of many seeds does not serialise them one
-    after another in the main process (about 40 ms a seed)."""
-    from cmdp_pymunk.events import EventLog
-    from cmdp_pymunk.exchange.mspdi import schedule_mspdi
-    from cmdp_pymunk.schedule import schedule_csv
-
-    log = EventLog()
-    log.events = events
-    return {"events.csv": log.to_csv(),
-            "schedule.csv": schedule_csv(events, case, simulated_s),
-            MSPDI_FILE: schedule_mspdi(events, case, simulated_s)}
+def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb) -> SeedRun:
+    """What is kept of a finished (or stalled) episode on ``engine``."""
+    return SeedRun(episode.seed, summary(engine, episode, args, case_label, lb),
+                   list(engine.log.events))
 
 
 def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: str, lb,
@@ -211,7 +190,7 @@ def _simulate_job(runner, evaluator_spec: str, args: SimulateArgs, case_label: s
         engine, episode = runner.play(evaluator_spec, args.navigator, seed, progress)
     except PolicyStuck as err:
         return SeedRun(seed, None, [], str(err))
-    return seed_run(engine, episode, args, case_label, lb, with_files=True)
+    return seed_run(engine, episode, args, case_label, lb)
 
 
 def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=None,
@@ -222,7 +201,9 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
     ``training.fidelity.Floor``, whose calibration (file, fingerprint, numbers) goes into
     ``summary.json`` beside the fidelity the episode ran at. Returns ``summary.json``'s
     data."""
-    from cmdp_pymunk.events import write_atomic
+    from cmdp_pymunk.events import EventLog, write_atomic
+    from cmdp_pymunk.exchange.mspdi import write_mspdi
+    from cmdp_pymunk.schedule import schedule_csv
 
     folder.mkdir(parents=True, exist_ok=True)
     data = dict(run.summary)
@@ -239,11 +220,13 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
 
         data["calendar"] = calendar_summary(case.calendar, data["makespan_s"],
                                             data.get("simulated_s"))
-    # the log, the schedule and the same schedule for MS Project and the tools that read its
-    # XML (module doc); made by the worker that played the seed, or here
-    files = run.files or seed_files(run.events, case, data.get("simulated_s"))
-    for name in ("events.csv", "schedule.csv", MSPDI_FILE):
-        write_atomic(folder / name, files[name])
+    log = EventLog()
+    log.events = run.events
+    log.write_csv(folder / "events.csv")
+    write_atomic(folder / "schedule.csv",
+                 schedule_csv(run.events, case, data.get("simulated_s")))
+    # the same schedule for MS Project and the tools that read its XML (module doc)
+    write_mspdi(folder / MSPDI_FILE, run.events, case, data.get("simulated_s"))
     write_json(folder / "summary.json", data)
     if args.ifc is not None:
         import datetime
