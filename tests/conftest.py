@@ -84,6 +84,32 @@ def tiny_dict() -> dict:
     return copy.deepcopy(TINY)
 
 
+REBAR_CREW = 2  # the tiny case's first rebar crew (M-1)
+
+
+def fetching_env(stock: float, reorder_at: float = 0.0):
+    """The tiny case (bars: 0.6 m3/min = 0.01 m3/s, lifts of 0.5 m3 in 60 s, crews carry 0.2)
+    with M-1 fetching at the storage holding ``stock`` (``reorder_at``: the bars' reorder
+    point, 0 the paper's c7)."""
+    import cmdp_pymunk
+    from cmdp_pymunk import decide
+    from cmdp_pymunk.cases.load import case_from_dict
+    from cmdp_pymunk.state import CrewStatus
+
+    data = tiny_dict()
+    data["materials"]["bars"]["reorder_at"] = reorder_at
+    env = cmdp_pymunk.parallel_env(case=case_from_dict(data, "tiny.toml"), stage=2, seed=0)
+    env.reset(seed=0)
+    site = env.engine.site
+    site.storages[0].stock = stock
+    place(env, REBAR_CREW, 6.0, 4.5)
+    ctx = decide.Context(site, env.engine.world, env.engine.positions, env.engine.streams, env.log)
+    crew = site.crews[REBAR_CREW]
+    decide.first_rule(crew, ctx).effect(crew, ctx)  # c5
+    assert crew.status == CrewStatus.FETCHING
+    return env
+
+
 def tiny_file_data(**sections) -> dict:
     """The built-in tiny case file's data (``cmdp_pymunk.TINY_CASE``, not ``TINY`` above),
     with ``sections`` put in."""

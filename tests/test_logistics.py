@@ -5,10 +5,10 @@ import hashlib
 
 import numpy as np
 import pytest
-from conftest import place, tiny_dict
+from conftest import fetching_env, tiny_dict
 
 import cmdp_pymunk
-from cmdp_pymunk import construct, decide
+from cmdp_pymunk import construct
 from cmdp_pymunk.adapters.decision_loop import DecisionLoop, make_decision_env
 from cmdp_pymunk.cases.load import REORDER_CASE, case_from_dict
 from cmdp_pymunk.evaluate import make_evaluator
@@ -22,7 +22,6 @@ from cmdp_pymunk.logistics import (
     ReorderPoint,
     make_logistics,
 )
-from cmdp_pymunk.state import CrewStatus
 
 M1 = 2  # the tiny case's first rebar crew
 
@@ -55,26 +54,11 @@ class Script:
         return self.answers.pop(0)
 
 
-def fetching(stock: float):
-    """The tiny case (bars: 0.6 m3/min = 0.01 m3/s, lifts of 0.5 m3 in 60 s, crews carry 0.2)
-    with M-1 fetching at the storage holding ``stock`` (as tests/test_reorder.py)."""
-    env = cmdp_pymunk.parallel_env(case=case_from_dict(tiny_dict(), "tiny.toml"), stage=2,
-                                   seed=0)
-    env.reset(seed=0)
-    site = env.engine.site
-    site.storages[0].stock = stock
-    place(env, M1, 6.0, 4.5)
-    ctx = decide.Context(site, env.engine.world, env.engine.positions, env.engine.streams, env.log)
-    crew = site.crews[M1]
-    decide.first_rule(crew, ctx).effect(crew, ctx)  # c5
-    assert crew.status == CrewStatus.FETCHING
-    return env
-
 
 # -- the decision levels (construct) ----------------------------------------------------------
 
 def test_asked_once_at_each_level_and_a_yes_asks_the_crane():
-    env = fetching(stock=0.45)
+    env = fetching_env(stock=0.45)
     site, storage = env.engine.site, env.engine.site.storages[0]
     role = Script(levels=(0.4, 0.3), answers=[False, True])
     for _ in range(4):  # by hand: 0.45 - 4 x 0.01 = 0.41 > 0.4
@@ -94,7 +78,7 @@ def test_asked_once_at_each_level_and_a_yes_asks_the_crane():
 
 
 def test_a_jump_past_two_levels_asks_once_at_the_lower():
-    env = fetching(stock=0.45)
+    env = fetching_env(stock=0.45)
     site = env.engine.site
     role = Script(levels=(0.4, 0.3), answers=[False])
     construct.advance(site, env.engine.positions, env.log, 16.0, logistics=role)  # 0.29
@@ -102,7 +86,7 @@ def test_a_jump_past_two_levels_asks_once_at_the_lower():
 
 
 def test_the_event_floor_jumps_to_the_next_level_not_yet_asked():
-    env = fetching(stock=0.45)
+    env = fetching_env(stock=0.45)
     site, storage = env.engine.site, env.engine.site.storages[0]
     levels = {"bars": (0.4, 0.3)}.get
     # by hand: the load is full after 20 s (0.2 at 0.01 m3/s); 0.4 is 5 s away, 0.3 15 s

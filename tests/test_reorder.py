@@ -2,10 +2,10 @@
 crew still loads, on both floors, and its validation."""
 
 import pytest
-from conftest import place, tiny_dict
+from conftest import fetching_env, tiny_dict
 
 import cmdp_pymunk
-from cmdp_pymunk import construct, decide
+from cmdp_pymunk import construct
 from cmdp_pymunk.cases.load import CaseError, case_from_dict
 from cmdp_pymunk.evaluate import make_evaluator
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
@@ -14,22 +14,6 @@ from cmdp_pymunk.state import CrewStatus
 
 M1 = 2  # the tiny case's first rebar crew
 
-
-def fetching_env(reorder_at: float, stock: float):
-    """The tiny case (bars: 0.6 m3/min = 0.01 m3/s, lifts of 0.5 m3 in 60 s, crews carry 0.2)
-    with M-1 fetching at the storage holding ``stock``."""
-    data = tiny_dict()
-    data["materials"]["bars"]["reorder_at"] = reorder_at
-    env = cmdp_pymunk.parallel_env(case=case_from_dict(data, "tiny.toml"), stage=2, seed=0)
-    env.reset(seed=0)
-    site = env.engine.site
-    site.storages[0].stock = stock
-    place(env, M1, 6.0, 4.5)
-    ctx = decide.Context(site, env.engine.world, env.engine.positions, env.engine.streams, env.log)
-    crew = site.crews[M1]
-    decide.first_rule(crew, ctx).effect(crew, ctx)  # c5
-    assert crew.status == CrewStatus.FETCHING
-    return env
 
 
 def test_a_lift_is_asked_for_at_the_reorder_point_and_the_crew_keeps_loading():
@@ -63,7 +47,7 @@ def test_without_a_reorder_point_the_storage_runs_dry_first():
 def test_one_jump_of_many_seconds_asks_at_the_same_second_as_single_seconds():
     """What the event floor relies on: a step of dt seconds ending at the reorder point leaves
     the lift's countdown where 15 steps of one second leave it."""
-    one, jump = fetching_env(0.3, 0.45), fetching_env(0.3, 0.45)
+    one, jump = fetching_env(0.45, reorder_at=0.3), fetching_env(0.45, reorder_at=0.3)
     for _ in range(15):
         construct.advance(one.engine.site, one.engine.positions, one.log, 1.0)
     construct.advance(jump.engine.site, jump.engine.positions, jump.log, 15.0)
