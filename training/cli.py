@@ -14,8 +14,9 @@ from pathlib import Path
 
 
 def plain(doc: str) -> str:
-    """A module docstring's first line as a ``--help`` description: no RST marks."""
-    return " ".join(doc.strip().splitlines()[0].replace("``", "").split())
+    """A module docstring's first paragraph (its summary, however many lines it wraps to) as a
+    ``--help`` description: no RST marks."""
+    return " ".join(doc.strip().split("\n\n")[0].replace("``", "").split())
 
 
 class OneLineParser(argparse.ArgumentParser):
