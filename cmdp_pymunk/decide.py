@@ -418,6 +418,15 @@ _LAST_ROW = {s: rows[-1] for s, rows in ROWS_BY_STATUS.items() if rows}
 _EXECUTION = next(r for r in DECISION_TABLE if r.code == "c2")  # the last of its states' rows
 
 
+def _only_execution(crew: CrewState, task) -> bool:
+    """A tasking crew's rows at once: c9 (its task is not done), c3 (material left), c8 (the
+    crane ready or not needed) fail and c2 fires; ``DECISION_TABLE``'s triggers in one read
+    (a test holds the two equal on every tasking state)."""
+    return (task.progress < task.work - EPS
+            and (task.material_per_work == 0.0 or crew.load > EPS)
+            and (not task.needs_crane or task.crane_assisted))
+
+
 def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
     """True when, for every crew, no row but c2 (execute) would fire: a quiet second.
 
@@ -432,6 +441,8 @@ def only_execution_fires(ctx: Context, settled: dict | None = None) -> bool:
             continue
         if settled is not None and settled.get(crew.index) == version:
             continue
+        if crew.status == TASKING and _only_execution(crew, ctx.site.tasks[crew.task]):
+            continue
         for rule in _ROWS_BUT_EXECUTION[crew.status, crew.scope_kind]:
             if rule.trigger(crew, ctx):
                 return False
@@ -442,8 +453,17 @@ def apply_decision_table(ctx: Context) -> dict[int, list[str]]:
     """Fire the table for every crew on the plane; returns the codes fired per crew."""
     fired: dict[int, list[str]] = {}
     site, settled, reached = ctx.site, ctx.settled, ctx.reached
+    tasks, version = site.tasks, site.version
     for crew in site.crews:
-        if crew.status == LEFT or crew.absent:  # away (a disruption): no decisions
+        status = crew.status
+        if status == LEFT or crew.absent:  # away (a disruption): no decisions
+            continue
+        if status == TASKING and _only_execution(crew, tasks[crew.task]):
+            # most crews at most steps: c9, c3 and c8 fail and c2 fires (the rows' own
+            # triggers, read at once; c2's effect is P_cons' and nothing else fires after it)
+            settled[crew.index] = version
+            reached.pop(crew.index, None)
+            fired[crew.index] = ["c2"]
             continue
         codes = []
         for _ in range(MAX_ROWS_PER_STEP):

@@ -259,3 +259,23 @@ def test_execution_is_the_last_row_its_crews_try():
     c2 = next(r for r in decide.DECISION_TABLE if r.code == "c2")
     holders = [rows for rows in decide.ROWS_BY_STATE.values() if c2 in rows]
     assert holders and all(rows[-1] is c2 for rows in holders)
+
+
+def test_a_tasking_crews_rows_read_at_once_agree_with_the_table(tiny_env):
+    """``decide._only_execution`` (the table's fast path for a tasking crew) holds exactly
+    when the rows' own triggers give c2 first, over every combination of what they read."""
+    env = tiny_env
+    ctx = ctx_of(env)
+    crew = env.engine.site.crews[M1]
+    task = env.engine.site.tasks[MC]
+    crew.status, crew.task = CrewStatus.TASKING, MC
+    seen = set()
+    for done, per_work, load, needs, assisted in itertools.product(
+            (False, True), (0.0, 0.5), (0.0, 2.0), (False, True), (False, True)):
+        task.progress = task.work if done else 0.0
+        task.material_per_work, crew.load = per_work, load
+        task.needs_crane, task.crane_assisted = needs, assisted
+        first = decide.first_rule(crew, ctx)
+        seen.add(first.code)
+        assert decide._only_execution(crew, task) == (first.code == "c2")
+    assert seen == {"c9", "c3", "c8", "c2"}  # every tasking row was met

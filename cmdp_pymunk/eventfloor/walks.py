@@ -22,6 +22,7 @@ from __future__ import annotations
 import bisect
 import math
 from dataclasses import dataclass, field
+from itertools import accumulate
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -156,7 +157,7 @@ class _Radius:
         self.graph = csr_matrix((length, (src, dst)), shape=(n, n))
         # every cell's nearest free cell: where a crew pushed against a component steps to
         _, (jj, ii) = distance_transform_edt(self.blocked, return_indices=True)
-        self.nearest_free = (jj * plane.nx + ii).ravel()
+        self.nearest_free = (jj * plane.nx + ii).ravel().tolist()  # looked up per walk
 
 
 class _Layer:
@@ -183,6 +184,7 @@ class WalkPlanner:
         self.ys = self.plane.cy.ravel()
         self._components = [c.rect for c in site.components]
         self._layers: dict[frozenset, _Layer] = {}
+        self._goals: dict[tuple[int, int], tuple] = {}  # (target, task) -> ``_goal_of``'s
         self.lateral_m_s = case.simulation.lateral_velocity_m_s
         self.outlet = (case.plane.outlet_x_m, case.plane.outlet_y_m,
                        case.plane.outlet_radius_m)
@@ -247,14 +249,20 @@ class WalkPlanner:
         # each step's length over its Eq. 1 velocity, summed in order (numpy's cumsum did the
         # same additions), times the walk factor; and the metres at each point
         # (``Walk.distance_at``), from the path's kept steps
+        # (``accumulate`` adds left to right, as ``+=`` in a loop did: the same floats)
         elapsed = math.hypot(px[0] - x, py[0] - y) / velocity[congestion[0]]
         metres = float(np.hypot(px[0] - x, py[0] - y))
-        times, distances = [0.0, elapsed * walk_factor], [0.0, metres]
-        for length, index in zip(path.steps, congestion[1:], strict=True):
-            elapsed += length / velocity[index]
-            times.append(elapsed * walk_factor)
-            metres += length
-            distances.append(metres)
+        steps = path.steps
+        if len(velocity) == 1:  # one velocity all the way (no area on the path)
+            v = velocity[congestion[0]]
+            seconds = [length / v for length in steps]
+        else:
+            seconds = [length / velocity[index]
+                       for length, index in zip(steps, congestion[1:], strict=True)]
+        times = [0.0]
+        times += [e * walk_factor for e in accumulate(seconds, initial=elapsed)]
+        distances = [0.0]
+        distances += accumulate(steps, initial=metres)
         times[-1] += dock_s  # turning to the target and docking at it, once per arrival
         arrival = now_s + max(1.0, math.ceil(times[-1] - 1e-9))
         return Walk(target, task, now_s, [x, *px], [y, *py], times, arrival, distances)
@@ -263,7 +271,10 @@ class WalkPlanner:
              task: int) -> _Path:
         """The kept path from the free cell nearest ``start`` to ``target`` (``task`` behind
         it, or -1) for the crew's radius, over the decks laid now."""
-        goal, region = self._goal_of(site, target, task)
+        goal = self._goals.get((target, task))  # a target's goal is the case's: kept
+        if goal is None:
+            goal = self._goals[target, task] = self._goal_of(site, target, task)
+        goal, region = goal
         radius = crew.spec.radius_m
         plane = self.plane
         layer = self._layer(site.laid)
