@@ -50,3 +50,15 @@ def test_workers_are_started_on_entry_and_torch_runs_on_one_thread():
     with backends.Workers(_threads, None, 2) as pool:
         assert len(pool._pool._processes) == 2  # before any job
         assert pool.map([(), ()]) == [(1, False), (1, False)]
+
+
+def test_collecting_less_inside_the_block_and_as_before_after():
+    import gc
+
+    from training.runs.base import FEW_COLLECTIONS, collecting_less
+
+    before, frozen = gc.get_threshold(), gc.get_freeze_count()
+    with collecting_less():
+        assert gc.get_threshold() == (FEW_COLLECTIONS, *before[1:])
+        assert gc.get_freeze_count() > frozen  # this process's objects out of its reach
+    assert gc.get_threshold() == before and gc.get_freeze_count() == 0

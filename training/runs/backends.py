@@ -14,7 +14,14 @@ from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as futures_completed
 from concurrent.futures.process import BrokenProcessPool
 
-from .base import Backend, BackendError, WorkerLost, default_workers, make_runner
+from .base import (
+    Backend,
+    BackendError,
+    WorkerLost,
+    collect_less,
+    default_workers,
+    make_runner,
+)
 from .runner import EpisodeRunner
 
 __all__ = ["Backend", "BackendError", "WorkerLost", "Workers", "default_workers",
@@ -37,6 +44,7 @@ def _init_worker(runner_args: tuple | None, job: Callable) -> None:
     else:
         os.environ["OMP_NUM_THREADS"] = "1"
     _RUNNER, _JOB = make_runner(runner_args), job
+    collect_less()  # a worker plays episode after episode: its imports and runner stay
 
 
 def _call(args):

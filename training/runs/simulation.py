@@ -446,6 +446,7 @@ def simulate(args: SimulateArgs, progress: Progress) -> int:
     ``BackendError`` (exit 2) when the workers or Ray cannot run them."""
     from agents.specs import make_navigator
     from training.runs.backends import open_backend
+    from training.runs.base import collecting_less
     from training.runs.runner import make_engine
 
     inputs = load_inputs(args)
@@ -476,8 +477,10 @@ def simulate(args: SimulateArgs, progress: Progress) -> int:
         write_json(args.out / "case.json", case.model_dump(mode="json"))
         progress.out = args.out
         announce(args, inputs, pool)
-        rows, finishes, failed = play_seeds(args, case, inputs.case_label, inputs.lb, cpsat,
-                                            spec, engine, navigator, pool, progress, floor)
+        with collecting_less():  # thousands of events a seed, held until written
+            rows, finishes, failed = play_seeds(args, case, inputs.case_label, inputs.lb,
+                                                cpsat, spec, engine, navigator, pool,
+                                                progress, floor)
     progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
         stats = write_makespans(args.out, rows, case.calendar)
