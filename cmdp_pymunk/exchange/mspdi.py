@@ -29,7 +29,8 @@ Without a working calendar the dates come from :data:`DEFAULT_START` (Monday 202
 to whole seconds. The same log and case give the same bytes (no time stamp of writing). The
 text is written directly (:class:`XmlText`), byte for byte as ``xml.etree.ElementTree`` with
 ``ET.indent`` writes the same elements (:class:`ElementTreeXml`, the reference the tests compare
-it with), about ten times faster: ``cmdp-simulate --episodes 1000`` writes one file a seed.
+it with): the whole file in 6.5 ms a floor instead of 17.7 (built-in case, CPU under load),
+and ``cmdp-simulate --episodes 1000`` writes one file a seed.
 """
 
 from __future__ import annotations
@@ -93,7 +94,7 @@ class XmlText:
     give for the same elements (two spaces a level, ``<Tag />`` for an element without text
     or children, ``&``, ``<`` and ``>`` escaped in text) without building the tree: one
     schedule is ~3,800 elements, and ElementTree's tree, indentation and serialisation were
-    nine tenths of the file's time."""
+    about two thirds of the file's time."""
 
     def __init__(self, root: str, attributes: dict[str, str]) -> None:
         attrs = "".join(f' {k}="{_escape_attribute(v)}"' for k, v in attributes.items())
