@@ -28,8 +28,6 @@ import math
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 
-from scipy import integrate, stats
-
 from .cases.model import Case, CrewType
 
 PACE_FLOOR_SHARE = 0.1  # construct.MIN_PACE_SHARE: a draw below 10 % of the mean is clipped
@@ -60,6 +58,10 @@ def clipped_normal_mean(mean: float, sd: float, floor: float) -> float:
     its draw is clipped below at ``floor``, which lifts the mean a little where sd is large."""
     if sd <= 0.0:
         return max(mean, floor)
+    # scipy.stats here, not at the top: cases.load imports this module, and scipy.stats took
+    # a second of every command's start (and of each worker's) that never asks for this bound
+    from scipy import stats
+
     a = (floor - mean) / sd
     return float(floor * stats.norm.cdf(a) + mean * stats.norm.sf(a) + sd * stats.norm.pdf(a))
 
@@ -71,6 +73,8 @@ def clipped_normal_inverse_mean(mean: float, sd: float, floor: float) -> float:
     unit of work is 1 / its drawn efficiency, and by Jensen its mean exceeds 1 / mean."""
     if sd <= 0.0:
         return 1.0 / max(mean, floor)
+    from scipy import integrate, stats  # here, not at the top: see clipped_normal_mean
+
     clipped = float(stats.norm.cdf((floor - mean) / sd)) / floor
     upper = mean + 12.0 * sd  # beyond it the normal's mass is below 1e-32
     if upper <= floor:

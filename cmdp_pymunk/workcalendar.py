@@ -18,6 +18,7 @@ export call them.
 from __future__ import annotations
 
 import datetime as dt
+import functools
 
 from .cases.model import WEEKDAYS, Calendar
 
@@ -35,6 +36,10 @@ def working_window(calendar: Calendar, day: dt.date) -> tuple[dt.datetime, dt.da
 
 def first_working_moment(calendar: Calendar) -> dt.datetime:
     """Simulated second 0: the start if it is working time, else the next working moment."""
+    return _working_days(calendar).zero
+
+
+def _first_working_moment(calendar: Calendar) -> dt.datetime:
     start = calendar.start
     day = start.date()
     while True:  # a working day comes: there is one a week and finitely many holidays
@@ -42,6 +47,34 @@ def first_working_moment(calendar: Calendar) -> dt.datetime:
         if window is not None and start < window[1]:
             return max(start, window[0])
         day += _DAY
+
+
+class _WorkingDays:
+    """A calendar's second 0 and its working days from there, each as (the moment its
+    working time begins, its working seconds), found once per calendar and extended as later
+    seconds are asked for: a schedule asks for ~350 dates a floor, and walking the days and
+    parsing the hours again for each was most of writing it."""
+
+    def __init__(self, calendar: Calendar) -> None:
+        self.calendar = calendar
+        self.zero = _first_working_moment(calendar)
+        self.days: list[tuple[dt.datetime, float]] = []
+        self._next = self.zero.date()
+
+    def extend(self) -> None:
+        """Appends the next working day."""
+        while True:
+            day, self._next = self._next, self._next + _DAY
+            window = working_window(self.calendar, day)
+            if window is not None:
+                begin = max(window[0], self.zero)
+                self.days.append((begin, (window[1] - begin).total_seconds()))
+                return
+
+
+@functools.lru_cache(maxsize=16)  # a Calendar is frozen and hashed by its value
+def _working_days(calendar: Calendar) -> _WorkingDays:
+    return _WorkingDays(calendar)
 
 
 def calendar_datetime(calendar: Calendar, seconds: float) -> dt.datetime:
@@ -60,18 +93,18 @@ def calendar_datetime(calendar: Calendar, seconds: float) -> dt.datetime:
     """
     if not seconds >= 0:
         raise ValueError(f"simulated seconds must be at least 0, got {seconds!r}")
-    moment = first_working_moment(calendar)
+    working = _working_days(calendar)
+    days = working.days
     left = float(seconds)
-    day = moment.date()
+    k = 0
     while True:
-        window = working_window(calendar, day)
-        if window is not None:
-            begin = max(window[0], moment)
-            available = (window[1] - begin).total_seconds()
-            if left <= available:
-                return begin + dt.timedelta(seconds=left)
-            left -= available
-        day += _DAY
+        if k == len(days):
+            working.extend()
+        begin, available = days[k]
+        if left <= available:
+            return begin + dt.timedelta(seconds=left)
+        left -= available
+        k += 1
 
 
 def working_seconds(calendar: Calendar, when: dt.datetime) -> float:

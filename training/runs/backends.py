@@ -8,12 +8,20 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
+import sys
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from concurrent.futures import as_completed as futures_completed
 from concurrent.futures.process import BrokenProcessPool
 
-from .base import Backend, BackendError, WorkerLost, default_workers, make_runner
+from .base import (
+    Backend,
+    BackendError,
+    WorkerLost,
+    collect_less,
+    default_workers,
+    make_runner,
+)
 from .runner import EpisodeRunner
 
 __all__ = ["Backend", "BackendError", "WorkerLost", "Workers", "default_workers",
@@ -27,17 +35,25 @@ _JOB: Callable | None = None
 def _init_worker(runner_args: tuple | None, job: Callable) -> None:
     global _RUNNER, _JOB
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the main process's to handle
-    try:  # two torch threads per worker oversubscribe the cores (shared/PITFALLS.md)
-        import torch
-
-        torch.set_num_threads(1)
-    except ImportError:
-        pass
+    # Two torch threads per worker oversubscribe the cores (shared/PITFALLS.md): one thread
+    # each. Not by importing torch here, which took 5 s a worker and most jobs (a heuristic
+    # or a GA evaluator) never use: torch, when a job imports it, starts with
+    # OMP_NUM_THREADS threads (torch.set_num_threads(1) does the same, once it is imported).
+    if "torch" in sys.modules:
+        sys.modules["torch"].set_num_threads(1)
+    else:
+        os.environ["OMP_NUM_THREADS"] = "1"
     _RUNNER, _JOB = make_runner(runner_args), job
+    collect_less()  # a worker plays episode after episode: its imports and runner stay
 
 
 def _call(args):
     return _JOB(_RUNNER, *args)
+
+
+def _started() -> None:
+    """A job that does nothing: submitted once per worker, it starts them all (see
+    ``Workers.__enter__``)."""
 
 
 class Workers(Backend):
@@ -67,8 +83,16 @@ class Workers(Backend):
         if self.workers == 1:
             self._runner = make_runner(self.runner_args)
         else:
-            self._pool = self._new_pool()
+            self._pool = self._start(self._new_pool())
         return self
+
+    def _start(self, pool):
+        """``pool`` with its worker processes started now, not at the first job: their
+        imports and runners (seconds) overlap what this process does before it has jobs
+        (a spawning pool starts a process at each submit while none is idle)."""
+        for _ in range(self.workers):
+            pool.submit(_started)
+        return pool
 
     def as_completed(self, jobs: Iterable[tuple]) -> Iterator[tuple[int, object]]:
         jobs = list(jobs)

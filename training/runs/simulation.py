@@ -170,6 +170,21 @@ class SeedRun:
     events: list
     stuck: str = ""
 
+    def __reduce__(self):
+        # The log travels as five columns, not as ~1,750 Event tuples each pickled with its
+        # class: pickled in 1.0 ms instead of 3.2 (unpickled in 2.2 ms either way), the
+        # same events back.
+        return _seed_run, (self.seed, self.summary, tuple(zip(*self.events, strict=True)),
+                           self.stuck)
+
+
+def _seed_run(seed: int, summary: dict | None, columns: tuple, stuck: str) -> SeedRun:
+    """A ``SeedRun`` from its pickled form (``SeedRun.__reduce__``)."""
+    from cmdp_pymunk.events import Event
+
+    return SeedRun(seed, summary, list(map(Event._make, zip(*columns, strict=True))),
+                   stuck)
+
 
 def seed_run(engine, episode, args: SimulateArgs, case_label: str, lb) -> SeedRun:
     """What is kept of a finished (or stalled) episode on ``engine``."""
@@ -431,6 +446,7 @@ def simulate(args: SimulateArgs, progress: Progress) -> int:
     ``BackendError`` (exit 2) when the workers or Ray cannot run them."""
     from agents.specs import make_navigator
     from training.runs.backends import open_backend
+    from training.runs.base import collecting_less
     from training.runs.runner import make_engine
 
     inputs = load_inputs(args)
@@ -461,8 +477,10 @@ def simulate(args: SimulateArgs, progress: Progress) -> int:
         write_json(args.out / "case.json", case.model_dump(mode="json"))
         progress.out = args.out
         announce(args, inputs, pool)
-        rows, finishes, failed = play_seeds(args, case, inputs.case_label, inputs.lb, cpsat,
-                                            spec, engine, navigator, pool, progress, floor)
+        with collecting_less():  # thousands of events a seed, held until written
+            rows, finishes, failed = play_seeds(args, case, inputs.case_label, inputs.lb,
+                                                cpsat, spec, engine, navigator, pool,
+                                                progress, floor)
     progress.doing, progress.resume = "while writing makespans.csv", ""
     if args.episodes > 1:
         stats = write_makespans(args.out, rows, case.calendar)
