@@ -20,6 +20,8 @@ source, so adding one leaves every task's pace, and every other kind's draws, un
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 # Source ids: a new source takes a new number, so adding one changes no other stream.
@@ -81,9 +83,55 @@ class RandomStreams:
         return np.random.Generator(np.random.PCG64(np.random.SeedSequence(self.key(source,
                                                                                     item))))
 
-    def pace(self, task: int) -> np.random.Generator | ExpectedDraws:
-        """The generator a task's pace is drawn from (``construct.draw_pace``); in the
-        ``EXPECTED`` scenario, draws that give the mean."""
+    def pace(self, task: int) -> PaceStream | ExpectedDraws:
+        """The stream a task's pace is drawn from (``construct.draw_pace``; a
+        ``PaceStream``, a numpy Generator to its caller); in the ``EXPECTED`` scenario,
+        draws that give the mean."""
         if self.scenario == EXPECTED:
             return ExpectedDraws()
-        return self.generator(PACE, task)
+        return PaceStream(tuple(self.key(PACE, task)))
+
+
+@functools.lru_cache(maxsize=1 << 14)
+def _first_normal(key: tuple[int, ...]) -> float:
+    """The first standard normal of the stream ``key`` (kept: see ``PaceStream``)."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key)))) \
+        .standard_normal()
+
+
+class PaceStream:
+    """A task's pace stream: what ``RandomStreams.generator`` gives for it, draw for draw.
+
+    A pace is one normal draw (``construct.pace_of``), and the same stream's first draw is
+    asked many times in one process: by a floor and by its seed's bound
+    (``bounds.seed_lower_bound``), by the branches of a lookahead, by both floors of one seed.
+    Making a generator (its SeedSequence and PCG64) costs more than the rest of starting a
+    task, so the first standard normal of each stream is kept per process and a first
+    ``normal(loc, scale)`` is ``loc + scale * z``, as numpy's own normal computes it (the
+    same float: a test compares them). Anything else asked of it, or a second draw, goes to
+    the stream's own generator, past the first draw if that was given."""
+
+    __slots__ = ("_key", "_rng", "_drawn")
+
+    def __init__(self, key: tuple[int, ...]):
+        self._key = key
+        self._rng: np.random.Generator | None = None
+        self._drawn = False  # the first normal was given from the kept one
+
+    def normal(self, loc: float = 0.0, scale: float = 1.0):
+        if self._rng is None and not self._drawn and np.isscalar(loc) and np.isscalar(scale):
+            self._drawn = True
+            return loc + scale * _first_normal(self._key)
+        return self.generator().normal(loc, scale)
+
+    def generator(self) -> np.random.Generator:
+        """The stream's numpy Generator, where the draws given so far left it."""
+        if self._rng is None:
+            self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(
+                list(self._key))))
+            if self._drawn:
+                self._rng.standard_normal()  # the first draw, given from the kept one
+        return self._rng
+
+    def __getattr__(self, name: str):
+        return getattr(self.generator(), name)

@@ -148,3 +148,28 @@ def test_a_contact_that_outlives_a_rebuild_is_not_counted_twice(tiny_env):
     world.desired[0] = [0.1, 0.0, 0.0]
     world.step(1.0, 2)
     assert world.take_contacts(0)[STORAGE] == 0  # still inside after the rebuild
+
+
+def test_a_pace_stream_gives_its_generators_draws_draw_for_draw():
+    """``PaceStream`` keeps each stream's first standard normal per process: a first normal
+    from it is numpy's own to the bit, and any later draw continues the stream as the
+    generator would."""
+    import numpy as np
+
+    from cmdp_pymunk.streams import PACE, PaceStream
+
+    rs = np.random.default_rng(5)
+    for _ in range(300):
+        seed, task = int(rs.integers(0, 10**6)), int(rs.integers(0, 200))
+        loc, scale = float(rs.uniform(0.05, 90.0)), float(rs.uniform(0.0, 25.0))
+        streams = RandomStreams(seed)
+        plain = streams.generator(PACE, task)
+        kept = streams.pace(task)
+        assert isinstance(kept, PaceStream)
+        assert kept.normal(loc, scale) == plain.normal(loc, scale)
+        assert kept.normal(loc, scale) == plain.normal(loc, scale)  # the second draw
+        assert kept.random() == plain.random()  # and anything else after it
+    fresh, plain = RandomStreams(9).pace(4), RandomStreams(9).generator(PACE, 4)
+    assert fresh.random() == plain.random() and fresh.normal(1.0, 2.0) == plain.normal(1.0, 2.0)
+    again, plain = RandomStreams(9).pace(4), RandomStreams(9).generator(PACE, 4)
+    assert again.normal(3.0, 0.5) == plain.normal(3.0, 0.5)  # the kept draw, a fresh stream
