@@ -208,6 +208,22 @@ def test_a_cost_bound_refuses_the_faster_dearer_plan_and_picks_the_planted_one(t
     assert all(not p["plan"].startswith("RC=2") for p in s["confirmation"]["plans"])
 
 
+def test_a_bounded_pareto_search_keeps_a_front_of_feasible_plans(tmp_path):
+    case_path = costly_crews_case(tmp_path)
+    out = tmp_path / "front"
+    args = ["--case", str(case_path), "--objective", "pareto", "--max-cost-ratio", "1.0",
+            "--out", str(out), *ARGS]
+    args[args.index("--trials") + 1] = "6"
+    assert plan.main(args) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    front = [p for p in summary["points"] if p["front"]]
+    # NSGA-II's best_trials keeps feasible trials only: the dearer crew is never on the front
+    assert front and all(p["feasible"] and p["cost_ratio"] <= 1.0 for p in front)
+    assert not any(p["plan"].startswith("RC=2") for p in front)
+    assert any(p["plan"].startswith("RC=2") and not p["feasible"] for p in summary["points"])
+    assert summary["search"]["sampler"] == "NSGAIISampler"
+
+
 def test_the_levers_file_is_the_built_in_floor():
     levers_file = TINY_CASE.parent / "precast_floor_levers.toml"
     levers = load_case(levers_file).model_dump(mode="json")
