@@ -1,17 +1,18 @@
 """``cmdp-plan``: search a case's levers for the plan with the lowest P80 makespan, the lowest
 cost, or the cost/P80 Pareto front (issue 42 item 5; docs/levers.md, "A plan search").
 
-    cmdp-plan [--case FILE] [--objective p80|cost|pareto] [--trials 40]
+    cmdp-plan [--case FILE] [--objective p80|cost|pareto] [--max-cost-ratio R] [--trials 40]
               [--search-seeds 1000-1015] [--confirm-seeds 2000-2019] [--confirm 3]
               [--min-seeds 4] [--reduction-factor 2] [--batch 4] [--seed 0]
-              [--calibration FILE] [--confirm-fidelity pymunk|event]
+              [--calibration FILE] [--confirm-fidelity pymunk|event] [--no-alone]
               [--workers N] [--ray [ADDRESS]] [--out DIR] [--resume] [--no-progress]
 
 Optuna searches the levers (crew counts, reorder points, crane lift batches, storage spots and
 capacities: the case's ``[levers]``, or one crew fewer or more and reorder points up to half a
 storage when it has none) on the event floor, every plan on the same search seeds in the same
 order (common random numbers), its seeds spent by successive halving (NSGA-II and every seed
-for ``pareto``); then the best ``--confirm`` plans play held-out ``--confirm-seeds`` on the
+for ``pareto``); ``--max-cost-ratio 1.0`` keeps only plans no dearer than the case (Optuna's
+trial constraints); then the best ``--confirm`` plans play held-out ``--confirm-seeds`` on the
 pymunk floor, paired with the case as written. Writes into DIR: ``plan.toml`` (the chosen
 plan as a case file: ``cmdp-simulate --case DIR/plan.toml``), ``plans/planK.toml``,
 ``media/pareto.png``, ``levers.md`` and ``levers.csv`` (each change alone and together),
@@ -63,6 +64,13 @@ def parse_args(argv: list[str] | None = None):
     p.add_argument("--batch", type=positive_int, default=d.batch,
                    help="trials asked together; results do not depend on --workers "
                         "(default %(default)s)")
+    p.add_argument("--max-cost-ratio", type=float, default=None, metavar="R",
+                   help="p80/pareto: a plan is feasible only when its mean cost is at most R x "
+                        "the case's on the same seeds (1.0: no dearer than the case); Optuna's "
+                        "constraints, not a penalty (default: no bound)")
+    p.add_argument("--no-alone", action="store_true",
+                   help="skip each change of the chosen plan alone in levers.md (a pymunk floor "
+                        "per change and held-out seed); the plan together is still measured")
     p.add_argument("--seed", type=int, default=d.seed, help="the sampler's seed")
     p.add_argument("--evaluator", default=d.evaluator,
                    help="the target evaluator every floor runs (default priority, Eq. 9)")
@@ -80,7 +88,8 @@ def parse_args(argv: list[str] | None = None):
     a = p.parse_args(argv)
     config = PlanConfig(a.objective, a.trials, tuple(a.search_seeds), tuple(a.confirm_seeds),
                         a.min_seeds, a.reduction_factor, a.batch, a.confirm,
-                        a.confirm_fidelity, a.evaluator, a.seed)
+                        a.confirm_fidelity, a.evaluator, a.seed,
+                        max_cost_ratio=a.max_cost_ratio, alone=not a.no_alone)
     return a, config
 
 
@@ -128,12 +137,19 @@ def main(argv: list[str] | None = None) -> int:
     print(f"cmdp-plan: {t['trials']} plans tried ({t['complete']} on every search seed, "
           f"{t['pruned']} pruned, {t['refused']} refused by the case's checks; "
           f"{t['distinct_plans']} distinct) in {s['search']['wall_s']:.0f} s")
+    if config.constrained:
+        print(f"cmdp-plan: cost at most {config.max_cost_ratio:g} x the case's: "
+              f"{t['feasible_complete']} plans feasible on every search seed, "
+              f"{t['infeasible']} over the bound ({t['over_cost_early']} of them pruned early)")
     for p in s["confirmation"]["plans"]:
         h = p["held_out"]
-        print(f"cmdp-plan: confirmed {p['plan']}: P80 {h['p80_s'] or 0:,.0f} s, cost "
+        bound = ("" if "within_cost_bound" not in h else
+                 "; within the cost bound" if h["within_cost_bound"] else "; OVER the cost bound")
+        print(f"cmdp-plan: confirmed {p['plan']}: P80 {h['p80_s'] or 0:,.0f} s "
+              f"({h['p80_ratio'] or 0:.3f} x), mean {h['makespan_ratio'] or 0:.3f} x, cost "
               f"{h['cost_mean'] or 0:,.0f}; vs the case {h['makespan_diff_mean_s'] or 0:+,.0f} "
               f"± {h['makespan_diff_ci95_s'] or 0:,.0f} s, cost {h['cost_diff_mean'] or 0:+,.0f} "
-              f"± {h['cost_diff_ci95'] or 0:,.0f} ({h['paired_seeds']} held-out seeds)")
+              f"± {h['cost_diff_ci95'] or 0:,.0f} ({h['paired_seeds']} held-out seeds){bound}")
     print(f"cmdp-plan: chosen: {ch['plan']}" + (f" ({ch['note']})" if ch["note"] else "")
           + f" -> {a.out / 'plan.toml'}; {s['wall_s']:.0f} s in all")
     return 0

@@ -17,6 +17,24 @@ holds) for
 - ``pareto``: the front of P80 makespan and mean cost (NSGA-II; Optuna's pruners do not
   serve studies of two objectives, so every plan plays every search seed).
 
+``max_cost_ratio`` (``--max-cost-ratio``) bounds ``p80`` and ``pareto`` by cost: a plan is
+feasible when its mean cost is at most that many times the case's on the same search seeds
+(1.0: no dearer than the case). A search on time alone adds crews (issue 42), so the bound is
+what makes "faster at no more cost" a question the search answers. It is Optuna's own
+constraint handling, not a penalty on the objective: each trial's ``cost_ratio - bound`` is
+set with ``Trial.set_constraint`` (Optuna 5.0's replacement of the samplers'
+``constraints_func``, which 5.0 deprecates; TPE and NSGA-II read the same trial constraints),
+TPE models infeasible trials apart from the feasible ones, NSGA-II ranks by constrained
+domination, and ``best_trial``/``best_trials`` keep feasible trials only. The
+``SuccessiveHalvingPruner`` knows no constraint (it ranks a rung's values alone, and a fast
+but dear plan would push the feasible ones out of a rung), so only plans within the bound on
+the rung's seeds (paired mean) compete in it: a plan clearly dearer (its paired cost
+difference's 95 % interval lies above the bound) is pruned as infeasible before the pruner
+sees it, and one over the bound on the mean but not clearly plays on to the next rung without
+competing (seeds go where a plan is close to the bound as well as where plans are close to
+each other). At the last rung the bound is read on the mean. The case as written plays every
+search seed first, the reference of every rung.
+
 Common random numbers: every plan plays the same search seeds in the same order, and a task
 meets the same pace in every plan (streams keyed by seed and task), so plans are compared on
 the same futures. The case as written is the first trial. Trials are asked in batches of
@@ -41,6 +59,7 @@ twice), ``plan.toml`` (the chosen plan as a case file), ``plans/`` (each confirm
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import time
@@ -184,6 +203,12 @@ class PlanConfig:
     evaluator: str = "priority"
     seed: int = 0  # the sampler's
     stall_s: float = STALL_S
+    max_cost_ratio: float | None = None  # p80/pareto: mean cost at most this x the case's
+    alone: bool = True  # measure each change of the chosen plan alone (levers.md)
+
+    @property
+    def constrained(self) -> bool:
+        return self.max_cost_ratio is not None
 
     def problems(self) -> list[str]:
         """Every bad setting, with its fix."""
@@ -204,6 +229,15 @@ class PlanConfig:
                        "search seeds; fix: lower it, or give more --search-seeds")
         if self.reduction_factor < 2:
             out.append("--reduction-factor must be at least 2; fix: give 2 or 3")
+        if self.constrained:
+            if not (math.isfinite(self.max_cost_ratio) and self.max_cost_ratio > 0):
+                out.append(f"--max-cost-ratio {self.max_cost_ratio} is not a positive number; "
+                           "fix: give the mean cost a plan may reach over the case's, e.g. 1.0 "
+                           "(no dearer than the case)")
+            if self.objective == "cost":
+                out.append("--max-cost-ratio bounds the cost of a search on time; with "
+                           "--objective cost the cost is already what is minimised; fix: "
+                           "--objective p80 --max-cost-ratio 1.0, or drop --max-cost-ratio")
         return out
 
     def rungs(self) -> list[int]:
@@ -222,6 +256,11 @@ class PlanConfig:
         """What a resumed search must share with the run it continues (all but ``trials``)."""
         data = asdict(self)
         data.pop("trials")
+        # searches made before these settings existed resume as before
+        if data["max_cost_ratio"] is None:
+            data.pop("max_cost_ratio")
+        if data["alone"]:
+            data.pop("alone")
         return json.loads(json.dumps(data))
 
 
@@ -278,12 +317,16 @@ class Floors:
             self.bar.update(counted)
         if not todo:
             return
-        dumps: dict[str, dict] = {}
+        dumps: dict[str, tuple[str, dict]] = {}
         jobs = []
         for label, case, seed in todo:
             if label not in dumps:
-                dumps[label] = case.model_dump(mode="json")
-            jobs.append((f"{fidelity}:{label}", dumps[label],
+                data = case.model_dump(mode="json")
+                # a worker keeps runners by this key: the case's digest beside the plan's label,
+                # so two searches in one process (of two cases) never share a runner
+                digest = hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+                dumps[label] = (f"{fidelity}:{label}:{digest[:16]}", data)
+            jobs.append((*dumps[label],
                          (self.config.stall_s, None, False, None, *self.floors[fidelity]),
                          self.config.evaluator, seed))
         with self.path.open("a", encoding="utf-8") as log:
@@ -321,6 +364,35 @@ def objective_values(objective: str, s: dict) -> list[float] | None:
         return None
     return {"p80": [s["p80_s"]], "cost": [s["cost_mean"]],
             "pareto": [s["p80_s"], s["cost_mean"]]}[objective]
+
+
+def _cost_rows(rows: list[dict], key: str = "cost") -> list[dict]:
+    """Rows with ``key`` in the makespan's place, for ``paired`` (a run without it unfinished)."""
+    return [{"seed": r["seed"], "makespan_s": r.get(key),
+             "finished": r["finished"] and r.get(key) is not None} for r in rows]
+
+
+def cost_bound(rows: list[dict], base_rows: list[dict], max_cost_ratio: float) -> dict:
+    """A plan against the cost bound (module doc), paired with the case on the seeds both
+    finished: ``cost_ratio`` (the plan's mean cost over the case's), ``cost_violation``
+    (``cost_ratio - max_cost_ratio``: Optuna's constraint value, feasible at 0 or less) and
+    ``clearly_over`` (the paired cost difference's 95 % interval lies wholly above the
+    bound's allowance ``(max_cost_ratio - 1) x`` the case's mean cost: pruned as infeasible
+    before its last rung)."""
+    d = paired(_cost_rows(rows), _cost_rows(base_rows))
+    if not d["paired_seeds"]:
+        return {"cost_ratio": None, "cost_violation": None, "clearly_over": False}
+    base = {r["seed"]: r["cost"] for r in base_rows if r["finished"] and r.get("cost") is not None}
+    seeds = {r["seed"] for r in rows if r["finished"] and r.get("cost") is not None} & set(base)
+    allowance = (max_cost_ratio - 1.0) * sum(base[s] for s in seeds) / len(seeds)
+    low = d["diff_mean_s"] - (d["diff_ci95_s"] if d["diff_ci95_s"] is not None else math.inf)
+    return {"cost_ratio": d["ratio"], "cost_violation": d["ratio"] - max_cost_ratio,
+            "clearly_over": low > allowance}
+
+
+def feasible(trial) -> bool:
+    """A told trial within every constraint it carries (Optuna's rule: each value <= 0)."""
+    return all(v <= 0.0 for v in trial.constraints.values())
 
 
 def balance(s: dict, base: dict) -> float:
@@ -427,9 +499,10 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
     n_search = len(config.search_seeds)
     n_confirm = len(config.confirm_seeds)
     # the true total: every trial's search seeds (a pruned plan's unplayed ones are taken off
-    # when it is pruned), then the confirmed plans, the case and each change alone
+    # when it is pruned), the case's as the cost bound's reference, then the confirmed plans,
+    # the case and each change alone
     total = (config.trials * n_search + (config.confirm + 1) * n_confirm
-             + len(space) * n_confirm)
+             + len(space) * n_confirm + (n_search if config.constrained else 0))
     start = time.perf_counter()
     done_before = counted()
     bar = progress_bar(total, 0, "floor", "cmdp-plan", progress)
@@ -443,6 +516,13 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
             if label not in variants:
                 variants[label] = make_variant(case, changes).case if changes else case
             return label, variants[label]
+
+        if config.constrained:  # the bound's reference on every rung: the case on every seed
+            floors_.play("event", [(BASE_LABEL, case, s) for s in config.search_seeds])
+
+        def bound_of(rows: list[dict], rung: int) -> dict:
+            return cost_bound(rows, floors_.of("event", BASE_LABEL, config.search_seeds[:rung]),
+                              config.max_cost_ratio)
 
         while counted() < config.trials:
             batch = []
@@ -475,15 +555,32 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
                         study.tell(trial, state=TrialState.FAIL)
                         bar.total -= n_search - rung
                         continue
+                    bound = bound_of(rows, rung) if config.constrained else None
+                    if bound is not None:
+                        s = {**s, "cost_ratio": bound["cost_ratio"],
+                             "cost_violation": bound["cost_violation"]}
                     if rung < n_search:
                         trial.report(values[0], rung)
-                        if trial.should_prune():
+                        # the pruner ranks a rung's values alone, so only plans within the
+                        # bound at this rung compete in it (a fast, dear plan would push the
+                        # feasible ones out); one clearly over is pruned as infeasible, one
+                        # over on the mean but not clearly plays on: seeds go where a plan is
+                        # close to the bound too
+                        over = bound is not None and bound["clearly_over"]
+                        compete = bound is None or bound["cost_violation"] <= 0
+                        if over or (compete and trial.should_prune()):
                             trial.set_user_attr("scores", s)
+                            if over:
+                                trial.set_user_attr("over_cost_at", rung)
+                            if bound is not None:
+                                trial.set_constraint("cost", bound["cost_violation"])
                             study.tell(trial, state=TrialState.PRUNED)
                             bar.total -= n_search - rung
                             continue
                     else:
                         trial.set_user_attr("scores", s)
+                        if bound is not None:
+                            trial.set_constraint("cost", bound["cost_violation"])
                         study.tell(trial, values)
                         continue
                     survivors.append((trial, label, plan))
@@ -501,12 +598,15 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
         base_search = best_by_plan.get(BASE_LABEL) or scores(
             floors_.of("event", BASE_LABEL, config.search_seeds))
         key = rank_key(config.objective, base_search)
+        within = {t.user_attrs["plan"] for t in complete if feasible(t)}
         if config.objective == "pareto":
+            # best_trials keeps the feasible trials only when the study has constraints
             front = {t.user_attrs["plan"] for t in study.best_trials}
             pool_plans = [p for p in best_by_plan if p in front]
         else:
             front = set()
-            pool_plans = list(best_by_plan)
+            # as study.best_trial: a constrained search confirms feasible plans only
+            pool_plans = [p for p in best_by_plan if p in within]
         ranked = sorted((p for p in pool_plans if p != BASE_LABEL),
                         key=lambda p: (key(best_by_plan[p]), p))
         confirmed = ranked[:config.confirm]
@@ -520,15 +620,21 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
         held = {p: _against(floors_.of(cf, p, config.confirm_seeds), base_rows)
                 for p in confirmed}
         hkey = rank_key(config.objective, base_held)
+        if config.constrained:
+            for p in confirmed:
+                held[p]["within_cost_bound"] = within_bound(held[p], base_held,
+                                                            config.max_cost_ratio)
         better = [p for p in confirmed if held[p]["finished"] == held[p]["floors"]
-                  and hkey(held[p]) < hkey(base_held)]
+                  and hkey(held[p]) < hkey(base_held)
+                  and held[p].get("within_cost_bound", True)]
         chosen_label = min(better, key=lambda p: (hkey(held[p]), p)) if better else BASE_LABEL
 
         # -- what each change is worth alone and together -----------------------------------
         table_label = chosen_label if chosen_label != BASE_LABEL else \
             (confirmed[0] if confirmed else BASE_LABEL)
         changes = _changes_of(case, table_label)
-        alone = [(c.label, (c,)) for c in changes] if len(changes) > 1 else []
+        alone = [(c.label, (c,)) for c in changes] if len(changes) > 1 and config.alone \
+            else []
         bar.total -= (len(space) - len(alone)) * n_confirm
         floors_.play(cf, [(label_of(ch), variant_of(ch)[1], s) for _, ch in alone
                           for s in config.confirm_seeds])
@@ -550,13 +656,21 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
              "unfinished": sum(1 for t in trials if t.user_attrs.get("unfinished")),
              "distinct_plans": len({t.user_attrs.get("plan") for t in trials
                                     if t.user_attrs.get("plan")})}
+    if config.constrained:
+        told = [t for t in trials if t.constraints]
+        tried |= {"feasible": sum(1 for t in told if feasible(t)),
+                  "infeasible": sum(1 for t in told if not feasible(t)),
+                  "over_cost_early": sum(1 for t in trials if t.user_attrs.get("over_cost_at")),
+                  "feasible_complete": sum(1 for t in complete if feasible(t))}
     chosen_changes = _changes_of(case, chosen_label)
     chosen = make_variant(case, chosen_changes, "plan") if chosen_changes else case
     points = [{"plan": t.user_attrs["plan"], **t.user_attrs["scores"],
-               "front": t.user_attrs["plan"] in front} for t in complete]
+               "front": t.user_attrs["plan"] in front, "feasible": feasible(t)}
+              for t in complete]
     summary = {
         "case": case.case.name, "case_file": str(case_path) if case_path else "built-in",
         "objective": config.objective, "settings": json.loads(json.dumps(asdict(config))),
+        "max_cost_ratio": config.max_cost_ratio,
         "levers": [{**asdict(lv), "key": lv.key} for lv in space],
         "tried": tried,
         "search": {"floor": "event", "calibration": getattr(calibration, "fitted_on", "")
@@ -574,7 +688,8 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
                    "crews": crew_counts(chosen if isinstance(chosen, Case) else chosen.case),
                    "held_out": held.get(chosen_label, base_held),
                    "note": "" if chosen_label != BASE_LABEL else
-                   "no confirmed plan beat the case as written on the held-out seeds"},
+                   ("no confirmed plan beat the case as written on the held-out seeds"
+                    + (" within the cost bound" if config.constrained else ""))},
         "levers_table": {"plan": table_label, "rows": lever_rows},
         "points": points, "wall_s": round(wall, 1),
     }
@@ -596,15 +711,24 @@ def _against(rows: list[dict], base_rows: list[dict]) -> dict:
     intervals (``training.runs.paired``)."""
     s = scores(rows)
     diff = paired(rows, base_rows)
+    base = scores(base_rows)
     out = {**s, "paired_seeds": diff["paired_seeds"], "makespan_diff_mean_s": diff["diff_mean_s"],
-           "makespan_diff_ci95_s": diff["diff_ci95_s"], "makespan_ratio": diff["ratio"]}
+           "makespan_diff_ci95_s": diff["diff_ci95_s"], "makespan_ratio": diff["ratio"],
+           "p80_ratio": (s["p80_s"] / base["p80_s"]
+                         if s["p80_s"] is not None and base["p80_s"] else None)}
     for key in ("cost", "cost_crew_rates_x2"):
-        d = paired([{"seed": r["seed"], "makespan_s": r.get(key),
-                     "finished": r["finished"] and r.get(key) is not None} for r in rows],
-                   [{"seed": r["seed"], "makespan_s": r.get(key),
-                     "finished": r["finished"] and r.get(key) is not None} for r in base_rows])
+        d = paired(_cost_rows(rows, key), _cost_rows(base_rows, key))
         out[f"{key}_diff_mean"], out[f"{key}_diff_ci95"] = d["diff_mean_s"], d["diff_ci95_s"]
+        out[f"{key}_ratio"] = d["ratio"]
     return out
+
+
+def within_bound(held: dict, base: dict, max_cost_ratio: float) -> bool:
+    """Whether a confirmed plan keeps the cost bound on the held-out seeds: its paired mean cost
+    difference to the case at most ``(max_cost_ratio - 1) x`` the case's mean cost (at 1.0:
+    the paired difference at most 0)."""
+    d = held.get("cost_diff_mean")
+    return d is not None and d <= (max_cost_ratio - 1.0) * base["cost_mean"] + 1e-9
 
 
 # -- the outputs -----------------------------------------------------------------------------
@@ -656,7 +780,7 @@ LEVER_FIELDS = ("lever", "floors", "finished", "mean_s", "p50_s", "p80_s", "cost
                 "makespan_ratio", "cost_diff_mean", "cost_diff_ci95",
                 "cost_crew_rates_x2_diff_mean", "cost_crew_rates_x2_diff_ci95")
 TRIAL_FIELDS = ("number", "state", "plan", "floors", "finished", "p80_s", "mean_s",
-                "cost_mean", "note")
+                "cost_mean", "note", "cost_ratio", "feasible")  # the last two: --max-cost-ratio
 
 
 def write_outputs(result: PlanResult, case: Case, study_rows: list[dict], out: Path) -> list[Path]:
@@ -706,7 +830,11 @@ def trial_rows(out: Path) -> list[dict]:
         sc = t.user_attrs.get("scores", {})
         rows.append({"number": t.number, "state": t.state.name, "plan": t.user_attrs.get("plan"),
                      **{k: sc.get(k) for k in ("floors", "finished", "p80_s", "mean_s",
-                                               "cost_mean")},
+                                               "cost_mean", "cost_ratio")},
+                     "feasible": (all(v <= 0.0 for v in t.constraints.values())
+                                  if t.constraints else None),
                      "note": t.user_attrs.get("invalid", "") or
-                     ("a floor did not finish" if t.user_attrs.get("unfinished") else "")})
+                     ("a floor did not finish" if t.user_attrs.get("unfinished") else "") or
+                     (f"over the cost bound at {t.user_attrs['over_cost_at']} seeds"
+                      if t.user_attrs.get("over_cost_at") else "")})
     return rows
