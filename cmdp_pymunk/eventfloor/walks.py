@@ -228,8 +228,14 @@ def area_ends(plane: PlaneGrid, area: Rect, components: list[Rect], radius: floa
 
     flat = np.flatnonzero(goal.ravel())
     gx, gy = plane.cx.ravel()[flat], plane.cy.ravel()[flat]
-    near = np.array([_into(("rect", area), x, y) for x, y in zip(gx.tolist(), gy.tolist(),
-                                                                    strict=True)]).reshape(-1, 2)
+    if type(area) is Outline:
+        near = np.array([_into(("rect", area), x, y)
+                         for x, y in zip(gx.tolist(), gy.tolist(), strict=True)]).reshape(-1, 2)
+    else:  # ``_into`` on every goal cell at once: the same clamp
+        x0, y0, x1, y1 = area
+        m = min(0.01, (x1 - x0) / 4, (y1 - y0) / 4)
+        near = np.stack((np.minimum(np.maximum(gx, x0 + m), x1 - m),
+                         np.minimum(np.maximum(gy, y0 + m), y1 - m)), axis=1)
     good = fits(near[:, 0], near[:, 1]) & clear(gx, gy, near[:, 0], near[:, 1])
     out = {int(c): (float(x), float(y))
            for c, x, y in zip(flat[good], near[good, 0], near[good, 1], strict=True)}
