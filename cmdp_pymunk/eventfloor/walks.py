@@ -27,6 +27,7 @@ a laid deck is open floor: the free cells, fields and paths are kept per set of 
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -484,11 +485,18 @@ def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
     x0, y0, x1, y1 = region[1]
     m = min(0.01, (x1 - x0) / 4, (y1 - y0) / 4)
     if type(region[1]) is Outline:  # the polygon's nearest point, the margin inside it
-        inner = region[1].polygon.buffer(-m, join_style="mitre")
-        if inner.geom_type != "Polygon" or inner.is_empty:  # thinner than the margin
-            return region[1].nearest(x, y)
-        return Outline(inner.exterior.coords[:-1]).nearest(x, y)
+        return _inner(region[1], m).nearest(x, y)
     return min(max(x, x0 + m), x1 - m), min(max(y, y0 + m), y1 - m)
+
+
+@functools.lru_cache(maxsize=1024)
+def _inner(outline: Outline, m: float) -> Outline:
+    """``outline`` shrunk by the margin ``m`` (itself where it is thinner than that): kept,
+    since every goal cell of a polygon's area asks it (``area_ends``)."""
+    inner = outline.polygon.buffer(-m, join_style="mitre")
+    if inner.geom_type != "Polygon" or inner.is_empty:  # thinner than the margin
+        return outline
+    return Outline(inner.exterior.coords[:-1])
 
 
 __all__ = ["WalkPlanner", "Walk", "congestion_along", "congestion_areas", "walking_velocities"]
