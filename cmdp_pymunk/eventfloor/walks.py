@@ -6,9 +6,10 @@ the scripted navigator plans on and the case check proves reachable; cells a cre
 radius cannot stand on are blocked). The path ends only where the case check counts the
 target reached (one reach rule, issue 41): at a free cell holding, or beside, a point of the
 task area where the crew fits (``reach.area_points``, ``reach.beside``: the check's work
-point), and then steps to the nearest such point (at most a cell and a half away, and clear
-of every component: both ends keep about the crew's radius off them); at a free cell of the
-storage or the outlet, as the check asks. A target the check calls unreachable from where the
+point), and stops at the area's point nearest that cell, a hair inside, where the crew fits
+and the step there passes no component, else at the nearest of the check's points beside
+the cell (``area_ends``); at a free cell of the storage or the outlet, as the check asks. The
+path is the shortest to where it stops. A target the check calls unreachable from where the
 crew stands has no such path: the crew does not walk and never arrives (a stall, as on the
 pymunk floor, where it presses against what stands in the way). The walk's time is the sum
 over the path's steps of length / velocity, each step at the crew's Eq. 1 maximum in that cell
@@ -17,9 +18,10 @@ congested task or storage area holding the cell, never below v_min), times the c
 calibrated ``walk_factor`` (swerving around crews, detours), plus its ``dock_s`` once per
 arrival (turning toward the target and docking at it: ``calibration``).
 
-Paths to one goal from every cell are one multi-source Dijkstra (``scipy``), kept per crew
-radius and goal for the life of the planner: a floor and its clones and later episodes of the
-same case share them (``WalkPlanner.__deepcopy__``). On a floor with decks (``Component.deck``)
+Paths to one goal from every cell are one Dijkstra (``scipy``; from a task area's goal node,
+joined to each goal cell by its last step), kept per crew radius and goal for the life of the
+planner: a floor and its clones and later episodes of the same case share them
+(``WalkPlanner.__deepcopy__``). On a floor with decks (``Component.deck``)
 a laid deck is open floor: the free cells, fields and paths are kept per set of laid decks
 (``Site.laid``; the latest ``MAX_DECK_LAYERS`` sets of them), one set on a floor without.
 """
