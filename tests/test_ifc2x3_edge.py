@@ -126,3 +126,23 @@ def test_the_closed_storey_forced_past_the_check_stalls(models, monkeypatch):
     assert "JC-S-2" in stall["tasks_queued"]
     jcc = next(c for c in stall["crews"] if c["type"] == "JCC")
     assert jcc["heading_for"]["task"] == "JC-S-2"
+
+
+def test_the_closed_storey_forced_past_the_check_stalls_on_the_event_floor(models, storey,
+                                                                          monkeypatch):
+    """The event floor agrees too: its walks end only where the check counts a task reached
+    (``eventfloor.walks``), so the JCC's walk to S-2 has no way and JC-S-2 never starts (its
+    walks ran straight from a cell beside the area into it, and it finished every seed);
+    the open storey finishes."""
+    monkeypatch.setattr(load, "unreachable", lambda case: [])
+    closed = case_from_dict(import_storey(models[True], "Level 1")[0], "edge-closed.toml")
+    monkeypatch.undo()
+    opened = case_from_dict(storey[0], "edge.toml")
+    stalls = {}
+    for name, case in (("closed", closed), ("open", opened)):
+        floor = make_floor(case, "event", evaluator="priority")
+        stalls[name] = run_episode(floor, Navigator(), 0, stall_s=STALL_S,
+                                   progress=False).stalled
+        assert floor.site.done is (name == "open"), name
+    assert stalls["open"] is None
+    assert "JC-S-2" in stalls["closed"]["tasks_queued"]

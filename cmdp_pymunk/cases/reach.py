@@ -246,6 +246,35 @@ def free_cells(grid: PlaneGrid, components: list[Rect], radius: float,
     return free | (regions_of[pieces] >= 2)
 
 
+def area_points(grid: PlaneGrid, area: Rect, components: list[Rect],
+                radius: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where a crew of ``radius`` reaches ``area`` (a task area, a ``Rect`` or an
+    ``Outline``) among ``components``: the cells reaching into the area (a mask, ny x nx),
+    their ``sub_points`` (arrays: number of such cells, ``SUB_CELLS ** 2``; x and y) and which
+    of those points lie in the area (``in_area``, the decision table's test) where the crew
+    fits (``too_close`` at ``fit_distance``). The case check's work points
+    (``Reach.fits_in_area``) and the event floor's walk ends (``eventfloor.walks``) are
+    these points."""
+    cells = grid.rect_mask(area, -grid.cell_m)  # every cell reaching into the area
+    if not cells.any():
+        empty = np.zeros((0, SUB_CELLS ** 2))
+        return cells, empty, empty, empty.astype(bool)
+    px, py = grid.sub_points(cells)
+    fit = fit_distance(radius)
+    # only the components within reach of these points can be too close to them
+    x0, y0, x1, y1 = expand(area, grid.cell_m + fit)
+    near = [r for r in components if r[0] < x1 and x0 < r[2] and r[1] < y1 and y0 < r[3]]
+    ok = in_area(px, py, area) & ~too_close(px, py, near, fit, grid.half_w, grid.half_h)
+    return cells, px, py, ok
+
+
+def beside(cells: np.ndarray) -> np.ndarray:
+    """``cells`` (a mask) and their 8 neighbours: the cells from which a crew reaches a work
+    point held by one of ``cells`` (the navigator closes in on the component from the band
+    round the area)."""
+    return binary_dilation(cells, structure=np.ones((3, 3), dtype=bool))
+
+
 def reached(labels: np.ndarray, starts: set, mask: np.ndarray) -> bool:
     """Whether a cell of ``mask`` lies in a region of ``starts`` (blocked cells: -1)."""
     return bool(np.isin(labels[mask], list(starts)).any())
@@ -325,19 +354,10 @@ class Reach:
         key = (round(radius, 3), task, laid)
         out = self._work.get(key)
         if out is None:
-            grid, area = self.grid, self.task_rects[task]
-            cells = grid.rect_mask(area, -grid.cell_m)  # every cell reaching into the area
+            cells, _, _, ok = area_points(self.grid, self.task_rects[task],
+                                          self.open_rects(laid), radius)
             out = np.zeros_like(cells)
-            if cells.any():
-                px, py = grid.sub_points(cells)
-                fit = fit_distance(radius)
-                # only the components within reach of these points can be too close to them
-                x0, y0, x1, y1 = expand(area, grid.cell_m + fit)
-                near = [r for r in self.open_rects(laid)
-                        if r[0] < x1 and x0 < r[2] and r[1] < y1 and y0 < r[3]]
-                ok = in_area(px, py, area) & ~too_close(px, py, near, fit, grid.half_w,
-                                                        grid.half_h)
-                out[cells] = ok.any(axis=1)
+            out[cells] = ok.any(axis=1)
             self._work[key] = out
         return out
 
@@ -345,8 +365,7 @@ class Reach:
         """The cells from which a crew of ``radius`` reaches task ``task``'s area: a cell
         holding a point of the area where it fits (``fits_in_area``), or beside one (the
         navigator closes in on the component from the band round the area)."""
-        return binary_dilation(self.fits_in_area(radius, task, laid),
-                               structure=np.ones((3, 3), dtype=bool))
+        return beside(self.fits_in_area(radius, task, laid))
 
     def reaches(self, radius: float, start: tuple[float, float], task: int,
                 laid: frozenset = frozenset()) -> bool:

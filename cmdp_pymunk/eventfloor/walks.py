@@ -3,16 +3,25 @@
 A crew walks from where it stands to its target's reach region (the task area, the storage,
 the outlet) along the shortest path on the plane's grid (``cases.reach.PlaneGrid``, the one
 the scripted navigator plans on and the case check proves reachable; cells a crew of its
-radius cannot stand on are blocked). The walk's time is the sum over the path's steps of
-length / velocity, each step at the crew's Eq. 1 maximum in that cell
+radius cannot stand on are blocked). The path ends only where the case check counts the
+target reached (one reach rule, issue 41): at a free cell holding, or beside, a point of the
+task area where the crew fits (``reach.area_points``, ``reach.beside``: the check's work
+point), and stops at the area's point nearest that cell, a hair inside, where the crew fits
+and the step there passes no component, else at the nearest of the check's points beside
+the cell (``area_ends``); at a free cell of the storage or the outlet, as the check asks. The
+path is the shortest to where it stops. A target the check calls unreachable from where the
+crew stands has no such path: the crew does not walk and never arrives (a stall, as on the
+pymunk floor, where it presses against what stands in the way). The walk's time is the sum
+over the path's steps of length / velocity, each step at the crew's Eq. 1 maximum in that cell
 (``move.congested_velocity``: slowed by the carried load's deceleration and by the most
 congested task or storage area holding the cell, never below v_min), times the crew type's
 calibrated ``walk_factor`` (swerving around crews, detours), plus its ``dock_s`` once per
 arrival (turning toward the target and docking at it: ``calibration``).
 
-Paths to one goal from every cell are one multi-source Dijkstra (``scipy``), kept per crew
-radius and goal for the life of the planner: a floor and its clones and later episodes of the
-same case share them (``WalkPlanner.__deepcopy__``). On a floor with decks (``Component.deck``)
+Paths to one goal from every cell are one Dijkstra (``scipy``; from a task area's goal node,
+joined to each goal cell by its last step), kept per crew radius and goal for the life of the
+planner: a floor and its clones and later episodes of the same case share them
+(``WalkPlanner.__deepcopy__``). On a floor with decks (``Component.deck``)
 a laid deck is open floor: the free cells, fields and paths are kept per set of laid decks
 (``Site.laid``; the latest ``MAX_DECK_LAYERS`` sets of them), one set on a floor without.
 """
@@ -20,6 +29,7 @@ a laid deck is open floor: the free cells, fields and paths are kept per set of 
 from __future__ import annotations
 
 import bisect
+import functools
 import math
 from dataclasses import dataclass, field
 from itertools import accumulate
@@ -29,7 +39,16 @@ from scipy.ndimage import distance_transform_edt
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from ..cases.reach import APPROACH_BAND_M, CELL_M, PlaneGrid, free_cells
+from ..cases.reach import (
+    CELL_M,
+    PlaneGrid,
+    area_points,
+    beside,
+    fit_distance,
+    free_cells,
+    in_area,
+    too_close,
+)
 from ..geometry import Outline, contains
 from ..state import CrewState, Rect, Site, inside
 
@@ -155,9 +174,89 @@ class _Radius:
         src, dst, length = plane.edges(~self.blocked)
         n = plane.nx * plane.ny
         self.graph = csr_matrix((length, (src, dst)), shape=(n, n))
+        self.edges = (src, dst, length)  # for a graph with a task area's last steps added
         # every cell's nearest free cell: where a crew pushed against a component steps to
         _, (jj, ii) = distance_transform_edt(self.blocked, return_indices=True)
         self.nearest_free = (jj * plane.nx + ii).ravel().tolist()  # looked up per walk
+
+
+class _Field:
+    """The ways to one goal for one crew radius: each cell's next cell toward the goal
+    (``pred``: a Dijkstra's predecessors, a goal cell's -9999 or the graph's goal node
+    ``sink``; None where no goal cell is free), which cells end a walk there (``goal``,
+    flat), and where a walk ending at each goal cell stops (``ends``: goal cell -> (x, y); a
+    task area's point where the crew fits; None: the cell's centre)."""
+
+    def __init__(self, pred: list | None, goal: list[bool], ends: dict | None, sink: int):
+        self.pred, self.goal, self.ends, self.sink = pred, goal, ends, sink
+
+    def end(self, plane: PlaneGrid, cell: int) -> tuple[float, float]:
+        """Where a walk whose path ends at ``cell`` (a goal cell) stops."""
+        if self.ends is None:
+            return float(plane.cx.flat[cell]), float(plane.cy.flat[cell])
+        return self.ends[cell]
+
+
+def area_ends(plane: PlaneGrid, area: Rect, components: list[Rect], radius: float,
+              goal: np.ndarray, points: tuple) -> dict[int, tuple[float, float]]:
+    """Where a walk to a task ``area`` stops, for each goal cell (flat index; ``goal`` a mask,
+    ``reach.beside`` of the cells holding a point of the area where a crew of ``radius``
+    fits among ``components``; ``points`` those points, ``reach.area_points``): the area's
+    point nearest the cell's centre, a hair inside (``_into``: where the crew closes in on
+    the component), where the crew fits and the step there passes no component; else the
+    nearest of ``points`` held by the cell or one of its 8 neighbours that the crew steps to
+    so (the nearest of them where none does). Goal cell -> (x, y): each end passes the
+    decision table's test (``reach.in_area``) and the check's fit (``reach.too_close``)."""
+    cells, px, py, ok = points
+    fit = fit_distance(radius)
+    # only the components within a step (1.5 cells) of the area can be in the way
+    reach_m = 1.5 * plane.cell_m * math.sqrt(2) + fit
+    close = [r for r in components if r[0] < area[2] + reach_m and area[0] - reach_m < r[2]
+             and r[1] < area[3] + reach_m and area[1] - reach_m < r[3]]
+
+    def fits(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        return in_area(x, y, area) & ~too_close(x, y, close, fit, plane.half_w, plane.half_h)
+
+    def clear(x0: np.ndarray, y0: np.ndarray, x1: np.ndarray, y1: np.ndarray) -> np.ndarray:
+        """Whether each step from (x0, y0) to (x1, y1) stays out of every component (tested
+        every 5 cm or closer)."""
+        t = np.linspace(0.0, 1.0, 41)[:, None]
+        x, y = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
+        inside = np.zeros(x.shape, dtype=bool)
+        for shape in close:
+            if type(shape) is Outline:
+                inside |= contains(shape, x, y)
+            else:
+                inside |= (x > shape[0]) & (x < shape[2]) & (y > shape[1]) & (y < shape[3])
+        return ~inside.any(axis=0)
+
+    flat = np.flatnonzero(goal.ravel())
+    gx, gy = plane.cx.ravel()[flat], plane.cy.ravel()[flat]
+    if type(area) is Outline:
+        near = np.array([_into(("rect", area), x, y)
+                         for x, y in zip(gx.tolist(), gy.tolist(), strict=True)]).reshape(-1, 2)
+    else:  # ``_into`` on every goal cell at once: the same clamp
+        x0, y0, x1, y1 = area
+        m = min(0.01, (x1 - x0) / 4, (y1 - y0) / 4)
+        near = np.stack((np.minimum(np.maximum(gx, x0 + m), x1 - m),
+                         np.minimum(np.maximum(gy, y0 + m), y1 - m)), axis=1)
+    good = fits(near[:, 0], near[:, 1]) & clear(gx, gy, near[:, 0], near[:, 1])
+    out = {int(c): (float(x), float(y))
+           for c, x, y in zip(flat[good], near[good, 0], near[good, 1], strict=True)}
+    row_of = np.full(plane.nx * plane.ny, -1)
+    row_of[np.flatnonzero(cells.ravel())] = np.arange(int(cells.sum()))  # ``sub_points``'
+    for c, x, y in zip(flat[~good].tolist(), gx[~good].tolist(), gy[~good].tolist(),
+                       strict=True):
+        j, i = divmod(c, plane.nx)
+        rows = [row_of[jj * plane.nx + ii] for jj in (j - 1, j, j + 1)
+                for ii in (i - 1, i, i + 1) if 0 <= jj < plane.ny and 0 <= ii < plane.nx]
+        rows = np.asarray([k for k in rows if k >= 0])
+        qx, qy = px[rows][ok[rows]], py[rows][ok[rows]]
+        order = np.argsort(np.hypot(qx - x, qy - y), kind="stable")
+        ways = clear(np.full(len(qx), x), np.full(len(qx), y), qx, qy)[order]
+        k = order[int(np.argmax(ways))]  # the nearest with a clear step, else the nearest
+        out[c] = (float(qx[k]), float(qy[k]))
+    return out
 
 
 class _Layer:
@@ -167,8 +266,8 @@ class _Layer:
     def __init__(self, components: list[Rect]):
         self.components = components
         self.radii: dict[float, _Radius] = {}
-        self.fields: dict = {}  # (radius, goal) -> predecessor list toward the goal
-        self.paths: dict = {}  # (radius, goal, start cell) -> points and step lengths
+        self.fields: dict = {}  # (radius, goal) -> _Field
+        self.paths: dict = {}  # (radius, goal, start cell) -> a _Path, None: no way there
 
 
 MAX_DECK_LAYERS = 16  # sets of laid decks kept (a deck floor meets one per deck laid)
@@ -209,26 +308,53 @@ class WalkPlanner:
         return layer.radii[key]
 
     def _goal_mask(self, goal: tuple) -> np.ndarray:
-        kind = goal[0]
-        if kind == "outlet":
+        """The cells of a storage or the outlet where a walk there may end (before the free
+        cells are taken), as the case check asks (``reach.unreachable``)."""
+        if goal[0] == "outlet":
             x, y, r = self.outlet
             return np.hypot(self.plane.cx - x, self.plane.cy - y) <= r - 0.1
-        if kind == "storage":
-            return self.plane.rect_mask(goal[1], 0.1)
-        # a task area can be thinner than a crew is wide: its band, as the navigator plans
-        return self.plane.rect_mask(goal[1], -APPROACH_BAND_M)
+        return self.plane.rect_mask(goal[1], 0.1)
 
-    def _predecessors(self, radius: float, goal: tuple, layer: _Layer) -> list | None:
+    def _predecessors(self, radius: float, goal: tuple, layer: _Layer) -> _Field:
+        """The field toward ``goal`` for a crew of ``radius`` over ``layer`` (kept).
+
+        A storage or the outlet: a multi-source Dijkstra from its free cells. A task area:
+        the case check's work point (``Reach.work_point``: the free cells holding, or
+        beside, a point of the area where the crew fits, among the components still
+        standing), each joined to a goal node by its last step to the nearest such point
+        (``area_ends``), so a path is shortest to where the walk stops, not to the cell."""
         key = (round(radius, 3), goal)
         if key not in layer.fields:
             grid = self._radius(radius, layer)
-            goals = np.flatnonzero((self._goal_mask(goal) & ~grid.blocked).ravel())
-            if goals.size == 0:
-                layer.fields[key] = None
+            n = self.plane.nx * self.plane.ny
+            ends = None
+            if goal[0] == "area":
+                points = area_points(self.plane, goal[1], layer.components, radius)
+                fits = np.zeros_like(points[0])
+                fits[points[0]] = points[3].any(axis=1)
+                mask = beside(fits) & ~grid.blocked
+                ends = area_ends(self.plane, goal[1], layer.components, radius, mask, points)
             else:
+                mask = self._goal_mask(goal) & ~grid.blocked
+            mask = mask.ravel()
+            goals = np.flatnonzero(mask)
+            pred = None
+            if goals.size and ends is None:
                 _, pred, _ = dijkstra(grid.graph, directed=False, indices=goals,
-                                   min_only=True, return_predecessors=True)
-                layer.fields[key] = pred.tolist()
+                                      min_only=True, return_predecessors=True)
+                pred = pred.tolist()
+            elif goals.size:
+                # the last steps as edges to a goal node n (a step of length 0 would be no
+                # edge in a sparse graph: each gets a millimetre, the same for all)
+                last = [math.hypot(ends[c][0] - self.xs[c], ends[c][1] - self.ys[c]) + 1e-3
+                        for c in goals.tolist()]
+                src, dst, length = grid.edges
+                graph = csr_matrix((np.concatenate((length, last)),
+                                    (np.concatenate((src, np.full(goals.size, n))),
+                                     np.concatenate((dst, goals)))), shape=(n + 1, n + 1))
+                _, pred = dijkstra(graph, directed=False, indices=n, return_predecessors=True)
+                pred = pred[:n].tolist()
+            layer.fields[key] = _Field(pred, mask.tolist(), ends, n)
         return layer.fields[key]
 
     def walk(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
@@ -238,8 +364,10 @@ class WalkPlanner:
         sees a reach at the end of a second)."""
         task = crew.scope.get(target, -1)
         path = self.path(site, crew, start, target, task)
-        px, py = path.px, path.py
         x, y = float(start[0]), float(start[1])
+        if path is None:  # no way there (the check refuses such a floor): it never arrives
+            return Walk(target, task, now_s, [x], [y], [0.0], math.inf, [0.0])
+        px, py = path.px, path.py
         congestion = self._congestion(site, path, start)
         # Eq. 1's velocity at each point, worked out once per congestion index (most points
         # lie outside every area, at 1)
@@ -268,9 +396,10 @@ class WalkPlanner:
         return Walk(target, task, now_s, [x, *px], [y, *py], times, arrival, distances)
 
     def path(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
-             task: int) -> _Path:
+             task: int) -> _Path | None:
         """The kept path from the free cell nearest ``start`` to ``target`` (``task`` behind
-        it, or -1) for the crew's radius, over the decks laid now."""
+        it, or -1) for the crew's radius, over the decks laid now; None where no path leads
+        there (the case check's unreachable)."""
         goal = self._goals.get((target, task))  # a target's goal is the case's: kept
         if goal is None:
             goal = self._goals[target, task] = self._goal_of(site, target, task)
@@ -281,10 +410,9 @@ class WalkPlanner:
         i, j = plane.cell(*start)
         cell = self._radius(radius, layer).nearest_free[j * plane.nx + i]
         key = (round(radius, 3), goal, cell)
-        path = layer.paths.get(key)
-        if path is None:
-            path = layer.paths[key] = self._path(radius, goal, region, cell, layer)
-        return path
+        if key not in layer.paths:
+            layer.paths[key] = self._path(radius, goal, region, cell, layer)
+        return layer.paths[key]
 
     def _congestion(self, site: Site, path: _Path, start: tuple[float, float]) -> list[float]:
         """``congestion_along(site, xs[:-1], ys[:-1])`` of the walk ``xs`` from ``start``
@@ -306,20 +434,24 @@ class WalkPlanner:
         return out
 
     def _path(self, radius: float, goal: tuple, region: tuple, cell: int,
-              layer: _Layer) -> _Path:
-        """The path's points from a free cell to the goal and into its reach region, and
-        the length of each step between them (kept per radius, goal and start cell)."""
-        pred = self._predecessors(radius, goal, layer)
+              layer: _Layer) -> _Path | None:
+        """The path's points from a free cell to a goal cell and on to where the walk stops
+        in the reach region (``_Field.end``), and the length of each step between them; None
+        where no path leads to a goal cell (kept per radius, goal and start cell)."""
+        field = self._predecessors(radius, goal, layer)
+        pred = field.pred
         cells = [cell]
         if pred is not None:
             while True:
                 nxt = pred[cell]
-                if nxt < 0:
+                if nxt < 0 or nxt == field.sink:
                     break
                 cells.append(nxt)
                 cell = nxt
+        if not field.goal[cell]:  # another region than the goal's, or the goal has none
+            return None
         cells = np.asarray(cells)
-        end = _into(region, float(self.xs[cells[-1]]), float(self.ys[cells[-1]]))
+        end = _into(region, *field.end(self.plane, cell))
         px = np.concatenate((self.xs[cells], (end[0],)))
         py = np.concatenate((self.ys[cells], (end[1],)))
         return _Path(px, py)
@@ -354,7 +486,9 @@ def _interp(x: float, xp: list, fp: list) -> float:
 
 def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
     """The point of the reach region nearest (x, y), a hair inside it (the engine's reach
-    test is inclusive, so a point on the edge would do; the margin keeps rounding out)."""
+    test is inclusive, so a point on the edge would do; the margin keeps rounding out). A
+    walk's end (``_Field.end``) already lies in the region: this moves it by at most the
+    margin, off an edge it lies on."""
     if region[0] == "disc":
         _, cx, cy, r = region
         d = math.hypot(x - cx, y - cy)
@@ -364,11 +498,18 @@ def _into(region: tuple, x: float, y: float) -> tuple[float, float]:
     x0, y0, x1, y1 = region[1]
     m = min(0.01, (x1 - x0) / 4, (y1 - y0) / 4)
     if type(region[1]) is Outline:  # the polygon's nearest point, the margin inside it
-        inner = region[1].polygon.buffer(-m, join_style="mitre")
-        if inner.geom_type != "Polygon" or inner.is_empty:  # thinner than the margin
-            return region[1].nearest(x, y)
-        return Outline(inner.exterior.coords[:-1]).nearest(x, y)
+        return _inner(region[1], m).nearest(x, y)
     return min(max(x, x0 + m), x1 - m), min(max(y, y0 + m), y1 - m)
+
+
+@functools.lru_cache(maxsize=1024)
+def _inner(outline: Outline, m: float) -> Outline:
+    """``outline`` shrunk by the margin ``m`` (itself where it is thinner than that): kept,
+    since every goal cell of a polygon's area asks it (``area_ends``)."""
+    inner = outline.polygon.buffer(-m, join_style="mitre")
+    if inner.geom_type != "Polygon" or inner.is_empty:  # thinner than the margin
+        return outline
+    return Outline(inner.exterior.coords[:-1])
 
 
 __all__ = ["WalkPlanner", "Walk", "congestion_along", "congestion_areas", "walking_velocities"]
