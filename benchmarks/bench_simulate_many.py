@@ -36,6 +36,8 @@ import sys
 import time
 from pathlib import Path
 
+import cmdp_pymunk
+
 HERE = Path(__file__).resolve().parents[1]
 PHASES = ("wall_s", "startup_s", "play_s", "outputs_s", "outputs_cpu_s", "end_s", "main_cpu_s",
           "workers_cpu_s")
@@ -108,6 +110,7 @@ def run_once(tree: Path, args, out: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--episodes", type=int, default=1000)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--rounds", type=int, default=1)
