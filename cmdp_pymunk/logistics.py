@@ -23,17 +23,23 @@ is the paper's c7 alone where the case sets none. An injected role replaces the 
 point. Like an evaluator, a role is shared by an engine's clones: it keeps no per-episode
 state of its own (what was asked is the site's, ``StorageState.asked_at``).
 
-Three roles ship: ``Never`` (the paper's c7: never asks early), ``ReorderPoint`` (a fixed
-reorder point as a role: the same schedule as the case's ``reorder_at``) and ``CraneIdle`` (a
-state rule: lift now when the crane has nothing to do). ``FromOutside`` leaves the answer to a
-caller (the stage-2 decision loop's logistics decisions, ``adapters.decision_loop``).
+Four roles ship: ``Never`` (the paper's c7: never asks early), ``ReorderPoint`` (a fixed
+reorder point as a role: the same schedule as the case's ``reorder_at``), ``CraneIdle`` (a
+state rule: lift now when the crane has nothing to do) and ``Learned`` (a linear rule over the
+floor's state read from a model file, ``models/logistics_learned.json``, fitted by
+``training.research.logistics_search``). ``FromOutside`` leaves the answer to a caller (the
+stage-2 decision loop's logistics decisions, ``adapters.decision_loop``).
 """
 
 from __future__ import annotations
 
+import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+from .state import CrewStatus
 
 if TYPE_CHECKING:
     from .cases.model import Case
@@ -160,6 +166,180 @@ class FromOutside(Levels):
         return False
 
 
+# -- the learned role ------------------------------------------------------------------------
+
+_FETCHING = CrewStatus.FETCHING  # bound once: an enum lookup per call costs (PITFALLS)
+
+
+def _stock_lifts(engine: Engine, i: int, storage: int) -> float:
+    s = engine.site.storages[storage]
+    return s.stock / engine.case.materials[s.material].crane_lift_quantity
+
+
+def _crane_busy(engine: Engine, i: int, storage: int) -> float:
+    return float(engine.site.crane.current is not None)
+
+
+def _crane_queue(engine: Engine, i: int, storage: int) -> float:
+    return float(len(engine.site.crane.queue))
+
+
+def _crane_left_lifts(engine: Engine, i: int, storage: int) -> float:
+    crane = engine.site.crane
+    return 0.0 if crane.current is None else crane.remaining_s / engine.case.crane.lift_time_s
+
+
+def _fetching_here(engine: Engine, i: int, storage: int) -> float:
+    return float(sum(c.status == _FETCHING and c.storage == storage
+                     for c in engine.site.crews))
+
+
+def _progress(engine: Engine, i: int, storage: int) -> float:
+    site = engine.site
+    return site.tasks_ended / len(site.tasks)
+
+
+# What a ``Learned`` rule may read, each a number of the floor's state at the decision (crew
+# i fetching at storage index ``storage``), about 0-1 in size so that one step size fits all
+# weights in the search. ``material=<name>`` (1 for that material's storage, else 0) is
+# resolved against the case in ``prepare``.
+LEARNED_FEATURES: dict[str, Callable[[Engine, int, int], float]] = {
+    "stock_lifts": _stock_lifts,            # the storage's stock in crane lifts of its material
+    "crane_busy": _crane_busy,              # 1: a lift or hoisting under way
+    "crane_queue": _crane_queue,            # requests waiting behind it
+    "crane_left_lifts": _crane_left_lifts,  # what is left of the one under way, in lift times
+    "fetching_here": _fetching_here,        # crews loading at this storage (its drain)
+    "progress": _progress,                  # share of the floor's tasks ended
+}
+MATERIAL_FEATURE = "material="
+LEARNED_KIND = "cmdp-logistics-linear"
+
+
+def _material_feature(material: str) -> Callable[[Engine, int, int], float]:
+    def read(engine: Engine, i: int, storage: int) -> float:
+        return float(engine.site.storages[storage].material == material)
+    return read
+
+
+def linear_lift(weights: tuple[float, ...], bias: float, features: tuple[float, ...]) -> bool:
+    """The learned rule's answer: lift now when ``bias + sum(w * phi) > 0`` (the decision
+    boundary of a logistic model, p(lift) > 1/2)."""
+    return bias + math.fsum(w * x for w, x in zip(weights, features, strict=True)) > 0.0
+
+
+class Learned(Levels):
+    """A linear rule fitted to the floor (``training.research.logistics_search``): at each
+    decision level (``shares`` of a crane lift, from the file) crew i asks for the next lift
+    when ``bias + w . phi > 0`` over the named features (``LEARNED_FEATURES``, and
+    ``material=<name>``) of the floor's state. ``path``: the model file (JSON: ``kind``
+    "cmdp-logistics-linear", ``features``, ``weights``, ``bias``, ``shares``, ``meta``); a bad
+    file fails here, naming the file, the entry and the fix. Keeps no per-episode state."""
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        data = _read_model(self.path)
+        super().__init__(tuple(data["shares"]))
+        self.features: tuple[str, ...] = tuple(data["features"])
+        self.weights: tuple[float, ...] = tuple(float(w) for w in data["weights"])
+        self.bias = float(data["bias"])
+        self.meta = data.get("meta", {})
+        self._readers: tuple[Callable[[Engine, int, int], float], ...] = ()
+
+    @classmethod
+    def from_weights(cls, features, weights, bias: float,
+                     shares: tuple[float, ...] = (0.75, 0.5, 0.25)) -> Learned:
+        """A rule from its numbers, without a file (what the search tries)."""
+        self = cls.__new__(cls)
+        Levels.__init__(self, tuple(shares))
+        self.path, self.meta = Path("<weights>"), {}
+        self.features, self.weights = tuple(features), tuple(float(w) for w in weights)
+        self.bias = float(bias)
+        _check_model({"features": list(self.features), "weights": list(self.weights),
+                      "bias": self.bias, "shares": list(shares)}, self.path)
+        self._readers = ()
+        return self
+
+    def prepare(self, case: Case) -> None:
+        super().prepare(case)
+        named = [f[len(MATERIAL_FEATURE):] for f in self.features
+                 if f.startswith(MATERIAL_FEATURE)]
+        unknown = sorted(set(named) - set(case.materials))
+        if unknown:
+            raise ValueError(f"{self.path}: features name material(s) "
+                             f"{', '.join(map(repr, unknown))}, not in case {case.case!r}; fix: "
+                             f"fit the rule on this case (materials "
+                             f"{', '.join(sorted(case.materials))})")
+        self._readers = tuple(
+            _material_feature(f[len(MATERIAL_FEATURE):]) if f.startswith(MATERIAL_FEATURE)
+            else LEARNED_FEATURES[f] for f in self.features)
+
+    def feature_values(self, engine: Engine, i: int, storage: int) -> tuple[float, ...]:
+        """phi at this decision, in ``features`` order."""
+        return tuple(read(engine, i, storage) for read in self._readers)
+
+    def lift_now(self, engine: Engine, i: int, storage: int) -> bool:
+        return linear_lift(self.weights, self.bias, self.feature_values(engine, i, storage))
+
+    def to_json(self, meta: dict | None = None) -> str:
+        """The model file's text (what ``Learned(path)`` reads)."""
+        return json.dumps({"kind": LEARNED_KIND, "features": list(self.features),
+                           "weights": list(self.weights), "bias": self.bias,
+                           "shares": list(self.shares), "meta": meta or self.meta},
+                          indent=2) + "\n"
+
+
+def _read_model(path: Path) -> dict:
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such logistics model file; fix: give the path of "
+                                "a file written by python -m training.research.logistics_search, "
+                                "e.g. models/logistics_learned.json")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"{path}: not a JSON file ({err}); fix: give a logistics model file "
+                         "written by training.research.logistics_search") from None
+    kind = data.get("kind") if isinstance(data, dict) else None
+    if kind != LEARNED_KIND:
+        raise ValueError(f"{path}: entry 'kind' is {kind!r}, not {LEARNED_KIND!r}; fix: give a "
+                         "logistics model file written by training.research.logistics_search")
+    _check_model(data, path)
+    return data
+
+
+def _check_model(data: dict, path: Path) -> None:
+    """Every problem of a model's numbers at once, each naming the entry and the fix."""
+    problems = []
+    for key in ("features", "weights", "bias", "shares"):
+        if key not in data:
+            problems.append(f"entry {key!r} is missing; fix: write it (see logistics.Learned)")
+    if problems:
+        raise ValueError(f"{path}: " + "; ".join(problems))
+    features, weights = data["features"], data["weights"]
+    if not isinstance(features, list) or not isinstance(weights, list):
+        raise ValueError(f"{path}: entries 'features' and 'weights' must be lists; fix: one "
+                         "weight per feature name")
+    for k, name in enumerate(features):
+        if not (isinstance(name, str) and (name in LEARNED_FEATURES or
+                                           name.startswith(MATERIAL_FEATURE))):
+            problems.append(f"features[{k}] {name!r} is no feature; fix: one of "
+                            f"{', '.join(LEARNED_FEATURES)} or material=<name>")
+    if len(weights) != len(features):
+        problems.append(f"'weights' has {len(weights)} numbers for {len(features)} features; "
+                        "fix: one weight per feature")
+    for k, w in enumerate([*weights, data["bias"]]):
+        entry = f"weights[{k}]" if k < len(weights) else "bias"
+        if isinstance(w, bool) or not isinstance(w, (int, float)) or not math.isfinite(w):
+            problems.append(f"{entry} {w!r} is not a finite number; fix: a finite number")
+    shares = data["shares"]
+    if not isinstance(shares, list) or not shares or any(
+            isinstance(s, bool) or not isinstance(s, (int, float)) or not
+            (math.isfinite(s) and s > 0.0) for s in shares):
+        problems.append(f"'shares' {shares!r}; fix: one or more shares of a crane lift above "
+                        "0, e.g. [0.75, 0.5, 0.25]")
+    if problems:
+        raise ValueError(f"{path}: " + "; ".join(problems))
+
+
 def make_logistics(spec: Logistics | None) -> Logistics | None:
     """``spec`` itself if it is a ``Logistics`` (or None: the case's reorder point decides);
     otherwise a ``TypeError`` naming the members a role needs."""
@@ -172,4 +352,4 @@ def make_logistics(spec: Logistics | None) -> Logistics | None:
 
 
 __all__ = ["Logistics", "Never", "ReorderPoint", "Levels", "CraneIdle", "FromOutside",
-           "make_logistics"]
+           "Learned", "LEARNED_FEATURES", "linear_lift", "make_logistics"]
