@@ -36,6 +36,7 @@ from pathlib import Path
 
 from cmdp_pymunk.evaluate import PriorityEvaluator, Rule, as_target_values
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.jsonfile import read_json, require_entry
 
 FORMAT = "cmdp-task-priorities/1"
 BASES = ("none", "priority")
@@ -127,18 +128,9 @@ def load_priorities(path: str | Path) -> TaskPriorityEvaluator:
     """A ``TaskPriorityEvaluator`` from a priority file; ValueError naming the file, the entry
     and the fix for anything wrong."""
     path = Path(path)
-    try:
-        data = json.loads(path.read_text())
-    except OSError as err:
-        raise ValueError(f"{path}: cannot read the priority file ({err.strerror}); fix: give "
-                         "a file written by cmdp-ga or cmdp-evaluate") from None
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not JSON ({err.msg}, line {err.lineno}); fix: give a file "
-                         "written by cmdp-ga or cmdp-evaluate") from None
-    fmt = data.get("format") if isinstance(data, dict) else None
-    if fmt != FORMAT:
-        raise ValueError(f"{path}: \"format\" is {fmt!r}, not {FORMAT!r}; fix: give a file "
-                         "written by cmdp-ga or cmdp-evaluate")
+    fix = "give a file written by cmdp-ga or cmdp-evaluate"
+    data = read_json(path, "priority file", fix)
+    require_entry(data, path, "format", FORMAT, fix)
     priorities = data.get("priorities")
     if not isinstance(priorities, dict) or not priorities:
         raise ValueError(f"{path}: \"priorities\" must be an object of task id -> number")

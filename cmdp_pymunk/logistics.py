@@ -39,6 +39,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
+from .jsonfile import read_json, require_entry
 from .state import CrewStatus
 
 if TYPE_CHECKING:
@@ -289,19 +290,10 @@ class Learned(Levels):
 
 
 def _read_model(path: Path) -> dict:
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such logistics model file; fix: give the path of "
-                                "a file written by python -m training.research.logistics_search, "
-                                "e.g. models/logistics_learned.json")
-    try:
-        data = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ValueError(f"{path}: not a JSON file ({err}); fix: give a logistics model file "
-                         "written by training.research.logistics_search") from None
-    kind = data.get("kind") if isinstance(data, dict) else None
-    if kind != LEARNED_KIND:
-        raise ValueError(f"{path}: entry 'kind' is {kind!r}, not {LEARNED_KIND!r}; fix: give a "
-                         "logistics model file written by training.research.logistics_search")
+    fix = "give a logistics model file written by training.research.logistics_search, e.g. " \
+        "models/logistics_learned.json"
+    data = read_json(path, "logistics model file", fix)
+    require_entry(data, path, "kind", LEARNED_KIND, fix)
     _check_model(data, path)
     return data
 

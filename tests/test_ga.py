@@ -59,7 +59,7 @@ def test_priority_file_round_trip_and_errors(tmp_path, tiny_case):
     path.write_text(json.dumps(data).replace("NaN", '"nan"'))
     with pytest.raises(ValueError, match=r"priorities\['X-A'\] is 'nan'; fix"):
         load_priorities(path)
-    with pytest.raises(ValueError, match="cannot read the priority file"):
+    with pytest.raises(ValueError, match="no such priority file; fix"):
         evaluator_from_spec(f"ga:{tmp_path / 'missing.json'}")
 
 
