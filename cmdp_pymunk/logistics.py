@@ -68,7 +68,8 @@ def _check_materials(case: Case, named, who: str) -> None:
     unknown = sorted(set(named) - set(case.materials))
     if unknown:
         raise ValueError(f"{who}: no material {', '.join(map(repr, unknown))} in case "
-                         f"{case.case.name!r}; fix: name one of {', '.join(sorted(case.materials))}")
+                         f"{case.case.name!r}; fix: name one of "
+                         f"{', '.join(sorted(case.materials))}")
 
 
 class Never:
@@ -367,16 +368,29 @@ LOGISTICS_HELP = ("who decides when a fetching crew asks for the next crane lift
 SHIPPED_LEARNED = "models/logistics_learned.json"  # the rule the repository ships
 
 
-def from_spec(spec: str, option: str = "--logistics") -> Logistics | None:
+def from_spec(spec: str, option: str = "--logistics", case: Case | None = None
+              ) -> Logistics | None:
     """The logistics role a command-line spec names (``LOGISTICS_SPECS``): ``case`` -> None
     (the case's reorder point decides: the engine's default), ``never`` -> ``Never``,
     ``reorder:LIFTS`` -> ``ReorderPoint(lifts=LIFTS)``, ``crane-idle`` -> ``CraneIdle``,
     ``learned:PATH`` -> ``Learned(PATH)`` (the file read and checked now). A bad spec: a
-    ValueError naming ``option``, the spec and the fix, before anything runs."""
+    ValueError naming ``option``, the spec and the fix, before anything runs. ``case``: also
+    check that the role fits it (its ``prepare``, e.g. a model naming another case's
+    materials), the same way."""
+    where = f"{option} {spec!r}" if option else repr(spec)  # argparse names the option itself
+    role = _role_of(spec, where, option)
+    if role is not None and case is not None:
+        try:
+            role.prepare(case)
+        except ValueError as err:
+            raise ValueError(f"{where}: {err}") from None
+    return role
+
+
+def _role_of(spec: str, where: str, option: str) -> Logistics | None:
     import difflib
 
     name, sep, value = spec.partition(":")
-    where = f"{option} {spec!r}" if option else repr(spec)  # argparse names the option itself
     if name == "reorder" and sep:
         try:
             lifts = float(value)

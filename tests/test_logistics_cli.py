@@ -66,6 +66,17 @@ def test_a_bad_model_file_names_its_entry(tmp_path):
         from_spec(f"learned:{path}")
 
 
+def test_a_case_checks_that_the_role_fits_it():
+    tiny = cmdp_pymunk.load_case(TINY)
+    # half a lift of rebars (0.5 m3 a lift): a reorder point at 0.25 m3
+    assert from_spec("reorder:0.5", case=tiny).levels("rebars") == (0.25,)
+    with pytest.raises(ValueError) as err:  # fitted on the built-in floor's materials
+        from_spec(f"learned:{SHIPPED}", case=tiny)
+    text = str(err.value)
+    assert text.startswith(f"--logistics 'learned:{SHIPPED}'") and "'tiny'" in text
+    assert "fix: fit the rule on this case (materials rebars)" in text
+
+
 # -- cmdp-simulate ------------------------------------------------------------------------------
 
 def simulate_run(tmp_path, name: str, *options: str, case: str = TINY):

@@ -359,6 +359,7 @@ def load_inputs(args: SimulateArgs) -> Inputs:
     import cmdp_pymunk
     from agents.specs import evaluator_from_spec
     from cmdp_pymunk.bounds import lower_bound
+    from cmdp_pymunk.logistics import from_spec
     from training.fidelity import resolve_floor
 
     try:
@@ -366,7 +367,7 @@ def load_inputs(args: SimulateArgs) -> Inputs:
         floor = resolve_floor(case, args.case, args.fidelity, args.calibration,
                               {"--navigator": [args.navigator]})
         evaluator = evaluator_from_spec(args.evaluator)
-        check_logistics(case, args.logistics)
+        from_spec(args.logistics, case=case)  # a role that misfits the case
         if args.ifc is not None:
             from cmdp_pymunk.cases.ifc_export import open_for_4d
             from cmdp_pymunk.cases.ifc_import import IfcUnavailable
@@ -379,19 +380,6 @@ def load_inputs(args: SimulateArgs) -> Inputs:
         raise BadInput(str(err)) from None
     case_label = str(args.case) if args.case else "built-in (precast_floor.toml)"
     return Inputs(case, floor, evaluator, case_label, lower_bound(case))
-
-
-def check_logistics(case, spec: str) -> None:
-    """``--logistics``: the spec names a role (``logistics.from_spec``) that fits the case
-    (its ``prepare``); a ValueError naming the option and the fix, before anything runs."""
-    from cmdp_pymunk.logistics import from_spec
-
-    role = from_spec(spec)
-    if role is not None:
-        try:
-            role.prepare(case)
-        except ValueError as err:
-            raise ValueError(f"--logistics {spec!r}: {err}") from None
 
 
 def solve_cpsat(args: SimulateArgs, case, evaluator):

@@ -18,6 +18,7 @@ from pathlib import Path
 import cmdp_pymunk
 from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.logistics import Learned, from_spec
 from cmdp_pymunk.report import versions
 from cmdp_pymunk.workcalendar import calendar_summary
 from training.cli import calendar_of
@@ -182,27 +183,12 @@ def resume_floor(floor: Floor) -> dict:
 def resume_logistics(spec: str) -> dict:
     """The logistics as ``resume.json`` keeps it: the ``--logistics`` spec and, for a learned
     rule, the model's numbers (wherever its file is now; a refitted file is another role)."""
-    from cmdp_pymunk.logistics import Learned, from_spec
-
     role = from_spec(spec)
     out: dict = {"logistics": spec}
     if isinstance(role, Learned):
         model = json.loads(role.to_json())
         out["logistics_model"] = {k: model[k] for k in ("features", "weights", "bias", "shares")}
     return out
-
-
-def check_logistics(case, spec: str) -> None:
-    """``--logistics``'s role fits ``case`` (its ``prepare``): a ValueError naming the option
-    and the fix, before anything runs."""
-    from cmdp_pymunk.logistics import from_spec
-
-    role = from_spec(spec)
-    if role is not None:
-        try:
-            role.prepare(case)
-        except ValueError as err:
-            raise ValueError(f"--logistics {spec!r}: {err}") from None
 
 
 def run_floor(case, args: EvaluateArgs) -> Floor:
@@ -275,7 +261,7 @@ def compare_strategies(args: EvaluateArgs) -> int:
         case = cmdp_pymunk.load_case(args.case)
         calendar = calendar_of(case, args)  # dates the finishes; the episodes run in seconds
         floor = run_floor(case, args)  # before anything is built or run
-        check_logistics(case, args.logistics)
+        from_spec(args.logistics, case=case)  # a role that misfits the case
         check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
                     args.deterministic)
     except ValueError as err:  # CaseError is a ValueError
@@ -457,7 +443,7 @@ def compare_whatif(args: EvaluateArgs) -> int:
         entries = whatif_entries(args)
         for e in entries:
             check_specs(e.case, args.strategies, args.navigators, args.deterministic)
-            check_logistics(e.case, args.logistics)
+            from_spec(args.logistics, case=e.case)
     except ValueError as err:  # CaseError is a ValueError
         raise BadSetting(str(err)) from None
     args.out.mkdir(parents=True, exist_ok=True)
