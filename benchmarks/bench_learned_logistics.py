@@ -7,8 +7,10 @@ roles on the pymunk floor of the built-in case, scripted navigator, paired by se
     PYTHONPATH=. python benchmarks/bench_learned_logistics.py --out runs/ll --table
 
 A run is ``EVALUATOR:ROLE``: an evaluator spec (``agents.specs``; a spec may hold ``:``, the
-role is after the last one) and a role of ``ROLES`` or ``learned=PATH``
-(``cmdp_pymunk.logistics.Learned``). Each run's floors go to ``<out>/<run>.csv`` once the run
+role is after the last one) and a ``--logistics`` spec of the commands
+(``cmdp_pymunk.logistics.from_spec``: never, crane-idle, ...), where the ``:`` of a spec is
+written ``=`` (``reorder=0.5``, ``learned=PATH``) and ``reorder`` alone is ``reorder:0.5``
+(the names of the first runs). Each run's floors go to ``<out>/<run>.csv`` once the run
 is whole (a stopped benchmark leaves the runs it finished, and skips them when started again).
 ``--table`` prints every run in ``--out`` against ``priority:never`` (paired: mean difference
 with its 95 % interval, ratio of the means, ``training.runs.paired``) and against the
@@ -28,24 +30,23 @@ from pathlib import Path
 import cmdp_pymunk
 from cmdp_pymunk import add_version_flag
 from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.logistics import CraneIdle, Learned, Never, ReorderPoint
+from cmdp_pymunk.logistics import from_spec
 from training.cli import seed_list
 from training.runs.paired import mean_ci, paired
 
-ROLES = {"never": Never, "reorder": lambda: ReorderPoint(lifts=0.5), "crane-idle": CraneIdle}
 REFERENCE = "priority:never"
 FIELDS = ("seed", "finished", "makespan_s", "crane_waits", "crane_wait_s", "lifts_asked")
 
 
-def role_from_spec(spec: str):
-    """``never``, ``reorder``, ``crane-idle`` or ``learned=PATH``; a bad name fails naming the
-    fix."""
-    if spec.startswith("learned="):
-        return Learned(spec[len("learned="):])
-    if spec not in ROLES:
-        raise ValueError(f"logistics role {spec!r}; fix: one of {', '.join(ROLES)} or "
-                         "learned=PATH")
-    return ROLES[spec]()
+def logistics_spec(role: str) -> str:
+    """A run's role as a ``--logistics`` spec: ``=`` for ``:`` (a run splits at its last
+    ``:``), ``reorder`` alone for ``reorder:0.5`` (the first runs' name)."""
+    return "reorder:0.5" if role == "reorder" else role.replace("=", ":", 1)
+
+
+def role_from_spec(role: str):
+    """The role a run names (``logistics.from_spec``, which checks it naming the fix)."""
+    return from_spec(logistics_spec(role), option="role")
 
 
 def split_run(run: str) -> tuple[str, str]:
@@ -69,8 +70,8 @@ def play_run(case, run: str, seeds: list[int], floor: str = "pymunk") -> list[di
 
     evaluator, role = split_run(run)
     engine = make_engine(case, evaluator_from_spec(evaluator), "scripted", fidelity=floor,
-                         calibration=calibration_for(case) if floor == "event" else None)
-    engine.logistics = role_from_spec(role)
+                         calibration=calibration_for(case) if floor == "event" else None,
+                         logistics=logistics_spec(role))
     navigator = make_navigator("scripted", engine, False)
     rows = []
     for seed in seeds:
@@ -162,7 +163,7 @@ def parse(argv) -> Args:
     for run in runs:  # bad input fails here, before any floor
         try:
             role_from_spec(split_run(run)[1])
-        except (ValueError, FileNotFoundError) as err:
+        except ValueError as err:
             p.error(f"--runs {run!r}: {err}")
     return Args(seed_list(a.seeds), runs, a.out, a.table, a.floor)
 

@@ -29,6 +29,10 @@ state rule: lift now when the crane has nothing to do) and ``Learned`` (a linear
 floor's state read from a model file, ``models/logistics_learned.json``, fitted by
 ``training.research.logistics_search``). ``FromOutside`` leaves the answer to a caller (the
 stage-2 decision loop's logistics decisions, ``adapters.decision_loop``).
+
+``from_spec`` turns a command's ``--logistics SPEC`` (``case``, ``never``, ``reorder:LIFTS``,
+``crane-idle``, ``learned:PATH``) into a role, refusing a bad spec with the fix; it is the one
+parser of those names (``cmdp-simulate``, ``cmdp-evaluate``, the benchmarks).
 """
 
 from __future__ import annotations
@@ -65,7 +69,8 @@ def _check_materials(case: Case, named, who: str) -> None:
     unknown = sorted(set(named) - set(case.materials))
     if unknown:
         raise ValueError(f"{who}: no material {', '.join(map(repr, unknown))} in case "
-                         f"{case.case!r}; fix: name one of {', '.join(sorted(case.materials))}")
+                         f"{case.case.name!r}; fix: name one of "
+                         f"{', '.join(sorted(case.materials))}")
 
 
 class Never:
@@ -267,7 +272,8 @@ class Learned(Levels):
         unknown = sorted(set(named) - set(case.materials))
         if unknown:
             raise ValueError(f"{self.path}: features name material(s) "
-                             f"{', '.join(map(repr, unknown))}, not in case {case.case!r}; fix: "
+                             f"{', '.join(map(repr, unknown))}, not in case {case.case.name!r}; "
+                             "fix: "
                              f"fit the rule on this case (materials "
                              f"{', '.join(sorted(case.materials))})")
         self._readers = tuple(
@@ -343,5 +349,74 @@ def make_logistics(spec: Logistics | None) -> Logistics | None:
                     "or None for the case's reorder point")
 
 
+# ``--logistics SPEC`` of the commands (``from_spec``): the forms, for the help and the errors
+LOGISTICS_SPECS = ("case", "never", "reorder:LIFTS", "crane-idle", "learned:PATH")
+LOGISTICS_HELP = ("who decides when a fetching crew asks for the next crane lift: case (the "
+                  "case's reorder point, none if it sets none; default), never (the paper's "
+                  "c7: a lift once a storage is empty), reorder:LIFTS (a reorder point at LIFTS "
+                  "crane lifts of each material, e.g. reorder:0.5), crane-idle (at a quarter "
+                  "of a lift apart, when the crane has nothing to do) or learned:PATH (a "
+                  "linear rule's model file, e.g. learned:models/logistics_learned.json)")
+SHIPPED_LEARNED = "models/logistics_learned.json"  # the rule the repository ships
+
+
+def from_spec(spec: str, option: str = "--logistics", case: Case | None = None
+              ) -> Logistics | None:
+    """The logistics role a command-line spec names (``LOGISTICS_SPECS``): ``case`` -> None
+    (the case's reorder point decides: the engine's default), ``never`` -> ``Never``,
+    ``reorder:LIFTS`` -> ``ReorderPoint(lifts=LIFTS)``, ``crane-idle`` -> ``CraneIdle``,
+    ``learned:PATH`` -> ``Learned(PATH)`` (the file read and checked now). A bad spec: a
+    ValueError naming ``option``, the spec and the fix, before anything runs. ``case``: also
+    check that the role fits it (its ``prepare``, e.g. a model naming another case's
+    materials), the same way."""
+    where = f"{option} {spec!r}" if option else repr(spec)  # argparse names the option itself
+    role = _role_of(spec, where, option)
+    if role is not None and case is not None:
+        try:
+            role.prepare(case)
+        except ValueError as err:
+            raise ValueError(f"{where}: {err}") from None
+    return role
+
+
+def _role_of(spec: str, where: str, option: str) -> Logistics | None:
+    import difflib
+
+    name, sep, value = spec.partition(":")
+    if name == "reorder" and sep:
+        try:
+            lifts = float(value)
+        except ValueError:
+            lifts = math.nan
+        if not (math.isfinite(lifts) and lifts >= 0.0):
+            raise ValueError(f"{where}: LIFTS {value!r} is not a number of 0 or more; fix: a "
+                             "share of each material's crane lift, e.g. reorder:0.5 (0: never "
+                             "early)")
+        return ReorderPoint(lifts=lifts)
+    if name == "learned" and sep:
+        if not value:
+            raise ValueError(f"{where}: no model file after 'learned:'; fix: e.g. "
+                             f"learned:{SHIPPED_LEARNED}")
+        try:
+            return Learned(value)
+        except (OSError, ValueError) as err:  # the file's own message names entry and fix
+            raise ValueError(f"{where}: {err}") from None
+    if not sep:
+        plain = {"case": None, "never": Never, "crane-idle": CraneIdle}
+        if spec in plain:
+            role = plain[spec]
+            return None if role is None else role()
+        if spec in ("reorder", "learned"):
+            example = "reorder:0.5" if spec == "reorder" else f"learned:{SHIPPED_LEARNED}"
+            raise ValueError(f"{where} needs its {'LIFTS' if spec == 'reorder' else 'PATH'}; "
+                             f"fix: e.g. {option + ' ' if option else ''}{example}")
+    close = difflib.get_close_matches(name, ["case", "never", "reorder", "crane-idle",
+                                             "learned"], n=1)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    raise ValueError(f"{where} is no logistics role; {hint}fix: one of "
+                     f"{', '.join(LOGISTICS_SPECS)}")
+
+
 __all__ = ["Logistics", "Never", "ReorderPoint", "Levels", "CraneIdle", "FromOutside",
-           "Learned", "LEARNED_FEATURES", "linear_lift", "make_logistics"]
+           "Learned", "LEARNED_FEATURES", "linear_lift", "make_logistics",
+           "from_spec", "LOGISTICS_SPECS", "LOGISTICS_HELP"]

@@ -72,6 +72,24 @@ def add_ray_option(parser: argparse.ArgumentParser) -> None:
                              "pip install -e '.[ray]')")
 
 
+def add_logistics_option(parser: argparse.ArgumentParser) -> None:
+    """``--logistics SPEC``: who decides when a fetching crew asks for the next lift
+    (``cmdp_pymunk.logistics.from_spec``, the one parser of the specs); a bad spec exits 2 at
+    parse time naming the option, the spec and the fix. The value stays the spec text (what
+    the runs record and the workers receive)."""
+    from cmdp_pymunk.logistics import LOGISTICS_HELP, from_spec
+
+    def logistics_spec(text: str) -> str:
+        try:
+            from_spec(text, option="")
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        return text
+
+    parser.add_argument("--logistics", type=logistics_spec, default="case", metavar="SPEC",
+                        help=LOGISTICS_HELP + " (docs/levers.md)")
+
+
 def write_search_settings(out, config, case, workers, ray) -> None:
     """A search's ``config.json`` in ``out`` (made here): settings, case, workers or Ray
     address, the command and the versions, written whole."""

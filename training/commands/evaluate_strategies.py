@@ -4,6 +4,7 @@
                   [--navigators scripted,MODEL.zip] [--workers N] [--ray [ADDRESS]]
                   [--out DIR] [--resume] [--cpsat-bound] [--cpsat-s 20]
                   [--fidelity pymunk|event [--calibration PATH]]
+                  [--logistics case|never|reorder:LIFTS|crane-idle|learned:PATH]
 
 Runs every seed x strategy x low level (the evaluators of ``cmdp-simulate --evaluator``,
 including a stage-2 model ``.zip``; the low levels of ``--navigator``) in worker processes,
@@ -18,7 +19,12 @@ calibrated on the pymunk floor, stage 2 without a low level: scripted navigators
 ``--calibration PATH``, as in ``cmdp-simulate``; docs/event-floor.md): the header, the first
 line of ``summary.md``, each summary entry (``fidelity``, ``calibration``,
 ``calibration_fingerprint``), each episode row and ``settings.json`` say so, and ``--resume``
-continues a run only on the floor and calibration it started on. Writes into DIR:
+continues a run only on the floor and calibration it started on. ``--logistics SPEC`` (as in
+``cmdp-simulate``: ``case``, the default, ``never``, ``reorder:LIFTS``, ``crane-idle``,
+``learned:PATH``; docs/levers.md) says who asks for the next crane lift in every episode:
+the header, ``settings.json`` (``logistics``), the first line of ``summary.md`` (when not
+``case``) and ``resume.json`` say so, and ``--resume`` continues a run only with the same
+role (and, for ``learned:PATH``, the same model numbers). Writes into DIR:
 
 - ``episodes.jsonl``: each episode's row as soon as it finished, in the order they finish,
   with ``task_end_times_s`` (when each task ended, seconds): a stopped run (Ctrl-C, a lost
@@ -77,6 +83,7 @@ from cmdp_pymunk.interrupt import sigint_guard
 from training.cli import (
     OneLineParser,
     add_calendar_options,
+    add_logistics_option,
     add_ray_option,
     plain,
     positive_int,
@@ -159,6 +166,7 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         "measuring it doubles the work). A case without disruptions is played "
                         "once either way")
     add_fidelity_options(p)
+    add_logistics_option(p)
     add_calendar_options(p, "episodes.csv, summary.md, summary.csv and summary.json (each "
                          "finish, and the mean and P50/P80/P90 finishes per strategy)")
     p.add_argument("--no-progress", action="store_true", help="show no progress bar")
@@ -186,7 +194,7 @@ def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
                         not a.no_figures, not a.no_progress, a.ray, a.resume, a.cpsat_bound,
                         a.per_seed, not a.no_disruption_cost, a.fidelity, a.calibration,
                         a.calendar, a.start, a.working_hours, a.working_days, a.holidays,
-                        cases, variants)
+                        cases, variants, a.logistics)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,6 +6,7 @@
                   [--cpsat-s SECONDS] [--ifc MODEL.ifc [--ifc-start ISO-DATETIME]]
                   [--calendar FILE.toml] [--start ISO-DATETIME] [--working-hours HH:MM-HH:MM]
                   [--working-days DAYS] [--holidays DATES]
+                  [--logistics case|never|reorder:LIFTS|crane-idle|learned:PATH]
 
 Writes into DIR: ``summary.json`` (makespan, tasks finished, per crew the simulated seconds
 it spent reaching and idle by cause (its keys ``reaching_steps`` and ``idle_steps`` count
@@ -73,6 +74,14 @@ only, so there is no ``trajectories.png`` (the GIF shows them jump along their w
 ``--episodes 1000`` add ``--no-seed-charts``: each seed's Gantt charts take about a second,
 the histogram and the S-curve are still drawn.
 
+``--logistics SPEC`` says who decides when a crew fetching at a storage asks for the next
+crane lift (``cmdp_pymunk.logistics``, docs/levers.md): ``case`` (the default: the case's
+reorder point, or the paper's c7 where it sets none), ``never`` (c7: a lift once the storage
+is empty), ``reorder:LIFTS`` (a reorder point at LIFTS crane lifts of each material, e.g.
+``reorder:0.5``), ``crane-idle`` (ask when the crane has nothing to do) or ``learned:PATH`` (a
+fitted rule, e.g. ``learned:models/logistics_learned.json``). A bad spec exits 2 before
+anything runs; ``summary.json`` records it (``logistics``) and the console header shows it.
+
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported in prose (``report.stall_text``: when, each walking crew's target and
 how far it stands from it, what the others do, the tasks on and queued) with a picture,
@@ -93,6 +102,7 @@ from pathlib import Path
 from training.cli import (
     OneLineParser,
     add_calendar_options,
+    add_logistics_option,
     add_ray_option,
     non_negative_int,
     plain,
@@ -168,6 +178,7 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                         "(what they cost: summary.json's disruption_cost; measuring it doubles "
                         "the work). A case without disruptions is played once either way")
     add_fidelity_options(p)
+    add_logistics_option(p)
     p.add_argument("--stochastic", action="store_true",
                    help="accepted for old scripts; sampling is the default now")
     a = p.parse_args(argv)
@@ -176,7 +187,7 @@ def parse_args(argv: list[str] | None = None) -> SimulateArgs:
                         a.deterministic, a.cpsat_s, a.ifc, a.ifc_start, a.workers, a.ray,
                         a.calendar, a.start, a.working_hours, a.working_days, a.holidays,
                         not a.no_disruption_cost, a.fidelity, a.calibration,
-                        not a.no_seed_charts)
+                        not a.no_seed_charts, a.logistics)
 
 
 def iso_datetime(text: str) -> str:

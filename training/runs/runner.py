@@ -16,6 +16,7 @@ from agents.specs import evaluator_from_spec, make_navigator
 from cmdp_pymunk import disruptions
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.eventfloor import Calibration, make_floor
+from cmdp_pymunk.logistics import from_spec
 from cmdp_pymunk.report import disruption_cost, episode_reach_rate, episode_seed_bound
 from cmdp_pymunk.rollout import Episode, run_episode
 from cmdp_pymunk.schedule import finish_times
@@ -117,15 +118,18 @@ def cost_fields(row: dict, undisrupted_row: dict | None) -> dict:
 
 def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None = None,
                 position_log_every_s: float | None = None, fidelity: str = "pymunk",
-                calibration: Calibration | None = None) -> Engine:
+                calibration: Calibration | None = None, logistics: str = "case") -> Engine:
     """The stage-2 floor as ``cmdp-simulate`` builds it: the scripted navigator lets the engine
     skip parked crews' seconds (``park_idle``); a trained navigator decides for every crew.
     ``position_log_every_s``: moving crews' positions in the event log (trajectories).
     ``fidelity``: "pymunk" (the paper's floor) or "event" (``cmdp_pymunk.eventfloor``, whose
-    crews walk without a low level; ``calibration`` its fitted numbers)."""
+    crews walk without a low level; ``calibration`` its fitted numbers). ``logistics``: a
+    ``--logistics`` spec (``cmdp_pymunk.logistics.from_spec``; "case": the case's reorder
+    point), made into a role of this engine's own."""
     return make_floor(case, fidelity, calibration, stage=2, evaluator=evaluator,
                       max_time_s=max_time_s, park_idle=navigator_spec == "scripted",
-                      position_log_every_s=position_log_every_s)
+                      position_log_every_s=position_log_every_s,
+                      logistics=from_spec(logistics))
 
 
 class EpisodeRunner:
@@ -133,20 +137,23 @@ class EpisodeRunner:
 
     An evaluator is a spec (``agents.specs.evaluator_from_spec``) or an evaluator object (the GA
     passes its individuals); an object is swapped into a cached engine of the same navigator.
-    ``position_log_every_s``, ``fidelity``, ``calibration``: see ``make_engine`` (the floor
-    the seeds run on; its calibration serves the case without disruptions too: the same
-    floor). ``undisrupted=True`` in ``run``: the
-    same seed on the case without its disruptions (``disruptions.undisrupted``), on
+    ``position_log_every_s``, ``fidelity``, ``calibration``, ``logistics``: see
+    ``make_engine`` (the floor the seeds run on and who asks for lifts; its calibration and
+    logistics serve the case without disruptions too: the same floor). ``undisrupted=True``
+    in ``run``: the same seed on the case without its disruptions (``disruptions.undisrupted``), on
     engines of its own.
     """
 
     def __init__(self, case, stall_s: float | None = 3600.0, max_time_s: float | None = None,
                  deterministic: bool = False, position_log_every_s: float | None = None,
-                 fidelity: str = "pymunk", calibration: Calibration | None = None):
-        make_floor(case, fidelity, calibration)  # a bad fidelity name fails here, at once
+                 fidelity: str = "pymunk", calibration: Calibration | None = None,
+                 logistics: str = "case"):
+        # a bad fidelity name or logistics spec (or a role that misfits the case) fails here
+        make_floor(case, fidelity, calibration, logistics=from_spec(logistics))
         self.case = case
         self.fidelity = fidelity
         self.calibration = calibration
+        self.logistics = logistics
         self.stall_s = stall_s
         self.max_time_s = max_time_s
         self.deterministic = deterministic
@@ -166,7 +173,8 @@ class EpisodeRunner:
                 case = self._undisrupted
             ev = evaluator_from_spec(evaluator) if isinstance(evaluator, str) else evaluator
             engine = make_engine(case, ev, navigator_spec, self.max_time_s,
-                                 self.position_log_every_s, self.fidelity, self.calibration)
+                                 self.position_log_every_s, self.fidelity, self.calibration,
+                                 self.logistics)
             self._cache[key] = (engine, make_navigator(navigator_spec, engine,
                                                        self.deterministic))
         engine, navigator = self._cache[key]

@@ -54,6 +54,8 @@ class SimulateArgs:
     fidelity: str = "pymunk"  # the floor: the paper's, or the event floor (training/fidelity.py)
     calibration: Path | None = None  # the event floor's (None: the case's, if any)
     seed_charts: bool = True  # each seed's Gantt charts and trajectories (with ``charts``)
+    # who asks for lifts (``cmdp_pymunk.logistics.from_spec``; "case": the case's reorder point)
+    logistics: str = "case"
 
 def with_calendar(case, args: SimulateArgs):
     """The case with the working calendar the options give: the case's ``[calendar]``, or
@@ -118,6 +120,8 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         # the floor it ran on: "pymunk" (the paper's) or "event" (calibration: its file,
         # fingerprint and numbers, filled in by ``write_outputs``; None on the pymunk floor)
         "fidelity": engine.motion.name, "calibration": None,
+        # who asked for the lifts: the --logistics spec ("case": the case's reorder point)
+        "logistics": args.logistics,
         "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
         "makespan_s": makespan,
@@ -355,6 +359,7 @@ def load_inputs(args: SimulateArgs) -> Inputs:
     import cmdp_pymunk
     from agents.specs import evaluator_from_spec
     from cmdp_pymunk.bounds import lower_bound
+    from cmdp_pymunk.logistics import from_spec
     from training.fidelity import resolve_floor
 
     try:
@@ -362,6 +367,7 @@ def load_inputs(args: SimulateArgs) -> Inputs:
         floor = resolve_floor(case, args.case, args.fidelity, args.calibration,
                               {"--navigator": [args.navigator]})
         evaluator = evaluator_from_spec(args.evaluator)
+        from_spec(args.logistics, case=case)  # a role that misfits the case
         if args.ifc is not None:
             from cmdp_pymunk.cases.ifc_export import open_for_4d
             from cmdp_pymunk.cases.ifc_import import IfcUnavailable
@@ -419,7 +425,8 @@ def announce(args: SimulateArgs, inputs: Inputs, pool) -> None:
     case, floor = inputs.case, inputs.floor
     print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, "
           f"{len(case.tasks)} tasks), lower bound {inputs.lb.lower_bound_s:.0f} s, evaluator "
-          f"{args.evaluator}, navigator {args.navigator}, {floor.label()}"
+          f"{args.evaluator}, navigator {args.navigator}, {floor.label()}, "
+          f"logistics {args.logistics}"
           + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
           flush=True)
     if floor.fidelity == "event" and args.charts and args.seed_charts:
@@ -456,14 +463,14 @@ def simulate(args: SimulateArgs, progress: Progress) -> int:
     # every crew's decision, as in the paper. The workers build their engines with the same
     # options; this one checks the navigator and renders the GIF's seed.
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic,
-                   POSITION_LOG_EVERY_S, *floor.runner_args)
+                   POSITION_LOG_EVERY_S, *floor.runner_args, args.logistics)
     workers = args.workers or (1 if args.ray is None else None)
     # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
     with open_backend(_simulate_job, runner_args, workers, args.ray) as pool:
         cpsat = solve_cpsat(args, case, evaluator)
         try:  # the evaluator is prepared for the case here (a misfit: exit 2)
             engine = make_engine(case, evaluator, args.navigator, args.max_time_s,
-                                 POSITION_LOG_EVERY_S, *floor.runner_args)
+                                 POSITION_LOG_EVERY_S, *floor.runner_args, args.logistics)
             navigator = make_navigator(args.navigator, engine, args.deterministic)
         except ValueError as err:
             raise BadInput(str(err)) from None

@@ -18,6 +18,7 @@ from pathlib import Path
 import cmdp_pymunk
 from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.logistics import Learned, from_spec
 from cmdp_pymunk.report import versions
 from cmdp_pymunk.workcalendar import calendar_summary
 from training.cli import calendar_of
@@ -75,6 +76,8 @@ class EvaluateArgs:
     # a what-if (docs/levers.md): every --case (the first is ``case``) and --variant NAME=CHANGES
     cases: tuple[Path, ...] = ()
     variants: tuple[str, ...] = ()
+    # who asks for lifts (``cmdp_pymunk.logistics.from_spec``; "case": the case's reorder point)
+    logistics: str = "case"
 
     @property
     def whatif(self) -> bool:
@@ -162,7 +165,9 @@ def resume_settings(case, args: EvaluateArgs) -> dict:
     out = {"case": case.model_dump(mode="json"),
            **{k: getattr(args, k) for k in ("stall_s", "max_time_s", "deterministic")},
            # the floor: a run on the event floor resumes only on it, with the same numbers
-           **resume_floor(run_floor(case, args))}
+           **resume_floor(run_floor(case, args)),
+           # and who asks for lifts: a run resumes only with the same role (and model numbers)
+           **resume_logistics(args.logistics)}
     if measures_cost(args, case):  # only then: runs written before it resume as they were
         out["disruption_cost"] = True
     return out
@@ -173,6 +178,17 @@ def resume_floor(floor: Floor) -> dict:
     (wherever its file is now)."""
     return {"fidelity": floor.fidelity, "calibration": floor.calibration.model_dump(mode="json")
             if floor.calibration is not None else None}
+
+
+def resume_logistics(spec: str) -> dict:
+    """The logistics as ``resume.json`` keeps it: the ``--logistics`` spec and, for a learned
+    rule, the model's numbers (wherever its file is now; a refitted file is another role)."""
+    role = from_spec(spec)
+    out: dict = {"logistics": spec}
+    if isinstance(role, Learned):
+        model = json.loads(role.to_json())
+        out["logistics_model"] = {k: model[k] for k in ("features", "weights", "bias", "shares")}
+    return out
 
 
 def run_floor(case, args: EvaluateArgs) -> Floor:
@@ -201,7 +217,7 @@ def play_episodes(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None
                disable=not args.progress, mininterval=1.0, desc="cmdp-evaluate")
     floor = run_floor(case, args)
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic, None,
-                   *floor.runner_args)
+                   *floor.runner_args, args.logistics)
     log_path = args.out / LOG
     with log_path.open("a" if done else "w") as log:
         if done:  # the earlier rows only (a cut last line is dropped)
@@ -226,6 +242,11 @@ def play_episodes(case, args: EvaluateArgs, run_specs: dict[str, str], pool=None
     return [rows[k] for k in labels]
 
 
+def logistics_label(spec: str) -> str:
+    """For the console header: ``, logistics SPEC``, or nothing for the case's own."""
+    return "" if spec == "case" else f", logistics {spec}"
+
+
 class BadSetting(Exception):
     """A bad setting found after the arguments were parsed: exit 2 with this line."""
 
@@ -240,6 +261,7 @@ def compare_strategies(args: EvaluateArgs) -> int:
         case = cmdp_pymunk.load_case(args.case)
         calendar = calendar_of(case, args)  # dates the finishes; the episodes run in seconds
         floor = run_floor(case, args)  # before anything is built or run
+        from_spec(args.logistics, case=case)  # a role that misfits the case
         check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
                     args.deterministic)
     except ValueError as err:  # CaseError is a ValueError
@@ -248,7 +270,7 @@ def compare_strategies(args: EvaluateArgs) -> int:
     done = resumable(case, args) if args.resume else []
     args.out.mkdir(parents=True, exist_ok=True)
     runner_args = (case, args.stall_s, args.max_time_s, args.deterministic, None,
-                   *floor.runner_args)
+                   *floor.runner_args, args.logistics)
     # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
     with open_backend(episode_job, runner_args, args.workers, args.ray) as pool:
         lb = lower_bound(case)
@@ -260,12 +282,14 @@ def compare_strategies(args: EvaluateArgs) -> int:
             print(f"cmdp-evaluate: solving CP-SAT {why}, time limit {args.cpsat_s:g} s ...",
                   flush=True)
             cpsat = solve(case, args.cpsat_s)
-            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}: lower bound "
+            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}"
+                  f"{logistics_label(args.logistics)}: lower bound "
                   f"{lb.lower_bound_s:,.0f} s; CP-SAT bound {cpsat.bound_s:,.0f} s "
                   f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
                   f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
         else:
-            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}: lower bound "
+            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}"
+                  f"{logistics_label(args.logistics)}: lower bound "
                   f"{lb.lower_bound_s:,.0f} s (CP-SAT not solved: add the cpsat strategy or "
                   "--cpsat-bound for its bound)")
         if floor.uncalibrated_note(args.case):
@@ -331,6 +355,9 @@ def compare_strategies(args: EvaluateArgs) -> int:
                for e in summary]
     time_use = time_use_summary(rows)
     table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
+    if args.logistics != "case":  # no table of another logistics may pass for the case's
+        table = (f"Logistics {args.logistics} (who asks for lifts), not the case's reorder "
+                 "point.\n\n" + table)
     if floor.fidelity == "event":  # no event-floor table may pass for the pymunk floor's
         table = f"On the {floor.label()}, not the pymunk floor.\n\n" + table
     if calendar is not None:
@@ -416,16 +443,19 @@ def compare_whatif(args: EvaluateArgs) -> int:
         entries = whatif_entries(args)
         for e in entries:
             check_specs(e.case, args.strategies, args.navigators, args.deterministic)
+            from_spec(args.logistics, case=e.case)
     except ValueError as err:  # CaseError is a ValueError
         raise BadSetting(str(err)) from None
     args.out.mkdir(parents=True, exist_ok=True)
     tail = (args.stall_s, args.max_time_s, args.deterministic, None)
     labels = [(e, s, n, seed) for e in entries for n in args.navigators
               for s in args.strategies for seed in args.seeds]
-    jobs = [(e.name, e.case.model_dump(mode="json"), (*tail, *e.floor.runner_args), s, n,
-             seed) for e, s, n, seed in labels]
+    jobs = [(e.name, e.case.model_dump(mode="json"),
+             (*tail, *e.floor.runner_args, args.logistics), s, n, seed)
+            for e, s, n, seed in labels]
     print(f"cmdp-evaluate: what-if of {len(entries)} cases and variants against "
-          f"{entries[0].name!r} on the {entries[0].floor.label()}: {len(jobs)} episodes "
+          f"{entries[0].name!r} on the {entries[0].floor.label()}"
+          f"{logistics_label(args.logistics)}: {len(jobs)} episodes "
           f"({len(args.strategies)} strategies x {len(args.navigators)} low level(s) x "
           f"{len(args.seeds)} seeds each)", flush=True)
     note = entries[0].floor.uncalibrated_note(args.case)
@@ -528,6 +558,7 @@ def resumable(case, args: EvaluateArgs) -> list[dict]:
     before = json.loads(saved.read_text())
     before.setdefault("fidelity", "pymunk")  # written before --fidelity: the pymunk floor
     before.setdefault("calibration", None)
+    before.setdefault("logistics", "case")  # written before --logistics: the case's own
     now = json.loads(json.dumps(resume_settings(case, args)))
     changed = sorted(k for k in now if before.get(k) != now[k])
     if changed:
