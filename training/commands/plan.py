@@ -4,21 +4,23 @@ cost, or the cost/P80 Pareto front (issue 42 item 5; docs/levers.md, "A plan sea
     cmdp-plan [--case FILE] [--objective p80|cost|pareto] [--max-cost-ratio R] [--trials 40]
               [--search-seeds 1000-1015] [--confirm-seeds 2000-2019] [--confirm 3]
               [--min-seeds 4] [--reduction-factor 2] [--batch 4] [--seed 0]
+              [--sampler tpe-joint|tpe|nsga2|random] [--screen crew-pairs|none]
+              [--startup-trials 8]
               [--calibration FILE] [--confirm-fidelity pymunk|event] [--no-alone]
               [--workers N] [--ray [ADDRESS]] [--out DIR] [--resume] [--no-progress]
 
 Optuna searches the levers (crew counts, reorder points, crane lift batches, storage spots and
 capacities: the case's ``[levers]``, or one crew fewer or more and reorder points up to half a
 storage when it has none) on the event floor, every plan on the same search seeds in the same
-order (common random numbers), its seeds spent by successive halving (NSGA-II and every seed
-for ``pareto``); ``--max-cost-ratio 1.0`` keeps only plans no dearer than the case (Optuna's
-trial constraints); then the best ``--confirm`` plans play held-out ``--confirm-seeds`` on the
-pymunk floor, paired with the case as written. Writes into DIR: ``plan.toml`` (the chosen
-plan as a case file: ``cmdp-simulate --case DIR/plan.toml``), ``plans/planK.toml``,
-``media/pareto.png``, ``levers.md`` and ``levers.csv`` (each change alone and together),
-``trials.csv``, ``summary.json``, ``plan.journal`` (Optuna's study:
-``--resume`` continues it)
-and ``episodes.jsonl`` (every floor played; a resumed run plays none twice). The logic is
+order (common random numbers), plans picked by ``--sampler`` (TPE over all levers together by
+default), its seeds spent by successive halving (NSGA-II and every seed for ``pareto``);
+``--max-cost-ratio 1.0`` keeps only plans no dearer than the case (Optuna's trial constraints);
+then the best ``--confirm`` plans play held-out ``--confirm-seeds`` on the pymunk floor, paired
+with the case as written. Writes into DIR: ``plan.toml`` (the chosen plan as a case file:
+``cmdp-simulate --case DIR/plan.toml``), ``plans/planK.toml``, ``media/pareto.png``,
+``levers.md`` and ``levers.csv`` (each change alone and together), ``trials.csv``,
+``summary.json``, ``plan.journal`` (Optuna's study: ``--resume`` continues it) and
+``episodes.jsonl`` (every floor played; a resumed run plays none twice). The logic is
 ``training.search.plan_search``.
 """
 
@@ -36,7 +38,7 @@ DEFAULT_OUT = Path("runs/plan")
 def parse_args(argv: list[str] | None = None):
     from training.cli import seed_list
     from training.fidelity import CALIBRATION_HELP
-    from training.search.plan_search import OBJECTIVES, PlanConfig
+    from training.search.plan_search import OBJECTIVES, SAMPLERS, SCREENS, PlanConfig
 
     d = PlanConfig()
     p = OneLineParser(prog="cmdp-plan", description=plain(__doc__))
@@ -71,6 +73,17 @@ def parse_args(argv: list[str] | None = None):
     p.add_argument("--no-alone", action="store_true",
                    help="skip each change of the chosen plan alone in levers.md (a pymunk floor "
                         "per change and held-out seed); the plan together is still measured")
+    p.add_argument("--sampler", choices=SAMPLERS, default=None,
+                   help="what picks the plans: tpe-joint (TPE over every lever at once, so "
+                        "two levers that pay only together are sampled together; the default "
+                        "for p80 and cost), tpe (TPE per lever), nsga2 (the default for "
+                        "pareto) or random")
+    p.add_argument("--screen", choices=SCREENS, default=d.screen,
+                   help="plans tried first, after the case: crew-pairs (each crew type one "
+                        "fewer or more, and every two types one more each: crews that pay "
+                        "only together; the default) or none")
+    p.add_argument("--startup-trials", type=positive_int, default=d.startup_trials,
+                   help="random plans TPE tries before it models them (default %(default)s)")
     p.add_argument("--seed", type=int, default=d.seed, help="the sampler's seed")
     p.add_argument("--evaluator", default=d.evaluator,
                    help="the target evaluator every floor runs (default priority, Eq. 9)")
@@ -89,7 +102,8 @@ def parse_args(argv: list[str] | None = None):
     config = PlanConfig(a.objective, a.trials, tuple(a.search_seeds), tuple(a.confirm_seeds),
                         a.min_seeds, a.reduction_factor, a.batch, a.confirm,
                         a.confirm_fidelity, a.evaluator, a.seed,
-                        max_cost_ratio=a.max_cost_ratio, alone=not a.no_alone)
+                        max_cost_ratio=a.max_cost_ratio, alone=not a.no_alone,
+                        sampler=a.sampler, startup_trials=a.startup_trials, screen=a.screen)
     return a, config
 
 

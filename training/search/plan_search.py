@@ -79,6 +79,10 @@ from ..whatif import crew_counts, played_row
 from .harness import progress_bar
 
 OBJECTIVES = ("p80", "cost", "pareto")
+# the samplers a search may pick plans with (``--sampler``; module doc, "Samplers")
+SAMPLERS = ("tpe-joint", "tpe", "nsga2", "random")
+STARTUP_TRIALS = 8  # TPE's random start-up trials before it models the plans (the default)
+SCREENS = ("crew-pairs", "none")  # the plans tried first, after the case (``--screen``)
 STEPS = 4  # a continuous lever is searched on STEPS + 1 values between its bounds
 STALL_S = 3600.0
 BASE_LABEL = "as the case"
@@ -171,6 +175,28 @@ def search_space(case: Case) -> list[Lever]:
     return [lv for lv in out if lv.high > lv.low]
 
 
+def crew_screen(space: list[Lever]) -> list[dict[str, float]]:
+    """The plans a ``crew-pairs`` screen tries first, after the case as written (each a value
+    per lever key; every other lever as the case): each crew type one fewer and one more
+    crew, then every two crew types one more each, within the levers' bounds.
+
+    Why pairs: a crew is paid by the hour, so one more crew pays for itself only if the floor
+    gets faster by more than the crew's share of the hourly cost. On the built-in floor one
+    more RC crew alone (0.94 x) or FC crew alone (0.97 x) is dearer than the case, and one of
+    each is 0.80 x and cheaper (the binding type moves as crews change; docs/levers.md). A
+    cost bound makes both single changes infeasible, so a sampler learns to keep away from
+    more crews and never tries the pair: it must be met before a model can keep it. With k
+    crew types the screen is at most 2k + k(k-1)/2 plans (17 for the built-in floor's 5)."""
+    crews = [lv for lv in space if lv.kind == "crews"]
+    base = {lv.key: lv.base for lv in space}
+    plans = [base | {lv.key: v} for lv in crews for v in (lv.base - 1, lv.base + 1)
+             if lv.low <= v <= lv.high]
+    plans += [base | {a.key: a.base + 1, b.key: b.base + 1}
+              for i, a in enumerate(crews) for b in crews[i + 1:]
+              if a.base + 1 <= a.high and b.base + 1 <= b.high]
+    return plans
+
+
 def plan_changes(space: list[Lever], values: dict[str, float]) -> tuple[Change, ...]:
     """The changes of a plan (its value per lever key), in the space's order; a storage spot of
     -1 (the case's own place) is no change."""
@@ -205,6 +231,16 @@ class PlanConfig:
     stall_s: float = STALL_S
     max_cost_ratio: float | None = None  # p80/pareto: mean cost at most this x the case's
     alone: bool = True  # measure each change of the chosen plan alone (levers.md)
+    sampler: str | None = None  # SAMPLERS; None: tpe-joint for p80/cost, nsga2 for pareto
+    startup_trials: int = STARTUP_TRIALS  # TPE's random start-up trials
+    screen: str = "crew-pairs"  # SCREENS: the plans tried first (``crew_screen``)
+
+    @property
+    def sampler_name(self) -> str:
+        """The sampler this search uses: ``sampler``, or the objective's default."""
+        if self.sampler is not None:
+            return self.sampler
+        return "nsga2" if self.objective == "pareto" else "tpe-joint"
 
     @property
     def constrained(self) -> bool:
@@ -227,6 +263,17 @@ class PlanConfig:
         if self.min_seeds > len(self.search_seeds):
             out.append(f"--min-seeds {self.min_seeds} is more than the {len(self.search_seeds)} "
                        "search seeds; fix: lower it, or give more --search-seeds")
+        if self.sampler is not None and self.sampler not in SAMPLERS:
+            out.append(f"--sampler {self.sampler!r} is not one of {', '.join(SAMPLERS)}; fix: "
+                       "tpe-joint (TPE modelling the levers together, the default for p80 and "
+                       "cost), tpe (each lever on its own), nsga2 or random")
+        if self.screen not in SCREENS:
+            out.append(f"--screen {self.screen!r} is not one of {', '.join(SCREENS)}; fix: "
+                       "crew-pairs (each crew type one fewer or more, and every two types one "
+                       "more each, tried first) or none")
+        if self.startup_trials < 1:
+            out.append(f"--startup-trials {self.startup_trials} is below 1; fix: give the "
+                       f"random plans TPE tries before it models them, e.g. {STARTUP_TRIALS}")
         if self.reduction_factor < 2:
             out.append("--reduction-factor must be at least 2; fix: give 2 or 3")
         if self.constrained:
@@ -261,6 +308,16 @@ class PlanConfig:
             data.pop("max_cost_ratio")
         if data["alone"]:
             data.pop("alone")
+        # the sampler picks the plans, so a resumed search keeps it; a search made before
+        # --sampler used tpe (p80, cost) or nsga2 (pareto) with 8 start-up trials and no key
+        data.pop("sampler")
+        legacy = "nsga2" if self.objective == "pareto" else "tpe"
+        if self.sampler_name != legacy:
+            data["sampler"] = self.sampler_name
+        if data["startup_trials"] == STARTUP_TRIALS or not self.sampler_name.startswith("tpe"):
+            data.pop("startup_trials")
+        if data["screen"] == "none":  # as every search before --screen
+            data.pop("screen")
         return json.loads(json.dumps(data))
 
 
@@ -433,7 +490,7 @@ def study_storage(out: Path):
     return JournalStorage(JournalFileBackend(str(out / STUDY_FILE)))
 
 
-def _study(out: Path, config: PlanConfig, resume: bool):
+def _study(out: Path, config: PlanConfig, resume: bool, screened: int = 0):
     import optuna
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -444,13 +501,10 @@ def _study(out: Path, config: PlanConfig, resume: bool):
     if resume and not db.exists():
         raise ValueError(f"--resume: {out} holds no plan search ({db.name}); fix: start one "
                          "without --resume")
+    sampler = make_sampler(config, screened)
     if config.objective == "pareto":
-        sampler = optuna.samplers.NSGAIISampler(seed=config.seed,
-                                                population_size=max(4, config.batch))
         pruner, directions = optuna.pruners.NopPruner(), ["minimize", "minimize"]
     else:
-        # the first trials explore (n_startup_trials) before TPE models the good region
-        sampler = optuna.samplers.TPESampler(seed=config.seed, n_startup_trials=8)
         pruner = optuna.pruners.SuccessiveHalvingPruner(
             min_resource=config.min_seeds, reduction_factor=config.reduction_factor)
         directions = ["minimize"]
@@ -461,11 +515,43 @@ def _study(out: Path, config: PlanConfig, resume: bool):
     if kept is None:
         study.set_user_attr("config", config.fingerprint())
     elif kept != config.fingerprint():
-        changed = sorted(k for k in kept if kept[k] != config.fingerprint().get(k))
+        now = config.fingerprint()
+        changed = sorted(k for k in kept.keys() | now.keys() if kept.get(k) != now.get(k))
         raise ValueError(f"--resume: {out} was searched with other settings ({', '.join(changed)}"
                          "); fix: resume with the same settings (only --trials may grow), or "
                          "start a new search in another --out")
     return study
+
+
+def make_sampler(config: PlanConfig, screened: int = 0):
+    """The Optuna sampler of ``config.sampler_name``, seeded with ``config.seed`` (module doc,
+    "Samplers"): ``tpe-joint`` is ``TPESampler(multivariate=True, group=True)``, one Parzen
+    estimator over every lever at once, so a plan good because two levers moved together (one
+    more crew of each of two types) is sampled again as a pair; ``tpe`` one estimator per
+    lever (Optuna's default); both start with ``config.startup_trials`` random plans and read
+    the trials' constraints. ``nsga2``: NSGA-II (constrained domination), a population of
+    ``max(4, batch)``; ``random``: Optuna's RandomSampler, the baseline a model must beat.
+    ``screened``: the screen's plans, tried before TPE's random start-up trials (so TPE still
+    explores ``startup_trials`` random plans before it models them)."""
+    import warnings
+
+    import optuna
+
+    name = config.sampler_name
+    if name == "nsga2":
+        return optuna.samplers.NSGAIISampler(seed=config.seed,
+                                             population_size=max(4, config.batch))
+    if name == "random":
+        return optuna.samplers.RandomSampler(seed=config.seed)
+    if name == "tpe":
+        return optuna.samplers.TPESampler(seed=config.seed,
+                                          n_startup_trials=config.startup_trials + screened)
+    with warnings.catch_warnings():
+        # group is experimental in Optuna 5.0 (ExperimentalWarning); every plan sets every
+        # lever, so the group is the whole space and the option only states that intent
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        return optuna.samplers.TPESampler(seed=config.seed, multivariate=True, group=True,
+                                          n_startup_trials=config.startup_trials + screened)
 
 
 def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_path=None,
@@ -484,7 +570,9 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
     if problems:
         raise ValueError("; ".join(problems))
     out.mkdir(parents=True, exist_ok=True)
-    study = _study(out, config, resume)
+    screen = crew_screen(space) if config.screen == "crew-pairs" else []
+    screen = screen[:max(0, config.trials - 1)]  # within the budget: the case is the first
+    study = _study(out, config, resume, len(screen))
     for t in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
         study.tell(t.number, state=TrialState.FAIL)  # stopped with its run: asked again
     floors = {"event": ("event", calibration), "pymunk": ("pymunk", None)}
@@ -496,6 +584,8 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
 
     if not study.trials:
         study.enqueue_trial({lv.key: lv.base for lv in space})  # the case as written first
+        for values in screen:  # then the screen (crew_screen: pairs a sampler would miss)
+            study.enqueue_trial(values, user_attrs={"screen": True})
     n_search = len(config.search_seeds)
     n_confirm = len(config.confirm_seeds)
     # the true total: every trial's search seeds (a pruned plan's unplayed ones are taken off
@@ -655,7 +745,8 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
              "refused": sum(1 for t in trials if t.user_attrs.get("invalid")),
              "unfinished": sum(1 for t in trials if t.user_attrs.get("unfinished")),
              "distinct_plans": len({t.user_attrs.get("plan") for t in trials
-                                    if t.user_attrs.get("plan")})}
+                                    if t.user_attrs.get("plan")}),
+             "screened": sum(1 for t in trials if t.user_attrs.get("screen"))}
     if config.constrained:
         told = [t for t in trials if t.constraints]
         tried |= {"feasible": sum(1 for t in told if feasible(t)),
@@ -678,6 +769,7 @@ def search_plans(case: Case, config: PlanConfig, out: Path, calibration, case_pa
                    "calibration_fingerprint": getattr(calibration, "fingerprint", None),
                    "seeds": list(config.search_seeds), "rungs": config.rungs(),
                    "sampler": type(study.sampler).__name__,
+                   "sampler_option": config.sampler_name, "screen": config.screen,
                    "pruner": type(study.pruner).__name__, "base": base_search,
                    "floors_played_now": floors_.played, "wall_s": round(search_s, 1)},
         "confirmation": {"floor": cf, "seeds": list(config.confirm_seeds),
