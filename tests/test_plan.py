@@ -14,6 +14,8 @@ from training.commands import plan
 from training.search.plan_search import (
     PlanConfig,
     cost_bound,
+    crew_screen,
+    make_sampler,
     plan_changes,
     search_space,
     study_storage,
@@ -263,3 +265,94 @@ def test_the_same_search_on_one_or_two_workers_tries_the_same_plans(tmp_path):
         assert plan.main(args) == 0
         trials[workers] = (out / "trials.csv").read_text()
     assert trials["1"] == trials["2"]
+
+
+def paired_crews_case(tmp_path):
+    """The tiny case with a second precast slab (HI-P-2, away from the first) whose joint
+    R-J-2 waits for it, hoisting without the crane (two HIC crews work at once) in 8 minutes,
+    crews at 600/h and site overhead 1,000/h: the two slabs queue for the one HIC crew and
+    the two joints for the one RC crew, so one more crew of either type alone moves the
+    queue to the other (measured on the event floor, seeds 0-11: one more HIC crew 0.83 x
+    the makespan, RC 0.95 x) and is dearer than the case (3 crews' rates for 0.83 x the time:
+    (3 x 600 + 1,000) x 0.83 = 2,324 > 2,200 an hour's worth), while one more of each is
+    0.55 x and cheaper (3,400 x 0.55 = 1,870). Beside the crews (1-2 each: the tiny plane
+    has no start point for a third RC crew), the rebars' reorder point and lift batch are
+    levers that barely matter: a sampler that does not meet the pair of crews finds nothing
+    within the cost bound faster than the case."""
+    data = load_case(TINY_CASE).model_dump(mode="json")
+    data["task_types"]["HI"]["needs_crane"] = False
+    data["crew_types"]["HIC"]["duration_mean_min"] = 8.0
+    data["components"].append({**data["components"][0], "id": "P-2", "x_m": 5.0,
+                               "y_m": -3.0})
+    data["tasks"].append({**data["tasks"][0], "id": "HI-P-2", "component": "P-2"})
+    assert data["tasks"][2]["id"] == "R-J-2"
+    data["tasks"][2]["predecessors"] = ["HI-P-2"]
+    data["levers"] = {"crews": {"HIC": {"min": 1, "max": 2}, "RC": {"min": 1, "max": 2}},
+                      "materials": {"rebars": {"reorder_at": [0.0, 0.5],
+                                               "crane_lift_quantity": [0.5, 1.0]}}}
+    data["cost"] = {"crew_rate_per_h": {"RC": 600.0, "HIC": 600.0}, "crane_per_h": 0.0,
+                    "overhead_per_h": 1000.0}
+    from cmdp_pymunk.cases.levers import variant_toml
+
+    path = tmp_path / "paired_crews.toml"
+    path.write_text(variant_toml(case_from_dict(data, "paired")), encoding="utf-8")
+    return path
+
+
+def test_the_crew_screen_is_each_type_alone_then_every_two_types_together():
+    space = search_space(load_case(TINY_CASE.parent / "precast_floor_levers.toml"))
+    plans = crew_screen(space)
+    base = {lv.key: lv.base for lv in space}
+    moved = [{k: v for k, v in p.items() if v != base[k]} for p in plans]
+    # RC and FC (2 crews, 1..3) one fewer and one more, JCC, HIC and GC (1 crew, 1..2) one
+    # more: 7 alone; then 5 types taken two at a time, one more each: 10 pairs
+    assert len(plans) == 17 and all(len(m) == 1 for m in moved[:7])
+    assert {"crews.RC": 1} in moved[:7] and {"crews.RC": 3} in moved[:7]
+    assert {"crews.JCC": 2} in moved[:7] and {"crews.JCC": 0} not in moved  # at least 1
+    assert {"crews.RC": 3, "crews.FC": 3} in moved[7:]
+    assert all(len(m) == 2 and all(v == base[k] + 1 for k, v in m.items())
+               for m in moved[7:])
+    # the logistics levers stay as the case in every plan of the screen
+    assert all(k.startswith("crews.") for m in moved for k in m)
+
+
+def test_the_sampler_and_screen_are_part_of_what_a_resumed_search_keeps():
+    # a search from before --sampler/--screen (TPE per lever, no screen) keeps its fingerprint
+    legacy = PlanConfig(sampler="tpe", screen="none").fingerprint()
+    assert "sampler" not in legacy and "screen" not in legacy
+    now = PlanConfig().fingerprint()
+    assert now["sampler"] == "tpe-joint" and now["screen"] == "crew-pairs"
+    assert "startup_trials" not in now and PlanConfig(startup_trials=20).fingerprint()[
+        "startup_trials"] == 20
+    # pareto's default stays NSGA-II
+    assert PlanConfig(objective="pareto").sampler_name == "nsga2"
+    assert "sampler" not in PlanConfig(objective="pareto", screen="none").fingerprint()
+    sampler = make_sampler(PlanConfig(), screened=17)
+    assert sampler._multivariate and sampler._group
+    assert sampler._n_startup_trials == 8 + 17  # the screen, then 8 random plans
+
+
+def test_a_joint_search_meets_the_pair_of_crews_that_pays_only_together(tmp_path):
+    case_path = paired_crews_case(tmp_path)
+    args = ["--case", str(case_path), "--objective", "p80", "--max-cost-ratio", "1.0",
+            "--trials", "8", "--search-seeds", "0-5", "--confirm-seeds", "100-111",
+            "--confirm", "1", "--min-seeds", "2", "--workers", "1", "--no-progress",
+            "--confirm-fidelity", "event", "--no-alone"]
+    runs = {}
+    for name in ("a", "b"):
+        assert plan.main([*args, "--out", str(tmp_path / name)]) == 0
+        runs[name] = json.loads((tmp_path / name / "summary.json").read_text())
+    s = runs["a"]
+    assert s["search"]["sampler_option"] == "tpe-joint" and s["tried"]["screened"] == 3
+    study = optuna.load_study(study_name="plan", storage=study_storage(tmp_path / "a"))
+    told = {t.user_attrs["plan"]: t for t in study.trials if t.constraints}
+    # neither crew alone keeps the bound; the two together do, and are the fastest
+    assert told["HIC=2"].constraints["cost"] > 0 and told["RC=2"].constraints["cost"] > 0
+    assert told["HIC=2, RC=2"].constraints["cost"] < 0
+    assert s["chosen"]["crews"] == "HIC 2, RC 2"
+    held = s["chosen"]["held_out"]
+    assert held["within_cost_bound"] and held["makespan_ratio"] < 0.7
+    # the same --seed tries the same plans in the same order, with the same numbers
+    trials = [(tmp_path / n / "trials.csv").read_text() for n in ("a", "b")]
+    assert trials[0] == trials[1]
+    assert runs["a"]["chosen"] == runs["b"]["chosen"]
