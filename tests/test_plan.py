@@ -317,11 +317,15 @@ def test_the_crew_screen_is_each_type_alone_then_every_two_types_together():
 
 
 def test_the_sampler_and_screen_are_part_of_what_a_resumed_search_keeps():
-    # a search from before --sampler/--screen (TPE per lever, no screen) keeps its fingerprint
-    legacy = PlanConfig(sampler="tpe", screen="none").fingerprint()
+    # a search from before --sampler/--screen used Optuna 5.0's TPESampler(), which is the
+    # multivariate (joint) TPE for one objective, and no screen: it keeps its fingerprint
+    study = optuna.create_study()
+    assert optuna.samplers.TPESampler()._is_multivariate(study)
+    legacy = PlanConfig(screen="none").fingerprint()
     assert "sampler" not in legacy and "screen" not in legacy
     now = PlanConfig().fingerprint()
-    assert now["sampler"] == "tpe-joint" and now["screen"] == "crew-pairs"
+    assert "sampler" not in now and now["screen"] == "crew-pairs"
+    assert PlanConfig(sampler="tpe-independent").fingerprint()["sampler"] == "tpe-independent"
     assert "startup_trials" not in now and PlanConfig(startup_trials=20).fingerprint()[
         "startup_trials"] == 20
     # pareto's default stays NSGA-II
@@ -330,6 +334,7 @@ def test_the_sampler_and_screen_are_part_of_what_a_resumed_search_keeps():
     sampler = make_sampler(PlanConfig(), screened=17)
     assert sampler._multivariate and sampler._group
     assert sampler._n_startup_trials == 8 + 17  # the screen, then 8 random plans
+    assert make_sampler(PlanConfig(sampler="tpe-independent"))._multivariate is False
 
 
 def test_a_joint_search_meets_the_pair_of_crews_that_pays_only_together(tmp_path):
@@ -356,3 +361,15 @@ def test_a_joint_search_meets_the_pair_of_crews_that_pays_only_together(tmp_path
     trials = [(tmp_path / n / "trials.csv").read_text() for n in ("a", "b")]
     assert trials[0] == trials[1]
     assert runs["a"]["chosen"] == runs["b"]["chosen"]
+
+
+def test_a_search_resumed_with_another_sampler_is_refused(tmp_path, capsys):
+    case_path = planted_case(tmp_path)
+    out = tmp_path / "plan"
+    args = ["--case", str(case_path), "--out", str(out), *ARGS]
+    args[args.index("--trials") + 1] = "2"
+    assert plan.main(args) == 0
+    # the first run's fingerprint has no "sampler" (the default): the refusal names it anyway
+    assert plan.main([*args, "--resume", "--sampler", "random"]) == 2
+    err = capsys.readouterr().err
+    assert "other settings (sampler)" in err and "fix:" in err

@@ -4,7 +4,7 @@ cost, or the cost/P80 Pareto front (issue 42 item 5; docs/levers.md, "A plan sea
     cmdp-plan [--case FILE] [--objective p80|cost|pareto] [--max-cost-ratio R] [--trials 40]
               [--search-seeds 1000-1015] [--confirm-seeds 2000-2019] [--confirm 3]
               [--min-seeds 4] [--reduction-factor 2] [--batch 4] [--seed 0]
-              [--sampler tpe-joint|tpe|nsga2|random] [--screen crew-pairs|none]
+              [--sampler tpe-joint|tpe-independent|nsga2|random] [--screen crew-pairs|none]
               [--startup-trials 8]
               [--calibration FILE] [--confirm-fidelity pymunk|event] [--no-alone]
               [--workers N] [--ray [ADDRESS]] [--out DIR] [--resume] [--no-progress]
@@ -76,8 +76,8 @@ def parse_args(argv: list[str] | None = None):
     p.add_argument("--sampler", choices=SAMPLERS, default=None,
                    help="what picks the plans: tpe-joint (TPE over every lever at once, so "
                         "two levers that pay only together are sampled together; the default "
-                        "for p80 and cost), tpe (TPE per lever), nsga2 (the default for "
-                        "pareto) or random")
+                        "for p80 and cost, as Optuna 5.0's TPE), tpe-independent (TPE per "
+                        "lever), nsga2 (the default for pareto) or random")
     p.add_argument("--screen", choices=SCREENS, default=d.screen,
                    help="plans tried first, after the case: crew-pairs (each crew type one "
                         "fewer or more, and every two types one more each: crews that pay "

@@ -80,7 +80,7 @@ from .harness import progress_bar
 
 OBJECTIVES = ("p80", "cost", "pareto")
 # the samplers a search may pick plans with (``--sampler``; module doc, "Samplers")
-SAMPLERS = ("tpe-joint", "tpe", "nsga2", "random")
+SAMPLERS = ("tpe-joint", "tpe-independent", "nsga2", "random")
 STARTUP_TRIALS = 8  # TPE's random start-up trials before it models the plans (the default)
 SCREENS = ("crew-pairs", "none")  # the plans tried first, after the case (``--screen``)
 STEPS = 4  # a continuous lever is searched on STEPS + 1 values between its bounds
@@ -266,7 +266,7 @@ class PlanConfig:
         if self.sampler is not None and self.sampler not in SAMPLERS:
             out.append(f"--sampler {self.sampler!r} is not one of {', '.join(SAMPLERS)}; fix: "
                        "tpe-joint (TPE modelling the levers together, the default for p80 and "
-                       "cost), tpe (each lever on its own), nsga2 or random")
+                       "cost), tpe-independent (each lever on its own), nsga2 or random")
         if self.screen not in SCREENS:
             out.append(f"--screen {self.screen!r} is not one of {', '.join(SCREENS)}; fix: "
                        "crew-pairs (each crew type one fewer or more, and every two types one "
@@ -309,9 +309,10 @@ class PlanConfig:
         if data["alone"]:
             data.pop("alone")
         # the sampler picks the plans, so a resumed search keeps it; a search made before
-        # --sampler used tpe (p80, cost) or nsga2 (pareto) with 8 start-up trials and no key
+        # --sampler used Optuna 5.0's TPESampler() (multivariate for one objective: tpe-joint)
+        # for p80 and cost, NSGA-II for pareto, with 8 start-up trials, and has no key
         data.pop("sampler")
-        legacy = "nsga2" if self.objective == "pareto" else "tpe"
+        legacy = "nsga2" if self.objective == "pareto" else "tpe-joint"
         if self.sampler_name != legacy:
             data["sampler"] = self.sampler_name
         if data["startup_trials"] == STARTUP_TRIALS or not self.sampler_name.startswith("tpe"):
@@ -524,12 +525,16 @@ def _study(out: Path, config: PlanConfig, resume: bool, screened: int = 0):
 
 
 def make_sampler(config: PlanConfig, screened: int = 0):
-    """The Optuna sampler of ``config.sampler_name``, seeded with ``config.seed`` (module doc,
-    "Samplers"): ``tpe-joint`` is ``TPESampler(multivariate=True, group=True)``, one Parzen
-    estimator over every lever at once, so a plan good because two levers moved together (one
-    more crew of each of two types) is sampled again as a pair; ``tpe`` one estimator per
-    lever (Optuna's default); both start with ``config.startup_trials`` random plans and read
-    the trials' constraints. ``nsga2``: NSGA-II (constrained domination), a population of
+    """The Optuna sampler of ``config.sampler_name``, seeded with ``config.seed``:
+    ``tpe-joint`` is ``TPESampler(multivariate=True, group=True)``, one Parzen estimator over
+    every lever at once, so a plan good because two levers moved together (one more crew of
+    each of two types) is sampled again as a pair. It is what Optuna 5.0's ``TPESampler()``
+    does for one objective (``multivariate=None`` means True there), so every search before
+    ``--sampler`` was already joint; ``group`` changes nothing while every plan sets every
+    lever, and says so for ``pareto``, where ``multivariate`` would default to False.
+    ``tpe-independent``: ``multivariate=False``, one estimator per lever. Both start with
+    ``config.startup_trials`` random plans and read the trials' constraints. ``nsga2``:
+    NSGA-II (constrained domination), a population of
     ``max(4, batch)``; ``random``: Optuna's RandomSampler, the baseline a model must beat.
     ``screened``: the screen's plans, tried before TPE's random start-up trials (so TPE still
     explores ``startup_trials`` random plans before it models them)."""
@@ -543,8 +548,8 @@ def make_sampler(config: PlanConfig, screened: int = 0):
                                              population_size=max(4, config.batch))
     if name == "random":
         return optuna.samplers.RandomSampler(seed=config.seed)
-    if name == "tpe":
-        return optuna.samplers.TPESampler(seed=config.seed,
+    if name == "tpe-independent":
+        return optuna.samplers.TPESampler(seed=config.seed, multivariate=False,
                                           n_startup_trials=config.startup_trials + screened)
     with warnings.catch_warnings():
         # group is experimental in Optuna 5.0 (ExperimentalWarning); every plan sets every
