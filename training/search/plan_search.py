@@ -10,7 +10,7 @@ Optuna searches it on the event floor (each plan on the base case's calibration,
 ``cmdp-evaluate --variant`` runs it; ``benchmarks/validate_variants.py`` measures how well that
 holds) for
 
-- ``p80``: the lowest P80 makespan (TPE; its seeds spent by Optuna's
+- ``p80``: the lowest P80 makespan (the joint TPE; its seeds spent by Optuna's
   ``SuccessiveHalvingPruner``: every plan plays the first ``min_seeds`` search seeds, half of
   them go on to twice as many, and so on up to all of them, so close plans get the seeds);
 - ``cost``: the lowest mean cost (``cmdp_pymunk.cost``; the same pruner);
@@ -34,6 +34,11 @@ sees it, and one over the bound on the mean but not clearly plays on to the next
 competing (seeds go where a plan is close to the bound as well as where plans are close to
 each other). At the last rung the bound is read on the mean. The case as written plays every
 search seed first, the reference of every rung.
+
+Which plans: the case as written first, then the crew screen (``crew_screen``: each crew
+type one fewer and one more, every two types one more each; ``--screen none`` skips it), so
+two crews that pay for themselves only together are met, then the sampler's (``make_sampler``:
+the joint TPE by default, NSGA-II for ``pareto``).
 
 Common random numbers: every plan plays the same search seeds in the same order, and a task
 meets the same pace in every plan (streams keyed by seed and task), so plans are compared on
@@ -79,7 +84,7 @@ from ..whatif import crew_counts, played_row
 from .harness import progress_bar
 
 OBJECTIVES = ("p80", "cost", "pareto")
-# the samplers a search may pick plans with (``--sampler``; module doc, "Samplers")
+# the samplers a search may pick plans with (``--sampler``; ``make_sampler``)
 SAMPLERS = ("tpe-joint", "tpe-independent", "nsga2", "random")
 STARTUP_TRIALS = 8  # TPE's random start-up trials before it models the plans (the default)
 SCREENS = ("crew-pairs", "none")  # the plans tried first, after the case (``--screen``)
