@@ -143,14 +143,20 @@ def costly_crews_case(tmp_path):
     saves one crane lift's wait (-120 s, 0.95 x; measured on seeds 0-11) at no crew cost, so
     it is the fastest plan no dearer than the case."""
     data = load_case(TINY_CASE).model_dump(mode="json")
-    data["levers"] = {"crews": {"RC": {"min": 1, "max": 2}},
-                      "materials": {"rebars": {"reorder_at": [0.0, 0.5]}}}
-    data["cost"] = {"crew_rate_per_h": {"RC": 5000.0, "HIC": 0.0}, "crane_per_h": 0.0,
-                    "overhead_per_h": 0.0}
+    return _levered_case(tmp_path, data, "costly_crews",
+                         {"crews": {"RC": {"min": 1, "max": 2}},
+                          "materials": {"rebars": {"reorder_at": [0.0, 0.5]}}},
+                         {"crew_rate_per_h": {"RC": 5000.0, "HIC": 0.0}, "crane_per_h": 0.0,
+                          "overhead_per_h": 0.0})
+
+
+def _levered_case(tmp_path, data: dict, name: str, levers: dict, cost: dict):
+    """``data`` with ``levers`` and ``cost``, written as a case file ``name``.toml."""
     from cmdp_pymunk.cases.levers import variant_toml
 
-    path = tmp_path / "costly_crews.toml"
-    path.write_text(variant_toml(case_from_dict(data, "costly")), encoding="utf-8")
+    data["levers"], data["cost"] = levers, cost
+    path = tmp_path / f"{name}.toml"
+    path.write_text(variant_toml(case_from_dict(data, name)), encoding="utf-8")
     return path
 
 
@@ -287,16 +293,12 @@ def paired_crews_case(tmp_path):
     data["tasks"].append({**data["tasks"][0], "id": "HI-P-2", "component": "P-2"})
     assert data["tasks"][2]["id"] == "R-J-2"
     data["tasks"][2]["predecessors"] = ["HI-P-2"]
-    data["levers"] = {"crews": {"HIC": {"min": 1, "max": 2}, "RC": {"min": 1, "max": 2}},
-                      "materials": {"rebars": {"reorder_at": [0.0, 0.5],
-                                               "crane_lift_quantity": [0.5, 1.0]}}}
-    data["cost"] = {"crew_rate_per_h": {"RC": 600.0, "HIC": 600.0}, "crane_per_h": 0.0,
-                    "overhead_per_h": 1000.0}
-    from cmdp_pymunk.cases.levers import variant_toml
-
-    path = tmp_path / "paired_crews.toml"
-    path.write_text(variant_toml(case_from_dict(data, "paired")), encoding="utf-8")
-    return path
+    return _levered_case(
+        tmp_path, data, "paired_crews",
+        {"crews": {"HIC": {"min": 1, "max": 2}, "RC": {"min": 1, "max": 2}},
+         "materials": {"rebars": {"reorder_at": [0.0, 0.5], "crane_lift_quantity": [0.5, 1.0]}}},
+        {"crew_rate_per_h": {"RC": 600.0, "HIC": 600.0}, "crane_per_h": 0.0,
+         "overhead_per_h": 1000.0})
 
 
 def test_the_crew_screen_is_each_type_alone_then_every_two_types_together():
