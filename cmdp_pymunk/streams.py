@@ -21,6 +21,7 @@ source, so adding one leaves every task's pace, and every other kind's draws, un
 from __future__ import annotations
 
 import functools
+import threading
 
 import numpy as np
 
@@ -92,11 +93,138 @@ class RandomStreams:
         return PaceStream(tuple(self.key(PACE, task)))
 
 
-@functools.lru_cache(maxsize=1 << 14)
-def _first_normal(key: tuple[int, ...]) -> float:
-    """The first standard normal of the stream ``key`` (kept: see ``PaceStream``)."""
+# numpy's SeedSequence (``numpy.random.bit_generator``) and PCG64 seeding constants: numpy
+# keeps both streams stable across versions (NEP 19), and ``_numpy_agrees`` checks it here
+_M32, _M128 = 0xFFFFFFFF, (1 << 128) - 1
+_INIT_A, _MULT_A, _INIT_B, _MULT_B = 0x43B0D7E5, 0x931E8875, 0x8B51F9DD, 0x58F38DED
+_MIX_L, _MIX_R = np.uint32(0xCA01F9DD), np.uint32(0x4973F715)
+_PCG_MULT = 0x2360ED051FC65DA44385DF649FCCF645
+BLOCK = 32  # tasks whose first normals are worked out together (``_first_normal``)
+
+
+def _words(key: tuple[int, ...]) -> list[int]:
+    """The key as SeedSequence reads it: each int as 32-bit words, low first (0 as one)."""
+    out = []
+    for n in key:
+        if n == 0:
+            out.append(0)
+        while n:
+            out.append(n & _M32)
+            n >>= 32
+    return out
+
+
+def _hash_constants(count: int, init: int, mult: int) -> list[np.uint32]:
+    # SeedSequence's hash constant moves on by one multiplication per word hashed, whatever
+    # the word: the same sequence for every key
+    h, out = init, []
+    for _ in range(count):
+        out.append(np.uint32(h))
+        h = (h * mult) & _M32
+    return out
+
+
+def _pcg64_states(keys: list[tuple[int, ...]]) -> list[tuple[int, int]]:
+    """PCG64's (state, increment) as ``PCG64(SeedSequence(key))`` sets them, for keys of one
+    length in words, worked out together.
+
+    Making the SeedSequence and the PCG64 objects costs 20-35 us a stream, most of it numpy's
+    per-call machinery (an ``errstate`` per SeedSequence), and a floor starts one stream per
+    task; the same hash on arrays of keys costs a few us a key. SeedSequence: the words hashed
+    into a pool of four (``mix_entropy``), eight words drawn from it (``generate_state(4,
+    uint64)``), in uint32 arithmetic (numpy's wraps as C's); PCG64 (``pcg64_set_seed``):
+    state 0, increment ``2 * seq + 1``, one step, the initial state added, one step."""
+    words = np.array([_words(k) for k in keys], dtype=np.uint32)
+    width = words.shape[1]
+    ha = iter(_hash_constants(4 + 12 + 4 * max(0, width - 4) + 1, _INIT_A, _MULT_A))
+    h = next(ha)
+    shift = np.uint32(16)
+
+    def hashmix(x: np.ndarray) -> np.ndarray:
+        nonlocal h
+        v = x ^ h
+        h = next(ha)
+        v = v * h
+        return v ^ (v >> shift)
+
+    def mix(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        r = _MIX_L * x - _MIX_R * y
+        return r ^ (r >> shift)
+
+    zero = np.zeros(len(keys), dtype=np.uint32)
+    pool = [hashmix(words[:, i] if i < width else zero) for i in range(4)]
+    for src in range(4):
+        for dst in range(4):
+            if src != dst:
+                pool[dst] = mix(pool[dst], hashmix(pool[src]))
+    for src in range(4, width):
+        for dst in range(4):
+            pool[dst] = mix(pool[dst], hashmix(words[:, src]))
+    hb = _hash_constants(9, _INIT_B, _MULT_B)
+    drawn = []
+    for i in range(8):
+        v = (pool[i & 3] ^ hb[i]) * hb[i + 1]
+        drawn.append(v ^ (v >> shift))
+    out = []
+    for o in np.stack(drawn, axis=1).tolist():
+        initstate = (o[0] | o[1] << 32) << 64 | o[2] | o[3] << 32
+        inc = (((o[4] | o[5] << 32) << 64 | o[6] | o[7] << 32) << 1 | 1) & _M128
+        state = (inc + initstate) & _M128  # the first step from state 0 is the increment
+        out.append(((state * _PCG_MULT + inc) & _M128, inc))
+    return out
+
+
+_BITS = np.random.PCG64(0)  # one generator, its state set per stream (``_first_normals``)
+_DRAW = np.random.Generator(_BITS)
+_SET_AND_DRAW = threading.Lock()  # each set and its draw as one, should threads share it
+
+
+def _first_normals(keys: list[tuple[int, ...]]) -> list[float]:
+    """The first standard normal of each stream ``keys`` (one length in words), numpy's to
+    the bit (``_pcg64_states``, then numpy's own draw)."""
+    out = []
+    with _SET_AND_DRAW:
+        for state, inc in _pcg64_states(keys):
+            _BITS.state = {"bit_generator": "PCG64", "state": {"state": state, "inc": inc},
+                           "has_uint32": 0, "uinteger": 0}
+            out.append(_DRAW.standard_normal())
+    return out
+
+
+def _numpy_first_normal(key: tuple[int, ...]) -> float:
     return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key)))) \
         .standard_normal()
+
+
+@functools.cache
+def _numpy_agrees() -> bool:
+    """Whether ``_first_normals`` seeds as this numpy does (checked once per process on keys
+    of every shape a floor asks; numpy's own path is taken if not)."""
+    keys = ((0, PACE, 0), (7, PACE, 86, 2), (2**64 + 5, PACE, 3, 1, 12), (2**127 - 1, 2, 9))
+    return all(_first_normals([k]) == [_numpy_first_normal(k)] for k in keys)
+
+
+_KEPT: dict[tuple[int, ...], float] = {}  # stream key -> its first standard normal
+_KEPT_MAX = 1 << 16
+
+
+def _first_normal(key: tuple[int, ...]) -> float:
+    """The first standard normal of the stream ``key`` (kept: see ``PaceStream``). A key not
+    kept yet brings its block's: the ``BLOCK`` tasks around it, in the same future (a floor
+    starts every task of its seed, a branch most of those not started)."""
+    z = _KEPT.get(key)
+    if z is not None:
+        return z
+    if len(_KEPT) >= _KEPT_MAX:
+        _KEPT.clear()
+    if not _numpy_agrees():
+        z = _KEPT[key] = _numpy_first_normal(key)
+        return z
+    head, item, tail = key[:2], key[2], key[3:]
+    first = item - item % BLOCK
+    block = [(*head, i, *tail) for i in range(first, first + BLOCK)]
+    _KEPT.update(zip(block, _first_normals(block), strict=True))
+    return _KEPT[key]
 
 
 class PaceStream:

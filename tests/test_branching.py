@@ -173,3 +173,27 @@ def test_a_pace_stream_gives_its_generators_draws_draw_for_draw():
     assert fresh.random() == plain.random() and fresh.normal(1.0, 2.0) == plain.normal(1.0, 2.0)
     again, plain = RandomStreams(9).pace(4), RandomStreams(9).generator(PACE, 4)
     assert again.normal(3.0, 0.5) == plain.normal(3.0, 0.5)  # the kept draw, a fresh stream
+
+
+def test_the_streams_seeding_is_numpys_on_every_key_shape():
+    """``streams._first_normals`` hashes keys as numpy's SeedSequence and seeds PCG64 as
+    numpy does: the first normal of 3,000 keys of every shape a floor asks (an episode's
+    seed, OS entropy of 128 bits, a scenario's and the expected future's longer keys), in
+    blocks as a floor asks them, is numpy's to the bit, and this numpy agrees (else the
+    streams fall back to numpy's path)."""
+    import numpy as np
+
+    from cmdp_pymunk import streams
+
+    assert streams._numpy_agrees()
+    rs = np.random.default_rng(11)
+    for n in range(100):
+        entropy = [0, int(rs.integers(0, 2**31)), int(rs.integers(0, 2**63)) * 2**64 + n][n % 3]
+        tail = [(), (2,), (1, int(rs.integers(0, 1000)))][n % 3 if n % 7 else 0]
+        first = int(rs.integers(0, 5000))
+        keys = [(entropy, streams.PACE, first + i, *tail) for i in range(30)]
+        assert streams._first_normals(keys) == [streams._numpy_first_normal(k) for k in keys]
+    streams._KEPT.clear()
+    key = (3, streams.PACE, 70)
+    assert streams._first_normal(key) == streams._numpy_first_normal(key)
+    assert (3, streams.PACE, 64) in streams._KEPT and (3, streams.PACE, 95) in streams._KEPT

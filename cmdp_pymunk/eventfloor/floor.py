@@ -53,7 +53,7 @@ from ..physics import N_KINDS
 from ..policy import best_target
 from ..state import TASKING, CrewState, Site
 from .calibration import Calibration, uncalibrated
-from .walks import Walk, WalkPlanner
+from .walks import Walk, WalkPlanner, congestion_areas
 
 FIDELITIES = ("pymunk", "event")  # the motions shipped: the paper's, this one
 
@@ -265,6 +265,7 @@ class WalkMotion:
         """Each crew on the move heads for its best target: a new walk from where it stands
         when that target changed (or it has none yet); none for a crew without values."""
         site, walks, chosen_by = engine.site, self.walks, self._chosen_by
+        areas = None  # the areas that slow walks now: one event's walks share them
         for crew in site.crews:
             i = crew.index
             if not crew.moving:
@@ -287,8 +288,11 @@ class WalkMotion:
             task = scope.get(target, -1)
             if walk is None or walk.target != target or walk.task != task:
                 fitted = self._fitted[crew.type]
+                if areas is None:
+                    areas = congestion_areas(site)
                 walks[i] = self.planner.walk(site, crew, engine.positions[i], target,
-                                             site.time_s, fitted.walk_factor, fitted.dock_s)
+                                             site.time_s, fitted.walk_factor, fitted.dock_s,
+                                             areas)
             chosen_by[i] = (values, scope)
 
     def _next_disruption_change(self, engine: Engine, now: float) -> float:

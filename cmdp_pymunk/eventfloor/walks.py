@@ -32,7 +32,8 @@ import bisect
 import functools
 import math
 from dataclasses import dataclass, field
-from itertools import accumulate
+from itertools import accumulate, islice
+from operator import truediv
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt
@@ -270,6 +271,8 @@ class _Layer:
         self.paths: dict = {}  # (radius, goal, start cell) -> a _Path, None: no way there
 
 
+_UNHINDERED = (1.0,)  # the congestion index outside every area (Eq. 1)
+_UNKNOWN = object()  # a path not planned yet (None: no way there)
 MAX_DECK_LAYERS = 16  # sets of laid decks kept (a deck floor meets one per deck laid)
 
 
@@ -284,6 +287,7 @@ class WalkPlanner:
         self._components = [c.rect for c in site.components]
         self._layers: dict[frozenset, _Layer] = {}
         self._goals: dict[tuple[int, int], tuple] = {}  # (target, task) -> ``_goal_of``'s
+        self._last_layer: tuple = (None, None)  # (laid decks, their layer) of the last walk
         self.lateral_m_s = case.simulation.lateral_velocity_m_s
         self.outlet = (case.plane.outlet_x_m, case.plane.outlet_y_m,
                        case.plane.outlet_radius_m)
@@ -293,12 +297,15 @@ class WalkPlanner:
 
     def _layer(self, laid: frozenset) -> _Layer:
         """The layer of the decks ``laid`` (component indices), made on first use."""
+        if laid is self._last_layer[0]:  # the same decks as the last walk's (most walks)
+            return self._last_layer[1]
         layer = self._layers.get(laid)
         if layer is None:
             if len(self._layers) >= MAX_DECK_LAYERS:  # forget the oldest set of laid decks
                 del self._layers[next(k for k in self._layers if k)]
             layer = self._layers[laid] = _Layer(
                 [r for k, r in enumerate(self._components) if k not in laid])
+        self._last_layer = (laid, layer)
         return layer
 
     def _radius(self, radius: float, layer: _Layer) -> _Radius:
@@ -358,37 +365,39 @@ class WalkPlanner:
         return layer.fields[key]
 
     def walk(self, site: Site, crew: CrewState, start: tuple[float, float], target: int,
-             now_s: float, walk_factor: float, dock_s: float = 0.0) -> Walk:
+             now_s: float, walk_factor: float, dock_s: float = 0.0,
+             areas: list[tuple[Rect, float]] | None = None) -> Walk:
         """The crew's walk from ``start`` to ``target`` of its scope, leaving at ``now_s``
         (see the module doc); it arrives at a whole second, one at the earliest (the engine
-        sees a reach at the end of a second)."""
+        sees a reach at the end of a second). ``areas``: ``congestion_areas(site)`` if the
+        caller has them (one event's walks share them)."""
         task = crew.scope.get(target, -1)
         path = self.path(site, crew, start, target, task)
         x, y = float(start[0]), float(start[1])
         if path is None:  # no way there (the check refuses such a floor): it never arrives
             return Walk(target, task, now_s, [x], [y], [0.0], math.inf, [0.0])
         px, py = path.px, path.py
-        congestion = self._congestion(site, path, start)
+        congestion = self._congestion(site, path, start, areas)
         # Eq. 1's velocity at each point, worked out once per congestion index (most points
-        # lie outside every area, at 1)
-        indices = list(dict.fromkeys(congestion))
-        velocity = dict(zip(indices, walking_velocities(crew, indices, self.lateral_m_s),
-                            strict=True))
-        # each step's length over its Eq. 1 velocity, summed in order (numpy's cumsum did the
-        # same additions), times the walk factor; and the metres at each point
-        # (``Walk.distance_at``), from the path's kept steps
-        # (``accumulate`` adds left to right, as ``+=`` in a loop did: the same floats)
-        elapsed = math.hypot(px[0] - x, py[0] - y) / velocity[congestion[0]]
-        metres = float(np.hypot(px[0] - x, py[0] - y))
+        # lie outside every area, at 1); each step's length over its velocity, summed in
+        # order (``accumulate`` adds left to right, as numpy's cumsum and ``+=`` in a loop
+        # did: the same floats), times the walk factor; and the metres at each point
+        # (``Walk.distance_at``), from the path's kept steps. ``map`` over floats' own
+        # operators: the same operations as the expressions, without a frame per point
         steps = path.steps
-        if len(velocity) == 1:  # one velocity all the way (no area on the path)
-            v = velocity[congestion[0]]
-            seconds = [length / v for length in steps]
+        if congestion is None:  # no area on the way: one velocity all the way
+            v = walking_velocities(crew, _UNHINDERED, self.lateral_m_s)[0]
+            elapsed = math.hypot(px[0] - x, py[0] - y) / v
+            seconds = map(v.__rtruediv__, steps)
         else:
-            seconds = [length / velocity[index]
-                       for length, index in zip(steps, congestion[1:], strict=True)]
+            indices = list(dict.fromkeys(congestion))
+            velocity = dict(zip(indices, walking_velocities(crew, indices, self.lateral_m_s),
+                                strict=True))
+            elapsed = math.hypot(px[0] - x, py[0] - y) / velocity[congestion[0]]
+            seconds = map(truediv, steps, map(velocity.__getitem__, islice(congestion, 1, None)))
+        metres = float(np.hypot(px[0] - x, py[0] - y))
         times = [0.0]
-        times += [e * walk_factor for e in accumulate(seconds, initial=elapsed)]
+        times += map(walk_factor.__mul__, accumulate(seconds, initial=elapsed))
         distances = [0.0]
         distances += accumulate(steps, initial=metres)
         times[-1] += dock_s  # turning to the target and docking at it, once per arrival
@@ -405,32 +414,41 @@ class WalkPlanner:
             goal = self._goals[target, task] = self._goal_of(site, target, task)
         goal, region = goal
         radius = crew.spec.radius_m
-        plane = self.plane
+        rkey = round(radius, 3)
         layer = self._layer(site.laid)
-        i, j = plane.cell(*start)
-        cell = self._radius(radius, layer).nearest_free[j * plane.nx + i]
-        key = (round(radius, 3), goal, cell)
-        if key not in layer.paths:
-            layer.paths[key] = self._path(radius, goal, region, cell, layer)
-        return layer.paths[key]
+        grid = layer.radii.get(rkey)
+        if grid is None:
+            grid = self._radius(radius, layer)
+        i, j = self.plane.cell(*start)
+        key = (rkey, goal, grid.nearest_free[j * self.plane.nx + i])
+        path = layer.paths.get(key, _UNKNOWN)
+        if path is _UNKNOWN:
+            path = layer.paths[key] = self._path(radius, goal, region, key[2], layer)
+        return path
 
-    def _congestion(self, site: Site, path: _Path, start: tuple[float, float]) -> list[float]:
+    def _congestion(self, site: Site, path: _Path, start: tuple[float, float],
+                    areas: list[tuple[Rect, float]] | None = None) -> list[float] | None:
         """``congestion_along(site, xs[:-1], ys[:-1])`` of the walk ``xs`` from ``start``
-        along ``path`` (a test holds the two equal). Which of a path's points an area holds
-        never changes, so it is kept per path and area: a walk looks up only the areas on
-        the plane now, instead of testing every point against every area."""
-        out = [1.0] * len(path.px)  # the start, then the path's points but the last
+        along ``path`` (a test holds the two equal), or None where every point is outside
+        every area (all 1). Which of a path's points an area holds never changes, so it is
+        kept per path and area: a walk looks up only the areas on the plane now
+        (``areas``, else ``congestion_areas(site)``), instead of testing every point against
+        every area."""
+        out = None
         x, y = start
         held_by = path.held
-        for rect, index in congestion_areas(site):
+        for rect, index in congestion_areas(site) if areas is None else areas:
             held = held_by.get(rect)
             if held is None:
                 held = held_by[rect] = path.points_in(rect)
-            for k in held:
-                if index < out[k]:
-                    out[k] = index
-            if index < out[0] and inside(x, y, rect):
-                out[0] = index
+            if held or inside(x, y, rect):
+                if out is None:
+                    out = [1.0] * len(path.px)  # the start, then the path's points but the last
+                for k in held:
+                    if index < out[k]:
+                        out[k] = index
+                if index < out[0] and inside(x, y, rect):
+                    out[0] = index
         return out
 
     def _path(self, radius: float, goal: tuple, region: tuple, cell: int,
