@@ -81,8 +81,7 @@ class RandomStreams:
         return [self.entropy, source, item, 1, self.scenario]
 
     def generator(self, source: int, item: int) -> np.random.Generator:
-        return np.random.Generator(np.random.PCG64(np.random.SeedSequence(self.key(source,
-                                                                                    item))))
+        return generator_of(self.key(source, item))
 
     def pace(self, task: int) -> PaceStream | ExpectedDraws:
         """The stream a task's pace is drawn from (``construct.draw_pace``; a
@@ -191,9 +190,13 @@ def _first_normals(keys: list[tuple[int, ...]]) -> list[float]:
     return out
 
 
+def generator_of(key) -> np.random.Generator:
+    """The numpy generator of the stream ``key`` (a SeedSequence key: ints)."""
+    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key))))
+
+
 def _numpy_first_normal(key: tuple[int, ...]) -> float:
-    return np.random.Generator(np.random.PCG64(np.random.SeedSequence(list(key)))) \
-        .standard_normal()
+    return generator_of(key).standard_normal()
 
 
 @functools.cache
@@ -255,8 +258,7 @@ class PaceStream:
     def generator(self) -> np.random.Generator:
         """The stream's numpy Generator, where the draws given so far left it."""
         if self._rng is None:
-            self._rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence(
-                list(self._key))))
+            self._rng = generator_of(self._key)
             if self._drawn:
                 self._rng.standard_normal()  # the first draw, given from the kept one
         return self._rng
