@@ -141,7 +141,9 @@ def test_fit_model_learns_a_feature_the_teacher_follows_and_loads_as_an_evaluato
     data = {"values": values, "features": features,
             "makespan_s": 30000.0 - 2000.0 * features[:, :, tail],
             "row_seed": np.repeat(np.arange(10), n // 10)}
-    model, report = distill.fit_choice_model(data, cap=3, settings={"epochs": 200},
+    # 100 epochs: agreement 0.938 against Eq. 9's 0.25 on validation (200 gave 0.975), far
+    # past the 0.3 margin asked, at half the fit's seconds (issue 43: the gate's time)
+    model, report = distill.fit_choice_model(data, cap=3, settings={"epochs": 100},
                                              log=lambda *_: None)
     assert report["validation_seeds"] == [8, 9]
     assert report["agree_start_teacher_validation"] == report["agree_eq9_teacher_validation"]

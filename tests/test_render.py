@@ -10,6 +10,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
+from conftest import distinct_colours  # noqa: E402
 
 from cmdp_pymunk import parallel_env  # noqa: E402
 from cmdp_pymunk.state import CrewStatus, Pool  # noqa: E402
@@ -51,7 +52,7 @@ def test_frame_shape_dtype_and_not_uniform(rendered_env):
     assert frame.shape == (height, width, 3)
     assert frame.dtype == np.uint8
     assert frame.flags.writeable and frame.flags.c_contiguous
-    assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 10
+    assert distinct_colours(frame) > 10
 
 
 def test_default_scale_is_about_900_px_wide(rendered_env):

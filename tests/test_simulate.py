@@ -1,5 +1,7 @@
 """``cmdp-simulate`` in-process through ``main([...])``, on the tiny example case."""
 
+import contextlib
+import io
 import json
 
 import pytest
@@ -62,10 +64,22 @@ def test_episodes_table(tmp_path):
     assert not (out / "s_curve.png").exists()  # --no-charts
 
 
-def test_schedule_csv_per_seed(tmp_path):
-    out = tmp_path / "sched"
-    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "2", "--no-charts",
-                          "--no-progress"]) == 0
+@pytest.fixture(scope="module")
+def charted_run(tmp_path_factory):
+    """One run of 3 episodes with every chart and the GIF, and what it printed (stdout,
+    stderr): the tests of its files read it instead of each simulating and drawing its own
+    (issue 43: the gate's time)."""
+    out = tmp_path_factory.mktemp("simulate") / "charts"
+    printed, errors = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(printed), contextlib.redirect_stderr(errors):
+        code = simulate.main(["--case", TINY, "--out", str(out), "--episodes", "3", "--gif",
+                              "--no-progress"])
+    assert code == 0
+    return out, printed.getvalue(), errors.getvalue()
+
+
+def test_schedule_csv_per_seed(charted_run):
+    out = charted_run[0]
     for seed in (0, 1):
         header, *rows = (out / f"seed-{seed}" / "schedule.csv").read_text().splitlines()
         assert header == ("task,crew,start_s,end_s,pauses,paused_s,finished,task_type,"
@@ -79,19 +93,16 @@ def test_schedule_csv_per_seed(tmp_path):
         assert max(float(c[3]) for c in cells) == summary["makespan_s"]
 
 
-def test_episodes_write_percentiles_histogram_and_s_curve(tmp_path, capsys):
-    out = tmp_path / "charts"
-    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "3",
-                          "--no-progress"]) == 0
+def test_episodes_write_percentiles_histogram_and_s_curve(charted_run):
+    out, printed_out, printed_err = charted_run
     for name in ("makespan_histogram.png", "s_curve.png"):
         assert (out / name).stat().st_size > 1000
     assert (out / "seed-2" / "gantt_tasks.png").exists()
     stats = json.loads((out / "makespans.json").read_text())
-    printed = capsys.readouterr()
-    assert f"P80 {stats['p80_s']:.0f} s" in printed.out
+    assert f"P80 {stats['p80_s']:.0f} s" in printed_out
     # 3 floors: P80/P90 flagged in the file and on the console
     assert "from 3 finished floors (fewer than 20)" in stats["percentiles_note"]
-    assert "warning: P80/P90 from 3 finished floors" in printed.err
+    assert "warning: P80/P90 from 3 finished floors" in printed_err
 
 
 def documented_files(heading: str) -> list[list[str]]:
@@ -116,14 +127,13 @@ def documented_files(heading: str) -> list[list[str]]:
     return tables
 
 
-def test_every_documented_file_is_written(tmp_path):
+def test_every_documented_file_is_written(charted_run):
     """docs/simulating.md's "What it writes": the first table per seed (case.json in the run
-    folder), the second in the run folder of --episodes N."""
+    folder), the second in the run folder of --episodes N (the shared run: 3 episodes, every
+    chart, --gif)."""
     per_seed, per_run = documented_files("## What it writes")
     assert "schedule.csv" in per_seed and "s_curve.png" in per_run
-    out = tmp_path / "docs"
-    assert simulate.main(["--case", TINY, "--out", str(out), "--episodes", "2", "--gif",
-                          "--no-progress"]) == 0
+    out = charted_run[0]
     for name in per_seed:
         assert (out / "seed-0" / name).is_file() or (out / name).is_file(), name
     for name in per_run:

@@ -77,8 +77,9 @@ def test_cmdp_evaluate_writes_where_the_time_goes(tmp_path):
     from training.commands import evaluate_strategies as compare
 
     tiny = str(Path(__file__).resolve().parents[1] / "cmdp_pymunk" / "cases" / "tiny_floor.toml")
+    # --workers 1: in this process, without the workers' imports (issue 43: the gate's time)
     assert compare.main(["--case", tiny, "--seeds", "0-1", "--strategies", "priority",
-                         "--no-progress", "--out", str(tmp_path)]) == 0
+                         "--workers", "1", "--no-progress", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "time_use.png").stat().st_size > 5000
     assert "## Where the time goes" in (tmp_path / "summary.md").read_text()
     lines = (tmp_path / "time_use.csv").read_text().splitlines()
