@@ -112,6 +112,7 @@ class _Grid:
         self.src, self.dst, self.length = nav.plane.edges(~self.blocked)
         self.n = nav.nx * nav.ny
         self.graphs: dict = {}
+        self._layout = None  # (indices, indptr, order): the CSR form of these edges, once
 
     def __deepcopy__(self, memo):
         # Shared by a floor and its clones: the free cells depend on the case alone, and the
@@ -125,11 +126,24 @@ class _Grid:
         g = self.graphs.get(key) if key is not None else None
         if g is None:
             c = cost.ravel()
-            w = self.length * 0.5 * (c[self.src] + c[self.dst])
-            g = csr_matrix((w, (self.src, self.dst)), shape=(self.n, self.n))
+            g = self._weighted(self.length * 0.5 * (c[self.src] + c[self.dst]))
             if key is not None:
                 self.graphs = {key: g}  # one area state at a time
         return g
+
+    def _weighted(self, w: np.ndarray) -> csr_matrix:
+        """``csr_matrix((w, (src, dst)))``, the edges being the same every time: their CSR
+        layout (sorted by source, then target) is found once and each new set of weights is
+        laid into it, not sorted again (the same matrix, entry for entry: the edges are
+        unique, so nothing is summed; a test compares the two)."""
+        if self._layout is None:
+            shape = (self.n, self.n)
+            position = csr_matrix((np.arange(1, len(w) + 1, dtype=np.float64),
+                                   (self.src, self.dst)), shape=shape)
+            self._layout = (position.indices, position.indptr,
+                            position.data.astype(np.int64) - 1)
+        indices, indptr, order = self._layout
+        return csr_matrix((w[order], indices, indptr), shape=(self.n, self.n))
 
 
 @dataclasses.dataclass

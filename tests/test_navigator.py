@@ -200,3 +200,24 @@ def test_reached_is_the_decision_tables_region(tiny_env):
     assert plans._reached(crew, storage, 7.4, 3.6) and not plans._reached(crew, storage, 4.4, 4)
     outlet = engine.site.outlet_target
     assert plans._reached(crew, outlet, -9.0, -3.1) and not plans._reached(crew, outlet, -9, -2.9)
+
+
+def test_a_grids_weighted_graph_is_scipys_from_its_edges():
+    """``_Grid._weighted`` lays new weights into the edges' CSR layout found once: the same
+    matrix, entry for entry, as ``csr_matrix((w, (src, dst)))`` sorting them each time."""
+    from scipy.sparse import csr_matrix
+
+    from agents.navigator import _Grid
+    from cmdp_pymunk.cases.reach import PlaneGrid
+
+    rng = np.random.default_rng(3)
+    plane = PlaneGrid.of((6.0, 4.0), 0.5)
+    grid = _Grid.__new__(_Grid)
+    grid.src, grid.dst, grid.length = plane.edges(rng.random((plane.ny, plane.nx)) > 0.2)
+    grid.n, grid._layout = plane.nx * plane.ny, None
+    for _ in range(3):
+        w = grid.length * rng.uniform(1.0, 5.0, len(grid.length))
+        ours, scipys = grid._weighted(w), csr_matrix((w, (grid.src, grid.dst)),
+                                                     shape=(grid.n, grid.n))
+        assert (ours.indptr == scipys.indptr).all() and (ours.indices == scipys.indices).all()
+        assert (ours.data == scipys.data).all()
