@@ -146,6 +146,10 @@ class World:
         self.rays = RayCaster(self.space, public=public_rays)
         self.at_rest = False
         self.motion_version = 0  # bumped by anything rays could see change
+        # every crew's (x, y, heading) as the last physics step left them, or None: read the
+        # bodies (pymunk's accessors cost a call each, and every second reads each pose
+        # several times: the motion, the navigator, the observations)
+        self._poses: list[tuple[float, float, float]] | None = None
         static = self.space.static_body
         half_w, half_h = case.plane.half_extents
         corners = [(-half_w, -half_h), (half_w, -half_h), (half_w, half_h), (-half_w, half_h)]
@@ -313,6 +317,7 @@ class World:
                 continue
             body = self.bodies[i]
             body.position, body.angle, body.velocity, body.angular_velocity = pose
+        self._poses = None  # the poses were set above
         for task in state["areas"]:
             self.add_task_area(task, self.site.tasks[task].area)
         self.space.reindex_shapes_for_body(self._static_body)
@@ -347,8 +352,7 @@ class World:
         wants_to_move = any(d[0] or d[1] or d[2] for d in self.desired)
         if not wants_to_move and self.at_rest:
             return
-        before = [b.position for b in self.bodies]
-        angles = [b.angle for b in self.bodies]
+        before = self._poses if self._poses is not None else self._read_poses()
         h = dt / substeps
         interrupt.enter()  # a Ctrl-C inside pymunk's callbacks is held, then raised here
         try:
@@ -357,8 +361,8 @@ class World:
         finally:
             interrupt.leave()
         self._carried = set()  # ``begin`` has fired for every overlap that outlived a rebuild
-        self.at_rest = all(b.position == p and b.angle == a
-                           for b, p, a in zip(self.bodies, before, angles, strict=True))
+        self._poses = after = self._read_poses()
+        self.at_rest = after == before
         if not self.at_rest:
             self.motion_version += 1
 
@@ -371,10 +375,29 @@ class World:
     # -- what the engine reads and sets (``physics.Physics``) ---------------------------------
 
     def pose(self, i: int) -> tuple[float, float, float]:
-        """Crew i's x, y (m) and heading (rad), read off its body."""
+        """Crew i's x, y (m) and heading (rad), read off its body (kept from the last
+        physics step: nothing else moves a body)."""
+        poses = self._poses
+        if poses is not None:
+            return poses[i]
         body = self.bodies[i]
         x, y = body.position
         return x, y, body.angle
+
+    def set_pose(self, i: int, x: float, y: float, heading: float) -> None:
+        """Put crew i at (x, y) facing ``heading`` (rad) by hand (tests, tools): the body and
+        the kept poses both."""
+        body = self.bodies[i]
+        body.position, body.angle = (x, y), heading
+        self.space.reindex_shapes_for_body(body)
+        self._poses = None
+
+    def _read_poses(self) -> list[tuple[float, float, float]]:
+        out = []
+        for body in self.bodies:
+            x, y = body.position
+            out.append((x, y, body.angle))
+        return out
 
     def velocity(self, i: int) -> tuple[float, float]:
         """Crew i's world-frame velocity (m/s)."""

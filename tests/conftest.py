@@ -148,10 +148,7 @@ def tiny_env(tiny_case):
 
 def place(env, crew_index: int, x: float, y: float, angle: float = 0.0) -> None:
     """Put a crew somewhere by hand (tests only)."""
-    body = env.engine.world.bodies[crew_index]
-    body.position = (x, y)
-    body.angle = angle
-    env.engine.world.space.reindex_shapes_for_body(body)
+    env.engine.world.set_pose(crew_index, x, y, angle)
     env.engine.positions[crew_index] = (x, y)
 
 
