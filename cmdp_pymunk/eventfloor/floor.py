@@ -42,6 +42,7 @@ level's reaching, its rewards and rays) needs the pymunk floor.
 from __future__ import annotations
 
 import bisect
+import hashlib
 import math
 
 from .. import construct, decide
@@ -127,13 +128,25 @@ class EventPlane:
 _PLANNERS: dict[int, tuple[Case, WalkPlanner]] = {}
 
 
+_BY_CONTENT: dict[str, WalkPlanner] = {}  # the case's content (JSON) hashed -> its planner
+
+
 def planner_for(case: Case, site: Site) -> WalkPlanner:
-    """The case's shared walk planner (made on first use)."""
+    """The case's shared walk planner (made on first use). Its paths depend on the case
+    alone, so a case loaded again (another object, the same content: each test, each
+    ``cmdp-evaluate`` strategy that loads the file) finds the planner and the fields planned
+    for it before; looked up by the object first (every floor's reset asks)."""
     held = _PLANNERS.get(id(case))
     if held is None or held[0] is not case:
-        if len(_PLANNERS) >= 16:  # many cases in one process (a sweep of layouts)
+        digest = hashlib.sha256(case.model_dump_json().encode()).hexdigest()
+        planner = _BY_CONTENT.get(digest)
+        if planner is None:
+            if len(_BY_CONTENT) >= 16:  # many cases in one process (a sweep of layouts)
+                _BY_CONTENT.clear()
+            planner = _BY_CONTENT[digest] = WalkPlanner(site)
+        if len(_PLANNERS) >= 16:
             _PLANNERS.clear()
-        held = _PLANNERS[id(case)] = (case, WalkPlanner(site))
+        held = _PLANNERS[id(case)] = (case, planner)
     return held[1]
 
 
