@@ -63,7 +63,8 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from matplotlib.collections import LineCollection
+from matplotlib.collections import LineCollection, PatchCollection, PolyCollection
+from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Rectangle
@@ -558,16 +559,25 @@ def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
     ax = fig.add_subplot()
     # An unfinished run's task still paused when it stopped: its pause runs to the stop.
     still_paused = paused_at_end(events) if stop is not None else {}
+    # every bar in two collections (the pauses, faint, under the work), not a pair of
+    # ``broken_barh`` per task: an artist a row cost most of the chart's drawing
+    drawn: dict[bool, tuple[list, list]] = {True: ([], []), False: ([], [])}  # paused?
     for row, bar in enumerate(bars):
-        colour = colours[type_of[bar.task]]
+        colour = to_rgba(colours[type_of[bar.task]])
         pauses = bar.pauses
         if bar.task in still_paused and not bar.finished:
             pauses += ((still_paused[bar.task], stop),)
-        if pauses:
-            ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in pauses],
-                           (row - 0.4, 0.8), facecolors=colour, alpha=0.25, edgecolor="none")
-        ax.broken_barh([(a / HOUR_S, (b - a) / HOUR_S) for a, b in bar.segments],
-                       (row - 0.4, 0.8), facecolors=colour, edgecolor="none")
+        for paused, spans in ((True, pauses), (False, bar.segments)):
+            verts, faces = drawn[paused]
+            for a, b in spans:
+                x0, x1 = a / HOUR_S, a / HOUR_S + (b - a) / HOUR_S
+                verts.append([(x0, row - 0.4), (x0, row + 0.4), (x1, row + 0.4), (x1, row - 0.4)])
+                faces.append(colour)
+    for paused in (True, False):
+        verts, faces = drawn[paused]
+        if verts:
+            ax.add_collection(PolyCollection(verts, facecolors=faces, edgecolors="none",
+                                             alpha=0.25 if paused else None), autolim=False)
     ax.set_yticks(range(n), [b.task for b in bars], fontsize=min(7.0, 0.75 * 72 * row_in))
     ax.set_ylim(max(n, 1) - 0.5, -0.5)
     ax.set_xlim(0, max(log_end_s(events), stop or 0.0, 1.0) / HOUR_S * 1.01)
@@ -680,10 +690,13 @@ def _draw_layout(ax, case: Case, faint: bool = False) -> None:
     ax.add_patch(Rectangle((-hw, -hh), plane.width_m, plane.height_m, fill=False,
                            edgecolor="black", linewidth=1.5))
     alpha = 0.5 if faint else 1.0
+    # the storages and components as one collection, each patch keeping its own colours: a
+    # patch an artist cost most of a chart's drawing (40 components on each of 8 panels)
+    patches = []
     for s in case.storages:
-        ax.add_patch(Rectangle((s.x_m - s.width_m / 2, s.y_m - s.height_m / 2), s.width_m,
-                               s.height_m, facecolor="#dbe9f6", edgecolor="#4a7bb7",
-                               linewidth=0.8, alpha=alpha))
+        patches.append(Rectangle((s.x_m - s.width_m / 2, s.y_m - s.height_m / 2), s.width_m,
+                                 s.height_m, facecolor="#dbe9f6", edgecolor="#4a7bb7",
+                                 linewidth=0.8, alpha=alpha))
         ax.text(s.x_m, s.y_m, s.id, ha="center", va="center", fontsize=6, color="#2b4f7e",
                 alpha=alpha)
     for c in case.components:
@@ -694,7 +707,8 @@ def _draw_layout(ax, case: Case, faint: bool = False) -> None:
         else:
             patch = Rectangle(xy, c.width_m, c.height_m, fill=False, edgecolor="#888888",
                               linewidth=0.8, alpha=alpha)
-        ax.add_patch(patch)
+        patches.append(patch)
+    ax.add_collection(PatchCollection(patches, match_original=True), autolim=False)
     ax.add_patch(Circle((plane.outlet_x_m, plane.outlet_y_m), plane.outlet_radius_m,
                         facecolor="none", edgecolor="#444444", linestyle=":", linewidth=1.0))
     ax.text(plane.outlet_x_m, plane.outlet_y_m, "outlet", ha="center", va="center",
