@@ -25,10 +25,12 @@ demo: $(VENV)/.installed
 
 # The gate (about 2 min on 2 cores), the slow set (CI) and the nightly set (the full sweeps,
 # before a release; not in CI): docs/testing.md says what each covers and how long it takes.
-# The gate runs on both cores (pytest-xdist, a file's tests on one worker: they share its
-# fixtures and its planner caches).
+# The gate runs on both cores (pytest-xdist): `worksteal` hands out tests one by one and lets
+# an idle worker take the other's queued ones, so the last heavy file does not leave a core
+# idle (a module's fixture may then be made on both workers; loadfile was ~5 % slower).
+# The slow tests keep a file on one worker: their fixtures are trained models.
 test: $(VENV)/.installed
-	$(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not nightly"
+	$(PY) -m pytest -q -n 2 --dist worksteal -m "not slow and not nightly"
 
 test-slow: $(VENV)/.installed
 	$(PY) -m pytest -q -n 2 --dist loadfile -m "slow and not nightly"
