@@ -334,14 +334,7 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     """Scope: components with executable tasks of its type; storages if it holds no material;
     the outlet (and deregistration) when no task of its type is queued or waiting."""
     site = ctx.site
-    tasks = site.tasks
-    queued, waiting = [], False  # its tasks not yet started: queued (in order), or waiting
-    for i in site.tasks_of_crew_type[crew.type]:  # one pass: asked at every c10
-        pool = tasks[i].pool
-        if pool == QUEUE:
-            queued.append(tasks[i])
-        elif pool == WAIT:
-            waiting = True
+    queued, waiting, executable = _pools_of_type(site, crew.type)
     if not queued and not waiting:
         crew.clear_scope()
         crew.scope_kind = OUTLET
@@ -359,7 +352,7 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
     # predecessor, or the crew would walk for it forever
     if site.reach is not None:
         queued = [t for t in queued if site.reachable(crew, t)]
-    executable = [t for t in queued if site.executable(t)]
+        executable = [t for t in queued if site.executable(t)]
     scope = {t.component: t.index for t in executable}
     if scope.keys() != crew.scope.keys() or crew.scope_kind != TASKS:
         crew.values = {}  # new targets: the evaluator values them this step
@@ -373,6 +366,27 @@ def acquire_target(crew: CrewState, ctx: Context) -> None:
             else IdleCause.NO_TARGET
     else:
         crew.idle_cause = IdleCause.PREDECESSOR
+
+
+def _pools_of_type(site: Site, crew_type: str) -> tuple[list, bool, list]:
+    """A crew type's tasks not yet started: those queued (in order), whether any waits, and
+    the queued ones executable now (``Site.executable``). Pools and task areas change only
+    with ``site.version``, so they are worked out once per type and version (every crew of
+    the type asks at every c10)."""
+    held = site.pools_by_type.get(crew_type)
+    if held is not None and held[0] == site.version:
+        return held[1], held[2], held[3]
+    tasks = site.tasks
+    queued, waiting = [], False
+    for i in site.tasks_of_crew_type[crew_type]:  # one pass
+        pool = tasks[i].pool
+        if pool == QUEUE:
+            queued.append(tasks[i])
+        elif pool == WAIT:
+            waiting = True
+    executable = [t for t in queued if site.executable(t)]
+    site.pools_by_type[crew_type] = (site.version, queued, waiting, executable)
+    return queued, waiting, executable
 
 
 _T, _F, _R = (TASKING,), (FETCHING,), (REACHING,)

@@ -303,6 +303,9 @@ class Site:
             ct: tuple(t.index for t in self.tasks if t.crew_type == ct) for ct in case.crew_types}
         self.active_areas: list[int] = []  # tasks whose areas are on the plane (pool ON)
         self.tasks_ended = 0
+        # crew type -> (version, its queued tasks, any waiting, the queued ones executable):
+        # ``decide.acquire_target`` asks it for every crew of the type at every version
+        self.pools_by_type: dict[str, tuple] = {}
         # Decks (``Component.deck``): walked on once laid. Which task lays which deck (task
         # index -> component index), the decks laid so far, and who reaches what over them;
         # a floor without decks has none of it and runs as before.
