@@ -15,7 +15,11 @@ floor on the base's calibration. Per (entry, floor) it prints the means over the
   (from the ``activity`` events): on the pymunk floor each of them slows the others by Eq. 2
   (n x I_agent, the crews standing in the storage); on the event floor every loading crew is
   slowed by its type's calibrated ``fetch_invasion`` whatever the others do;
-- the crane's material and hoisting requests and their mean wait in its queue.
+- the crane's material and hoisting requests and their mean wait in its queue;
+
+then, per crew type and time-use category, the variant's crew-seconds less the base's on each
+floor (``deltas``), and the formwork crews' idle time for task areas by what blocks it
+(``area_blockers``, ``blockers_table``).
 
 One process, one seed after another (about 2 x 5-10 s a seed on a free core). ``--out``: every
 per-seed number as JSON, written whole.
@@ -25,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -32,12 +37,11 @@ import cmdp_pymunk
 from cmdp_pymunk.cases.levers import make_variant
 from cmdp_pymunk.eventfloor.calibration import calibration_for
 from cmdp_pymunk.events import write_atomic
-from cmdp_pymunk.timeuse import time_use, totals
+from cmdp_pymunk.timeuse import CATEGORIES, time_use, totals
 from training.cli import seed_list
 from training.runs.runner import EpisodeRunner
 
 STALL_S = 3600.0
-KEPT = ("loading", "waiting_crane", "walking", "working")
 
 
 def loading_overlap(events, crews_of_material: set[str]) -> float:
@@ -77,6 +81,78 @@ def crane_waits(events, lift_s: float, assist_s: float) -> dict[str, tuple[int, 
     return {k: (len(v), sum(v) / len(v) if v else 0.0) for k, v in out.items()}
 
 
+def area_blockers(events, site, blocked_type: str = "FC") -> dict[str, float]:
+    """The crew-seconds that crews of ``blocked_type`` spend idle for task areas
+    (``idle_area``), by what blocks them: over each such stretch, the tasks on the plane
+    whose areas conflict with a task of that type not started yet, sorted into the first
+    kind that holds: ``paused, crew at the crane`` (a paused task whose crew waits for a lift),
+    ``paused, crew away`` (a paused task, its crew walking to, loading at or back from a
+    storage), ``worked`` (its crew at it) and none found (``other``), by the blocking task's
+    crew type."""
+    tasks = {t.id: t for t in site.tasks}
+    ttype = {t.id: site.case.task_types[t.type].crew_type for t in site.tasks}
+    started: dict[str, float] = {}
+    on: dict[str, tuple[float, float]] = {}
+    paused: dict[str, list[tuple[float, float, str]]] = {}
+    acts: dict[str, list[tuple[float, str]]] = {}
+    pause_open: dict[str, tuple[float, str]] = {}
+    end = max((e.time_s for e in events), default=0.0)
+    for e in events:
+        if e.kind == "task_start":
+            started[e.subject] = e.time_s
+        elif e.kind == "task_finish":
+            on[e.subject] = (started[e.subject], e.time_s)
+        elif e.kind == "task_pause":
+            pause_open[e.subject] = (e.time_s, e.crew)
+        elif e.kind == "task_resume" and e.subject in pause_open:
+            a, crew = pause_open.pop(e.subject)
+            paused.setdefault(e.subject, []).append((a, e.time_s, crew))
+        elif e.kind == "activity":
+            acts.setdefault(e.crew, []).append((e.time_s, e.subject))
+    for tid, t0 in started.items():
+        on.setdefault(tid, (t0, end))
+
+    def activity_at(crew, t):
+        now = "?"
+        for when, act in acts.get(crew, []):
+            if when > t:
+                break
+            now = act
+        return now
+
+    mine = [tid for tid in tasks if ttype[tid] == blocked_type]
+    out: dict[str, float] = {}
+    blocked_crews = {c.id for c in site.crews if c.type == blocked_type}
+    for crew, seq in acts.items():
+        if crew not in blocked_crews:
+            continue
+        for k, (a, act) in enumerate(seq):
+            if act != "idle_area":
+                continue
+            b = seq[k + 1][0] if k + 1 < len(seq) else end
+            t = a
+            while t < b:  # one look a second would be exact; every 5 s is plenty here
+                waiting = [tid for tid in mine if started.get(tid, math.inf) > t]
+                blockers = {tasks_id for w in waiting for o in tasks[w].conflicts
+                            for tasks_id in (site.tasks[o].id,)
+                            if on.get(tasks_id, (math.inf, 0))[0] <= t < on[tasks_id][1]}
+                kind = "other"
+                for tid in blockers:
+                    pz = [p for p in paused.get(tid, []) if p[0] <= t < p[1]]
+                    if pz:
+                        state = activity_at(pz[0][2], t)
+                        k2 = (f"{ttype[tid]} paused, crew at the crane" if state == "waiting"
+                              else f"{ttype[tid]} paused, crew away")
+                    else:
+                        k2 = f"{ttype[tid]} worked"
+                    if kind == "other" or "crane" in k2 or ("away" in k2 and "worked" in kind):
+                        kind = k2
+                step = min(5.0, b - t)
+                out[kind] = out.get(kind, 0.0) + step
+                t += step
+    return out
+
+
 def probe(case, variant: str, seeds: list[int]) -> list[dict]:
     """Every seed of the base and the variant on both floors: one row per floor played."""
     calibration = calibration_for(case)
@@ -98,10 +174,11 @@ def probe(case, variant: str, seeds: list[int]) -> list[dict]:
                 use = totals(time_use(events, types, len(c.tasks), end))
                 rows.append({
                     "entry": name, "floor": fidelity, "seed": seed, "makespan_s": end,
-                    "use": {t: {k: use[t][k] for k in KEPT} for t in use},
+                    "use": use,
                     "overlap_s": {m: loading_overlap(events, ids)
                                   for m, ids in by_material.items()},
-                    "crane": crane_waits(events, c.crane.lift_time_s, c.crane.assist_time_s)})
+                    "crane": crane_waits(events, c.crane.lift_time_s, c.crane.assist_time_s),
+                    "fc_idle_area_by_blocker": area_blockers(events, engine.site)})
                 print(f"{name} {fidelity} {seed}: {end:,.0f} s", file=sys.stderr, flush=True)
     return rows
 
@@ -137,6 +214,47 @@ def summary(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def deltas(rows: list[dict], variant: str) -> str:
+    """Per crew type and category (``timeuse.CATEGORIES``), the mean over the seeds of the
+    variant's crew-seconds less the base's on each floor, pymunk / event: where the variant's
+    makespan difference comes from on each floor (categories under 60 s on both left out)."""
+    by = {(r["entry"], r["floor"], r["seed"]): r for r in rows}
+    seeds = sorted({r["seed"] for r in rows})
+    types = sorted(rows[0]["use"])
+
+    def delta(floor, key):
+        vals = [key(by[(variant, floor, s)]) - key(by[("base", floor, s)]) for s in seeds]
+        return sum(vals) / len(vals)
+
+    lines = [f"Variant less base, mean over seeds {seeds[0]}-{seeds[-1]} ({len(seeds)}), "
+             "pymunk / event", "", "| what | pymunk | event |", "|---|---|---|",
+             f"| makespan (s) | {delta('pymunk', lambda r: r['makespan_s']):+,.0f} | "
+             f"{delta('event', lambda r: r['makespan_s']):+,.0f} |"]
+    for t in types:
+        for c in CATEGORIES:
+            p, e = (delta(f, lambda r, t=t, c=c: r["use"][t][c]) for f in ("pymunk", "event"))
+            if max(abs(p), abs(e)) >= 60:
+                lines.append(f"| {t} {c} (crew-s) | {p:+,.0f} | {e:+,.0f} |")
+    return "\n".join(lines) + "\n"
+
+
+def blockers_table(rows: list[dict]) -> str:
+    """``area_blockers`` per (entry, floor), mean crew-seconds a floor over the seeds."""
+    groups: dict[tuple[str, str], list[dict]] = {}
+    for r in rows:
+        groups.setdefault((r["entry"], r["floor"]), []).append(r)
+    kinds = sorted({k for r in rows for k in r["fc_idle_area_by_blocker"]})
+    lines = ["Formwork crews idle for task areas, by the blocking task (crew-s a floor)", "",
+             "| blocked by | " + " | ".join(f"{e} {f}" for e, f in groups) + " |",
+             "|---|" + "---|" * len(groups)]
+    for k in kinds + ["all"]:
+        cells = [sum(sum(r["fc_idle_area_by_blocker"].values()) if k == "all" else
+                     r["fc_idle_area_by_blocker"].get(k, 0.0) for r in g) / len(g)
+                 for g in groups.values()]
+        lines.append(f"| {k} | " + " | ".join(f"{v:,.0f}" for v in cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--seeds", type=seed_list, default=seed_list("100-104"))
@@ -145,6 +263,10 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     rows = probe(cmdp_pymunk.load_case(None), a.variant, a.seeds)
     print(summary(rows), end="")
+    print()
+    print(deltas(rows, a.variant), end="")
+    print()
+    print(blockers_table(rows), end="")
     if a.out is not None:
         write_atomic(a.out, json.dumps(rows, indent=1) + "\n")
     return 0
