@@ -2,7 +2,7 @@
 held-out variants of a case (issue 42 item 4; docs/event-floor.md, "Variants").
 
     python benchmarks/validate_variants.py [--case FILE] [--seeds 100-109] [--workers 2]
-        [--variant crews.RC+1 --variant crews.FC+1 ...] [--out DIR]
+        [--variant crews.RC+1 --variant crews.FC+1 ...] [--out DIR] [--checkpoint FILE]
 
 A variant of a calibrated case (``cmdp_pymunk.cases.levers``) runs on the event floor with
 the base case's calibration (per crew type: walk factor, dock time, invasion; fitted on the
@@ -19,8 +19,10 @@ that holds is measured here, not assumed: the base and every variant play the sa
 Seeds default to 100-109, held out from the calibration's 0-19. The default variants are
 the issue's held-out kinds: one more crew of two types (RC, FC), an earlier reorder point and a
 storage moved. ``--out``: ``validate_variants.json`` (every number and per-seed makespan),
-written whole. About 5-10 s a pymunk floor here: 5 entries x 10 seeds is 4-8 minutes on 2
-workers.
+written whole. ``--checkpoint``: each finished floor appended to a JSON-lines file, and the
+floors it holds not run again, so a long run stopped early resumes, or gives its first seeds
+at once with a shorter ``--seeds`` (floors run seed by seed). About 5-10 s a pymunk floor
+on a free core: 5 entries x 10 seeds is 4-8 minutes on 2 workers.
 """
 
 from __future__ import annotations
@@ -52,27 +54,55 @@ def relative_error(event: float | None, pymunk: float | None) -> float | None:
     return (event - pymunk) / pymunk
 
 
+def read_checkpoint(path: Path | None) -> dict[tuple[str, str, int], dict]:
+    """The floors a ``--checkpoint`` file holds: (entry, floor, seed) -> its row. A line cut
+    short by a killed run (the last one) is skipped: that floor runs again."""
+    held: dict[tuple[str, str, int], dict] = {}
+    if path is None or not path.is_file():
+        return held
+    for line in path.read_text(encoding="utf-8").splitlines():
+        try:
+            r = json.loads(line)
+            held[(r["entry"], r["floor"], int(r["seed"]))] = {
+                "seed": int(r["seed"]), "makespan_s": r["makespan_s"],
+                "finished": bool(r["finished"])}
+        except (ValueError, KeyError, TypeError):
+            continue
+    return held
+
+
 def validate_variants(case, variants: list[str], seeds: list[int], workers: int = 1,
-                      case_path: Path | None = None, progress=None) -> dict:
+                      case_path: Path | None = None, progress=None,
+                      checkpoint: Path | None = None) -> dict:
     """Every entry (the base, then each variant on the base's calibration) on every seed on both
     floors; per entry the numbers of the module doc. ``progress(done, total)`` after each
-    episode."""
+    episode. Floors run seed by seed (every entry on both floors for one seed, then the
+    next), so that a run stopped early holds whole paired seeds. ``checkpoint``: a JSON-lines
+    file that each finished floor is appended to, and whose floors are not run again (the
+    floors are deterministic: the same case, seed and code give the same makespan)."""
     calibration = calibration_for(case, case_path)
     entries = [("base", case)] + [(v, make_variant(case, v).case) for v in variants]
     floors = {"pymunk": ("pymunk", None), "event": ("event", calibration)}
-    labels = [(name, fidelity, seed) for name, _ in entries for fidelity in floors
-              for seed in seeds]
+    held = read_checkpoint(checkpoint)
+    labels = [(name, fidelity, seed) for seed in seeds for name, _ in entries
+              for fidelity in floors if (name, fidelity, seed) not in held]
     cases = dict(entries)
     jobs = [(f"{fidelity}:{name}", cases[name].model_dump(mode="json"),
              (STALL_S, None, False, None, *floors[fidelity]), "priority", "scripted", seed)
             for name, fidelity, seed in labels]
     rows: dict[tuple[str, str], list[dict]] = {}
+    for (name, fidelity, seed), row in held.items():
+        if seed in seeds and name in cases:
+            rows.setdefault((name, fidelity), []).append(row)
     start = time.perf_counter()
     with open_backend(whatif_job, None, workers) as pool:
         for done, (i, row) in enumerate(pool.as_completed(jobs), 1):
             name, fidelity, seed = labels[i]
-            rows.setdefault((name, fidelity), []).append(
-                {"seed": seed, "makespan_s": row["makespan_s"], "finished": row["finished"]})
+            kept = {"seed": seed, "makespan_s": row["makespan_s"], "finished": row["finished"]}
+            rows.setdefault((name, fidelity), []).append(kept)
+            if checkpoint is not None:
+                with checkpoint.open("a", encoding="utf-8") as fh:
+                    fh.write(json.dumps({"entry": name, "floor": fidelity, **kept}) + "\n")
             if progress is not None:
                 progress(done, len(jobs))
     out = []
@@ -139,6 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--variant", action="append", default=None)
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--out", type=Path, default=None)
+    p.add_argument("--checkpoint", type=Path, default=None)
     a = p.parse_args(argv)
     case = cmdp_pymunk.load_case(a.case)
     variants = a.variant or list(DEFAULT_VARIANTS)
@@ -146,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     def progress(done, total):
         print(f"\r{done}/{total} floors", end="", file=sys.stderr, flush=True)
 
-    result = validate_variants(case, variants, a.seeds, a.workers, a.case, progress)
+    result = validate_variants(case, variants, a.seeds, a.workers, a.case, progress,
+                               a.checkpoint)
     print(file=sys.stderr)
     text = table(result)
     print(text, end="")

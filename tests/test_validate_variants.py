@@ -43,3 +43,25 @@ def test_one_variant_on_two_seeds_both_floors(tmp_path, capsys):
     assert isinstance(more["diff_inside_pymunk_interval"], bool)
     assert "| crews.RC+1 |" in capsys.readouterr().out
     assert load_case(TINY_CASE).case.name in result["case"]
+
+
+def test_checkpoint_resumes_without_running_again(tmp_path, monkeypatch):
+    """Each floor is appended to the checkpoint as it ends; a second run on a prefix of the
+    seeds reads them back and runs nothing (a cut last line is run again)."""
+    case = load_case(TINY_CASE)
+    ck = tmp_path / "floors.jsonl"
+    first = vv.validate_variants(case, [], [0, 1], checkpoint=ck)
+    lines = ck.read_text().splitlines()
+    # seed by seed: the base on both floors for seed 0, then for seed 1
+    assert [(json.loads(x)["floor"], json.loads(x)["seed"]) for x in lines] == \
+        [("pymunk", 0), ("event", 0), ("pymunk", 1), ("event", 1)]
+    ck.write_text("\n".join(lines) + '\n{"entry": "base", "floor"')  # a killed run's last line
+
+    def no_floor(*args, **kwargs):
+        raise AssertionError("a floor held by the checkpoint ran again")
+
+    monkeypatch.setattr(vv, "whatif_job", no_floor)
+    again = vv.validate_variants(case, [], [0], checkpoint=ck)
+    for floor in ("pymunk", "event"):
+        assert again["entries"][0][floor]["makespans_s"] == \
+            first["entries"][0][floor]["makespans_s"][:1]
