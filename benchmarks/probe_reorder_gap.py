@@ -257,6 +257,7 @@ def blockers_table(rows: list[dict]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    cmdp_pymunk.add_version_flag(p)
     p.add_argument("--seeds", type=seed_list, default=seed_list("100-104"))
     p.add_argument("--variant", default="rebars.reorder_at=0.75")
     p.add_argument("--out", type=Path, default=None)
