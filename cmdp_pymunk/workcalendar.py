@@ -77,6 +77,9 @@ def _working_days(calendar: Calendar) -> _WorkingDays:
     return _WorkingDays(calendar)
 
 
+_LAST_ASKED: tuple = (None, None)  # (the calendar last asked, its working days)
+
+
 def calendar_datetime(calendar: Calendar, seconds: float) -> dt.datetime:
     """The date and time of simulated second ``seconds`` (the module's rule).
 
@@ -93,7 +96,13 @@ def calendar_datetime(calendar: Calendar, seconds: float) -> dt.datetime:
     """
     if not seconds >= 0:
         raise ValueError(f"simulated seconds must be at least 0, got {seconds!r}")
-    working = _working_days(calendar)
+    global _LAST_ASKED
+    last = _LAST_ASKED  # one tuple: read whole, even with threads
+    if last[0] is calendar:  # the same calendar object as the last call (a run's ~350 dates)
+        working = last[1]
+    else:  # by value (hashing a pydantic model costs more than the rest of a call)
+        working = _working_days(calendar)
+        _LAST_ASKED = (calendar, working)
     days = working.days
     left = float(seconds)
     k = 0
