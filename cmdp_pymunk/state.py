@@ -240,36 +240,18 @@ class Site:
         self.time_s = 0.0
         self.version = 0  # bumped whenever pools or task areas change: scopes go stale
         comp_index = {c.id: i for i, c in enumerate(case.components)}
-        task_index = {t.id: i for i, t in enumerate(case.tasks)}
         self.tasks: list[TaskState] = []
-        for i, t in enumerate(case.tasks):
+        for i, (t, (area, predecessors, successors, conflicts, below)) in enumerate(
+                zip(case.tasks, task_layout(case), strict=True)):
             tt = case.task_types[t.type]
-            comp = case.components[comp_index[t.component]]
-            rect = comp.shape
-            self.tasks.append(TaskState(
+            task = TaskState(
                 index=i, id=t.id, type=t.type, component=comp_index[t.component],
                 crew_type=tt.crew_type, work=t.work, material=tt.material,
                 material_per_work=t.material_quantity / t.work if tt.material else 0.0,
-                needs_crane=tt.needs_crane, area=grown(rect, tt.area_distance_m),
-                congestion_index=tt.congestion_index,
-                predecessors=tuple(task_index[p] for p in t.predecessors)))
-        succ: list[list[int]] = [[] for _ in self.tasks]
-        for t in self.tasks:
-            for p in t.predecessors:
-                succ[p].append(t.index)
-        conflicting = overlaps([t.area for t in self.tasks])
-        np.fill_diagonal(conflicting, False)
-        # a polygon's box may overlap where the polygons do not: those pairs are asked again
-        polygonal = [t.index for t in self.tasks if isinstance(t.area, Outline)]
-        for i in polygonal:
-            for j in np.flatnonzero(conflicting[i]).tolist():
-                if not shapes_overlap(self.tasks[i].area, self.tasks[j].area):
-                    conflicting[i, j] = conflicting[j, i] = False
-        for t in self.tasks:
-            t.successors = tuple(succ[t.index])
-            t.conflicts = tuple(np.flatnonzero(conflicting[t.index]).tolist())
-        for t in self.tasks:
-            t.all_successors = len(_descendants(t.index, succ))
+                needs_crane=tt.needs_crane, area=area,
+                congestion_index=tt.congestion_index, predecessors=predecessors)
+            task.successors, task.conflicts, task.all_successors = successors, conflicts, below
+            self.tasks.append(task)
         of_component: list[list[int]] = [[] for _ in case.components]  # in task order
         for t in self.tasks:
             of_component[t.component].append(t.index)
@@ -309,6 +291,7 @@ class Site:
         # Decks (``Component.deck``): walked on once laid. Which task lays which deck (task
         # index -> component index), the decks laid so far, and who reaches what over them;
         # a floor without decks has none of it and runs as before.
+        task_index = {t.id: i for i, t in enumerate(case.tasks)}
         self.laying: dict[int, int] = {task_index[t]: comp_index[c]
                                        for t, c in laying_tasks(case).items()}
         self.laid: frozenset[int] = frozenset()
@@ -362,6 +345,43 @@ class Site:
 
     def reset_pools(self) -> None:
         initial_pools(self)
+
+
+_LAYOUTS: dict[int, tuple] = {}  # id(case) -> (the case, ``task_layout``'s answer)
+
+
+def task_layout(case: Case) -> list[tuple]:
+    """What a case fixes of its tasks, per task in case order: (task area, predecessors,
+    successors, tasks whose areas overlap its own, how many tasks follow it at any depth).
+    Worked out once per case object (a case is frozen) and shared by every episode's
+    ``Site``: the overlaps of every pair of areas were a few percent of an event floor's
+    reset."""
+    held = _LAYOUTS.get(id(case))
+    if held is not None and held[0] is case:
+        return held[1]
+    comp_index = {c.id: i for i, c in enumerate(case.components)}
+    task_index = {t.id: i for i, t in enumerate(case.tasks)}
+    areas = [grown(case.components[comp_index[t.component]].shape,
+                   case.task_types[t.type].area_distance_m) for t in case.tasks]
+    preds = [tuple(task_index[p] for p in t.predecessors) for t in case.tasks]
+    succ: list[list[int]] = [[] for _ in case.tasks]
+    for i, ps in enumerate(preds):
+        for p in ps:
+            succ[p].append(i)
+    conflicting = overlaps(areas)
+    np.fill_diagonal(conflicting, False)
+    # a polygon's box may overlap where the polygons do not: those pairs are asked again
+    for i in [k for k, a in enumerate(areas) if isinstance(a, Outline)]:
+        for j in np.flatnonzero(conflicting[i]).tolist():
+            if not shapes_overlap(areas[i], areas[j]):
+                conflicting[i, j] = conflicting[j, i] = False
+    out = [(areas[i], preds[i], tuple(succ[i]),
+            tuple(np.flatnonzero(conflicting[i]).tolist()), len(_descendants(i, succ)))
+           for i in range(len(areas))]
+    if len(_LAYOUTS) >= 16:  # many cases in one process (a sweep of layouts)
+        _LAYOUTS.clear()
+    _LAYOUTS[id(case)] = (case, out)
+    return out
 
 
 def _descendants(start: int, succ: list[list[int]]) -> set[int]:
