@@ -64,7 +64,6 @@ from typing import NamedTuple
 
 import numpy as np
 from matplotlib.collections import LineCollection, PatchCollection, PolyCollection
-from matplotlib.colors import to_rgba
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, Patch, Rectangle
@@ -563,13 +562,13 @@ def gantt_tasks_figure(events: Sequence[Event], case: Case | None = None,
     # ``broken_barh`` per task: an artist a row cost most of the chart's drawing
     drawn: dict[bool, tuple[list, list]] = {True: ([], []), False: ([], [])}  # paused?
     for row, bar in enumerate(bars):
-        colour = to_rgba(colours[type_of[bar.task]])
+        colour = colours[type_of[bar.task]]
         pauses = bar.pauses
         if bar.task in still_paused and not bar.finished:
             pauses += ((still_paused[bar.task], stop),)
         for paused, spans in ((True, pauses), (False, bar.segments)):
             verts, faces = drawn[paused]
-            for a, b in spans:
+            for a, b in spans:  # x1 as broken_barh made it: the start plus the width
                 x0, x1 = a / HOUR_S, a / HOUR_S + (b - a) / HOUR_S
                 verts.append([(x0, row - 0.4), (x0, row + 0.4), (x1, row + 0.4), (x1, row - 0.4)])
                 faces.append(colour)

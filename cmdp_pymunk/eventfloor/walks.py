@@ -441,13 +441,14 @@ class WalkPlanner:
             held = held_by.get(rect)
             if held is None:
                 held = held_by[rect] = path.points_in(rect)
-            if held or inside(x, y, rect):
+            at_start = inside(x, y, rect)
+            if held or at_start:
                 if out is None:
                     out = [1.0] * len(path.px)  # the start, then the path's points but the last
                 for k in held:
                     if index < out[k]:
                         out[k] = index
-                if index < out[0] and inside(x, y, rect):
+                if at_start and index < out[0]:
                     out[0] = index
         return out
 
