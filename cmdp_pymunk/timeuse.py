@@ -31,6 +31,19 @@ CATEGORIES: dict[str, tuple[str, ...]] = {
     "gone": ("deregistered", "left"),
 }
 CATEGORY_OF = {a: c for c, acts in CATEGORIES.items() for a in acts}
+# The categories in a planner's words, not the code's: time_use.png's legend and the what-if's
+# and summaries' "Where the time goes" tables (the CSV and JSON keep the keys above).
+CATEGORY_WORDS = {
+    "working": "working on a task",
+    "loading": "loading material at a storage",
+    "walking": "walking to a target",
+    "idle_predecessor": "idle: waiting for a predecessor",
+    "idle_area": "idle: blocked by a task area",
+    "waiting_crane": "waiting for the crane",
+    "disrupted": "idle: kept from work by a disruption",
+    "no_target": "idle: no task open for its type",
+    "gone": "gone (no work left, leaving the plane)",
+}
 PHASES = ("ramp_up", "middle", "tail")
 RAMP_UP, TAIL = 0.10, 0.90  # shares of the tasks ended that close the ramp-up, open the tail
 

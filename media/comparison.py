@@ -21,6 +21,7 @@ from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
 
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.timeuse import CATEGORY_WORDS
 
 FIGURES = (
     ("fig12_makespan.png", "makespan_s", "makespan (s)", "Fig. 12: makespan"),
@@ -198,18 +199,6 @@ def draw_comparison(rows: list[dict], folder: Path, summary: list[dict] | None =
     return out
 
 
-# time_use.png's legend: ``timeuse.CATEGORIES`` in a planner's words, not the code's names.
-CATEGORY_WORDS = {
-    "working": "working on a task",
-    "loading": "loading material at a storage",
-    "walking": "walking to a target",
-    "idle_predecessor": "idle: waiting for a predecessor",
-    "idle_area": "idle: blocked by a task area",
-    "waiting_crane": "waiting for the crane",
-    "disrupted": "idle: kept from work by a disruption",
-    "no_target": "idle: no task open for its type",
-    "gone": "gone (no work left, leaving the plane)",
-}
 
 
 def draw_time_use(entries: list[dict], path: Path) -> Path:

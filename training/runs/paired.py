@@ -146,7 +146,7 @@ def time_use_summary(rows: list[dict], key: str = "time_use_s") -> list[dict]:
 def time_use_table(entries: list[dict]) -> str:
     """``time_use_summary`` as Markdown: crew-hours per floor by category for each strategy and
     crew type, the middle phase's in parentheses (where a scheduler can win time)."""
-    from cmdp_pymunk.timeuse import CATEGORIES
+    from cmdp_pymunk.timeuse import CATEGORIES, CATEGORY_WORDS
 
     cell = {(e["strategy"], e["navigator"], e["crew_type"], e["phase"], e["category"]):
             e["mean_s"] for e in entries}
@@ -156,7 +156,8 @@ def time_use_table(entries: list[dict]) -> str:
     lines = ["## Where the time goes", "",
              "Crew-hours per floor, mean over the episodes (the middle phase, between 10 % and "
              "90 % of the tasks ended, in parentheses):", "",
-             "| strategy | low level | crew type | " + " | ".join(CATEGORIES) + " |",
+             "| strategy | low level | crew type | "
+             + " | ".join(CATEGORY_WORDS[c] for c in CATEGORIES) + " |",
              "|" + "---|" * (3 + len(CATEGORIES))]
     for strategy, navigator, crew_type in keys:
         values = [f"{cell[(strategy, navigator, crew_type, 'floor', c)] / 3600:.1f} "
