@@ -88,7 +88,9 @@ def parse_args(argv: list[str] | None = None):
     p.add_argument("--evaluator", default=d.evaluator,
                    help="the target evaluator every floor runs (default priority, Eq. 9)")
     p.add_argument("--calibration", type=Path, default=None, metavar="PATH",
-                   help=CALIBRATION_HELP)
+                   help="the event floor's calibration, which the search plays on"
+                        + CALIBRATION_HELP.removeprefix("with --fidelity event: the event "
+                                                        "floor's calibration"))
     p.add_argument("--confirm-fidelity", choices=("pymunk", "event"), default="pymunk",
                    help="the floor of the confirmation and the levers table (default pymunk, "
                         "the ground truth)")
