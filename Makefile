@@ -28,12 +28,13 @@ demo: $(VENV)/.installed
 # The gate runs on both cores (pytest-xdist): `worksteal` hands out tests one by one and lets
 # an idle worker take the other's queued ones, so the last heavy file does not leave a core
 # idle (a module's fixture may then be made on both workers; loadfile was ~5 % slower).
-# The slow tests keep a file on one worker: their fixtures are trained models.
+# The slow set too: its module fixtures are imported IFC models (seconds), no trained model,
+# and loadfile left one worker with the whole of test_ifc.py (a third of the set's time).
 test: $(VENV)/.installed
 	$(PY) -m pytest -q -n 2 --dist worksteal -m "not slow and not nightly"
 
 test-slow: $(VENV)/.installed
-	$(PY) -m pytest -q -n 2 --dist loadfile -m "slow and not nightly"
+	$(PY) -m pytest -q -n 2 --dist worksteal -m "slow and not nightly"
 
 test-nightly: $(VENV)/.installed
 	$(PY) -m pytest -q -m nightly

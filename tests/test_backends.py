@@ -194,12 +194,14 @@ def assert_complete_outputs_only(out: Path) -> list[dict]:
 @pytest.mark.slow
 def test_ctrl_c_keeps_the_finished_episodes_and_resume_finishes(tmp_path):
     out = tmp_path / "run"
-    argv = [*QUICK, "--seeds", "0-59", "--workers", "2", "--out", str(out)]
+    # 20 seeds x 2 strategies: the signal comes once 2 episodes are logged, the other 38
+    # (about 0.2 s each on two workers) still to run; the resume runs what is left
+    argv = [*QUICK, "--seeds", "0-19", "--workers", "2", "--out", str(out)]
     code, err = interrupt_evaluate(argv)
     assert code == 130, err
     # (Python's resource tracker may add a warning about the killed workers' semaphores.)
     assert "Traceback" not in err and "\ncmdp-evaluate: interrupted; " in err, err
     kept = assert_complete_outputs_only(out)
-    assert 2 <= len(kept) < 120
+    assert 2 <= len(kept) < 40
     assert evaluate.main([*argv, "--resume"]) in (0, 1)
-    assert len(rows_of(out)) == 120
+    assert len(rows_of(out)) == 40

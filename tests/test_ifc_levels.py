@@ -287,8 +287,11 @@ def test_a_storey_with_neither_elevation_nor_placement_imports_and_simulates(tmp
 
 @needs_ifc
 @pytest.mark.slow
-def test_the_storey_without_a_level_runs_to_the_end_on_20_seeds(tmp_path):
+@pytest.mark.parametrize("seeds", [
+    pytest.param(5, id="sample"),  # the slow set (CI): seeds 0-4, about 2 s a floor
+    pytest.param(20, marks=pytest.mark.nightly, id="all")])  # before a release: 0-19
+def test_the_storey_without_a_level_runs_to_the_end_on_20_seeds(tmp_path, seeds):
     data, _, _ = _import(tmp_path)
-    for seed in range(20):
+    for seed in range(seeds):
         episode, engine = _run(data, seed)
         assert episode.makespan_s is not None and engine.site.done, seed
