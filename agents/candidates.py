@@ -36,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
+from cmdp_pymunk.logistics import Logistics
 from cmdp_pymunk.state import ScopeKind
 
 from .features import FEATURE_NAMES, FloorFacts, candidate_features
@@ -233,3 +234,11 @@ def load_candidate_model(path: str | Path):
 
     return load_model(path, MaskablePPO, "MaskablePPO model", "give a .zip written by "
                       "cmdp-train stage2 with action = candidate")
+
+
+def logistics_of(evaluator) -> Logistics | None:
+    """The logistics role an evaluator plays besides its targets (a masked-choice model with a
+    lift head: ``agents.lift.ModelLogistics``), or None for every other evaluator."""
+    if isinstance(evaluator, CandidateModelEvaluator):
+        return evaluator.logistics
+    return None

@@ -11,21 +11,20 @@ question's observation (the lift features of ``logistics.Learned``'s names and t
 type's one-hot; ``CandidateView.lift_question``). The engine knows nothing of SB3: it sees a
 role.
 
-``logistics_of(evaluator)`` is how the commands find the role of an evaluator that has one
-(``training.runs.runner.make_engine``: used where ``--logistics`` is left at ``case``).
+``agents.candidates.logistics_of(evaluator)`` is how the commands find the role of an
+evaluator that has one (``training.runs.runner.make_engine``: used where ``--logistics`` is
+left at ``case``).
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from cmdp_pymunk.logistics import Learned, Levels, Logistics
+from cmdp_pymunk.logistics import Learned, Levels
 
 if TYPE_CHECKING:
     from cmdp_pymunk.cases.model import Case
     from cmdp_pymunk.engine import Engine
-
-    from .candidates import CandidateModelEvaluator
 
 
 class ModelLogistics(Levels):
@@ -35,8 +34,9 @@ class ModelLogistics(Levels):
     ``material=<name>``, checked against the case in ``prepare``). Keeps no per-episode
     state, so an engine's clones share it, as they share the evaluator."""
 
-    def __init__(self, evaluator: CandidateModelEvaluator, features: tuple[str, ...],
-                 shares: tuple[float, ...]):
+    def __init__(self, evaluator, features: tuple[str, ...], shares: tuple[float, ...]):
+        # evaluator: the agents.candidates.CandidateModelEvaluator whose model answers (not
+        # imported: that module imports this one)
         super().__init__(shares)
         self.evaluator, self.features = evaluator, tuple(features)
         # phi is read as the learned rule reads it (its readers, its checks against the case);
@@ -61,12 +61,3 @@ class ModelLogistics(Levels):
                                                  deterministic=True)
         return int(action[0]) == view.cap + 1  # after "run on" (view.cap)
 
-
-def logistics_of(evaluator) -> Logistics | None:
-    """The logistics role an evaluator plays besides its targets (a masked-choice model with a
-    lift head: ``ModelLogistics``), or None."""
-    from .candidates import CandidateModelEvaluator
-
-    if isinstance(evaluator, CandidateModelEvaluator):
-        return evaluator.logistics
-    return None

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import cmdp_pymunk
-from agents.candidates import CandidateModelEvaluator
-from agents.lift import ModelLogistics, logistics_of
+from agents.candidates import CandidateModelEvaluator, logistics_of
+from agents.lift import ModelLogistics
 from agents.specs import evaluator_from_spec
 from cmdp_pymunk.evaluate import Evaluator
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
@@ -182,3 +182,15 @@ def test_an_explicit_logistics_spec_overrides_the_lift_head():
                          fidelity="event", calibration=calibration_for(case),
                          logistics="never")
     assert isinstance(engine.logistics, Never)
+
+
+def test_the_benchmark_names_the_lift_head_as_a_role():
+    import sys
+
+    sys.path.insert(0, str(MODELS.parent / "benchmarks"))
+    from bench_learned_logistics import logistics_spec, role_from_spec
+
+    assert logistics_spec("model") == "case"
+    assert isinstance(role_from_spec("model", str(HIGH_LEVEL)), ModelLogistics)
+    with pytest.raises(ValueError, match="has no lift head; fix"):
+        role_from_spec("model", str(EVALUATOR))

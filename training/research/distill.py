@@ -16,40 +16,39 @@
     python -m training.research.distill relabel runs/labels --out runs/labels-all [--features all]
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
-decision with two or more candidates, the candidates' features (``agents.features``), their
-Eq. 9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per
-floor, written whole as soon as its floor is done, so a stopped run resumes where it stopped
-(seeds with a file are skipped). ``--teacher OPTIONS`` names the whole lookahead
+decision with two or more candidates, the candidates' features (``agents.features``), their Eq.
+9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per floor,
+written whole as soon as its floor is done, so a stopped run resumes where it stopped (seeds
+with a file are skipped). ``--teacher OPTIONS`` names the whole lookahead
 (``agents.specs.make_lookahead``'s ``candidates=K+futures=F+race=R+floor=event+base=SPEC``)
-instead of ``--candidates`` and ``--futures``; ``--features`` the candidate features kept
-(any of ``agents.features.ALL_FEATURES``, their names stored in each file; files without
-names hold ``FEATURE_NAMES``). The floors run in worker processes, or on Ray actors with
-``--ray`` (docs/ray.md). ``--futures expected`` labels with the certainty-equivalent
-lookahead (every task not yet started at its expected pace: a choice that depends on the state
-alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
-evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
-its states. ``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``)
-to the labels by cross-entropy; ``--typed``, with typed rows (the crew's type as a one-hot)
-and a per-type linear term (``Stage2Config.typed``), ``--hold-choice`` holding its choices as
-the student does. ``student-model`` writes, without training, a typed masked-choice model
-whose untrained policy is a per-type student (a student of ``FEATURE_NAMES``: ``fit
---features first``), for PPO to fine-tune (``start_model``); with ``--hold-choice`` it plays
-the student's schedule; ``--lift RULE.json`` also gives it a lift head that starts as that
-learned logistics rule (``logistics.Learned``, ``agents.lift``): the one model then answers
-the floor's lift questions as the rule does. ``noise`` (``training.research.label_noise``) replays labelled
+instead of ``--candidates`` and ``--futures``; ``--features`` the candidate features kept (any
+of ``agents.features.ALL_FEATURES``, their names stored in each file; files without names hold
+``FEATURE_NAMES``). The floors run in worker processes, or on Ray actors with ``--ray``
+(docs/ray.md). ``--futures expected`` labels with the certainty-equivalent lookahead (every
+task not yet started at its expected pace: a choice that depends on the state alone, which a
+student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that evaluator (a
+student, a rule, a masked-choice model) and the lookahead labels the decisions on its states.
+``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``) to the
+labels by cross-entropy; ``--typed``, with typed rows (the crew's type as a one-hot) and a
+per-type linear term (``Stage2Config.typed``), ``--hold-choice`` holding its choices as the
+student does. ``student-model`` writes, without training, a typed masked-choice model whose
+untrained policy is a per-type student (a student of ``FEATURE_NAMES``: ``fit --features
+first``), for PPO to fine-tune (``start_model``); with ``--hold-choice`` it plays the student's
+schedule; ``--lift RULE.json`` also gives it a lift head that starts as that learned logistics
+rule (``logistics.Learned``, ``agents.lift``): the one model then answers the floor's lift
+questions as the rule does. ``noise`` (``training.research.label_noise``) replays labelled
 decisions kept with ``--states`` in other sampled futures: how much of a label is the future's
-noise. ``relabel`` (``training.research.relabel``) computes other features for labels made
-with ``--acting`` by replaying their floors under the acting policy, without the teacher (a
-few seconds a floor). ``fit`` fits the student (``agents.student``): per crew type a
-weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
-the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
-penalty; every weight 0 is Eq. 9 itself. ``--features`` fits on some of the labels' feature
-columns, taken by name (policy iteration labels carry all 15; a typed model reads the 11
-``FEATURE_NAMES``). ``--weights gap`` weights each decision's
-cross-entropy by how much its choice matters (``choice_weights``). The JSON it writes names
-the command, the label folder and the seeds. Rounds of approximate policy iteration (label the
-student's own states, fit, make the student the next base) are
-``training.research.policy_iteration``.
+noise. ``relabel`` (``training.research.relabel``) computes other features for labels made with
+``--acting`` by replaying their floors under the acting policy, without the teacher (a few
+seconds a floor). ``fit`` fits the student (``agents.student``): per crew type a weight vector
+w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches the teacher's
+soft choice (softmax of minus the makespans over ``tau_s``), with an L2 penalty; every weight 0
+is Eq. 9 itself. ``--features`` fits on some of the labels' feature columns, taken by name
+(policy iteration labels carry all 15; a typed model reads the 11 ``FEATURE_NAMES``).
+``--weights gap`` weights each decision's cross-entropy by how much its choice matters
+(``choice_weights``). The JSON it writes names the command, the label folder and the seeds.
+Rounds of approximate policy iteration (label the student's own states, fit, make the student
+the next base) are ``training.research.policy_iteration``.
 """
 
 from __future__ import annotations

@@ -11,8 +11,8 @@ navigator) pair and runs seeds on them, on the case or on the case without its d
 
 from __future__ import annotations
 
+from agents.candidates import logistics_of
 from agents.models import PolicyStuck
-from agents.lift import logistics_of
 from agents.specs import evaluator_from_spec, make_navigator
 from cmdp_pymunk import disruptions
 from cmdp_pymunk.engine import Engine
