@@ -194,3 +194,30 @@ def test_the_benchmark_names_the_lift_head_as_a_role():
     assert isinstance(role_from_spec("model", str(HIGH_LEVEL)), ModelLogistics)
     with pytest.raises(ValueError, match="has no lift head; fix"):
         role_from_spec("model", str(EVALUATOR))
+
+
+def test_the_fine_tunes_env_answered_by_the_start_replays_the_starts_floor():
+    """``lift_finetune.LiftEnv``: one step a lift question; answered by the start's own
+    argmax, the floor is the start's (so the shared-seed baseline's reward is exactly 0), and
+    only the lift head and the critic are left to learn."""
+    from training.research.lift_finetune import LiftEnv, floors, freeze_all_but_lift
+
+    start = evaluator_from_spec(str(HIGH_LEVEL))
+    baseline = {r["seed"]: r["makespan_s"] for r in floors(start, [3200])}
+    env = LiftEnv(evaluator_from_spec(str(HIGH_LEVEL)), [3200], baseline)
+    obs, _ = env.reset()
+    done, steps, answers = False, 0, set()
+    while not done:
+        assert env.observation_space.contains(obs)
+        action, _ = env.evaluator.model.predict(obs[None], action_masks=env.action_masks()[None],
+                                                deterministic=True)
+        answers.add(int(action[0]))
+        obs, reward, done, _, _ = env.step(int(action[0]))
+        steps += 1
+    assert steps > 5 and answers == {3, 4} and reward == 0.0
+    assert env.makespans == [(3200, baseline[3200])]
+    trainable = freeze_all_but_lift(env.evaluator.model)
+    assert {n for n in trainable if n.startswith("action_net.")} == {
+        "action_net.lift_linear.weight", "action_net.lift_linear.bias",
+        "action_net.lift_per_type.weight"}
+    assert any(n.startswith("value_net.") for n in trainable)
