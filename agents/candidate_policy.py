@@ -16,6 +16,16 @@ student's weights (``CandidateScorer.start_from_student``): untrained, it then c
 student (``agents.student``) does. ``types`` and ``hold_choice`` (hold a choice as the
 student does; read by ``agents.candidates.CandidateModelEvaluator``) are constructor
 parameters saved with the model, so ``MaskablePPO.load`` rebuilds the same policy.
+
+A policy with a lift head (``lift_features``, issue 42 item 6: the high level decides
+logistics too) answers a second question with the same forward pass: whether a fetching crew
+asks for the next crane lift now (``cmdp_pymunk.logistics.Logistics.lift_now``). Its
+observation ends in a lift block (the lift features of ``logistics.Learned``'s names, then the
+crew type's one-hot) and its action has two more answers after the candidate rows: "let the
+stock run on" (logit 0) and "lift now" (logit ``b + w . phi + onehot . (W @ phi)``, a linear
+term and a per-type one over the lift features, ``CandidateScorer.start_from_lift``). A target
+question masks the two answers, a lift question masks the rows (``agents.lift``). "Run on"
+comes first, so a logit of exactly 0 says no, as ``logistics.linear_lift``'s ``> 0``.
 """
 
 from __future__ import annotations
@@ -33,9 +43,14 @@ class CandidateScorer(nn.Module):
     With ``types`` > 0 the last ``types`` of the ``columns`` are the crew type's one-hot and
     the logit adds ``onehot . (W @ row[:-types])``, a linear term per crew type over the
     other columns (V' and the features), zero at the start (``start_from_student``); the
-    linear term and the network read every column, the type's too."""
+    linear term and the network read every column, the type's too.
 
-    def __init__(self, columns: int, scale: float, hidden: int = 64, types: int = 0):
+    With ``lift`` > 0 the flat input ends in a lift block (``lift`` features, then the
+    ``types`` one-hot) and two logits follow the rows': 0 ("run on") and the lift-now logit
+    (see the module doc), zero at the start (``start_from_lift``)."""
+
+    def __init__(self, columns: int, scale: float, hidden: int = 64, types: int = 0,
+                 lift: int = 0):
         super().__init__()
         if not 0 <= types < columns - 1:
             raise ValueError(f"{types} crew-type columns in rows of {columns}: a row needs V' "
@@ -50,8 +65,29 @@ class CandidateScorer(nn.Module):
         if types:  # made only when typed: an untyped scorer keeps its old parameters
             self.per_type = nn.Linear(columns - types, types, bias=False)
             nn.init.zeros_(self.per_type.weight)
+        self.lift = lift
+        if lift:  # made only with a lift head: a model without one keeps its parameters
+            self.lift_linear = nn.Linear(lift, 1)
+            nn.init.zeros_(self.lift_linear.weight)
+            nn.init.zeros_(self.lift_linear.bias)
+            if types:
+                self.lift_per_type = nn.Linear(lift, types, bias=False)
+                nn.init.zeros_(self.lift_per_type.weight)
 
     def forward(self, flat: torch.Tensor) -> torch.Tensor:
+        if not self.lift:
+            return self.target_logits(flat)
+        block = flat[:, -(self.lift + self.types):]
+        phi, onehot = block[:, :self.lift], block[:, self.lift:]
+        now = self.lift_linear(phi).squeeze(-1)
+        if self.types:
+            now = now + (onehot * self.lift_per_type(phi)).sum(-1)
+        answers = torch.stack([torch.zeros_like(now), now], dim=-1)  # run on, lift now
+        return torch.cat([self.target_logits(flat[:, :-(self.lift + self.types)]), answers],
+                         dim=-1)
+
+    def target_logits(self, flat: torch.Tensor) -> torch.Tensor:
+        """The candidate rows' logits (the rows part of the flat input)."""
         rows = flat.reshape(flat.shape[0], -1, self.columns)
         logits = (self.scale * rows[..., 0] + self.linear(rows).squeeze(-1)
                   + self.residual(rows).squeeze(-1))
@@ -105,6 +141,22 @@ class CandidateScorer(nn.Module):
         with torch.no_grad():
             self.per_type.weight.copy_(table)
 
+    def start_from_lift(self, weights, bias: float) -> None:
+        """The lift-now logit ``scale * (bias + w . phi)`` (its per-type term zero): the
+        linear rule of ``logistics.Learned`` (``weights``: one per lift feature), so the
+        untrained policy says "lift now" exactly when that rule does (its sign is the rule's;
+        "run on" wins a tie of 0, as the rule's strict ``> 0``)."""
+        if not self.lift:
+            raise ValueError("this scorer has no lift head; fix: build it with lift features")
+        if len(weights) != self.lift:
+            raise ValueError(f"{len(weights)} lift weights for {self.lift} lift features")
+        w = torch.as_tensor([list(weights)], dtype=torch.float64) * self.scale
+        with torch.no_grad():
+            self.lift_linear.weight.copy_(w)
+            self.lift_linear.bias.fill_(self.scale * float(bias))
+            if self.types:
+                self.lift_per_type.weight.zero_()
+
 
 class CandidateScorerPolicy(MaskableActorCriticPolicy):
     """MaskableActorCriticPolicy whose actor is a ``CandidateScorer`` over the flat rows.
@@ -116,14 +168,23 @@ class CandidateScorerPolicy(MaskableActorCriticPolicy):
         types: the crew-type vocabulary of typed rows (``CREW_TYPES``); () for untyped.
         hold_choice: whether ``CandidateModelEvaluator`` holds a choice other than Eq. 9's
             until the crew reaches a target (``agents.hold``, as the student does).
+        lift_features: the lift head's features (names of ``logistics.Learned``), () for a
+            policy without one (it answers target questions only).
+        lift_shares: the decision levels at which a fetching crew is asked, as shares of a
+            crane lift (``logistics.Levels``); with ``lift_features`` only.
     """
 
     def __init__(self, *args, columns: int, heuristic_scale: float = 10.0,
                  residual_hidden: int = 64, types: tuple[str, ...] = (),
-                 hold_choice: bool = False, **kwargs):
+                 hold_choice: bool = False, lift_features: tuple[str, ...] = (),
+                 lift_shares: tuple[float, ...] = (), **kwargs):
         self.columns, self.heuristic_scale = columns, heuristic_scale
         self.residual_hidden = residual_hidden
         self.types, self.hold_choice = tuple(types), bool(hold_choice)  # a saved list: a tuple
+        self.lift_features, self.lift_shares = tuple(lift_features), tuple(lift_shares)
+        if bool(self.lift_features) != bool(self.lift_shares):
+            raise ValueError("a lift head needs both lift_features and lift_shares (the "
+                             "decision levels); fix: give both, or neither")
         kwargs.setdefault("net_arch", {"pi": [], "vf": [64, 64]})
         super().__init__(*args, **kwargs)
 
@@ -132,7 +193,8 @@ class CandidateScorerPolicy(MaskableActorCriticPolicy):
         # the actor reads the rows themselves: no hidden layers on the pi side, so the
         # latent is the flat observation, and the scorer replaces the linear action head
         self.action_net = CandidateScorer(self.columns, self.heuristic_scale,
-                                          self.residual_hidden, len(self.types))
+                                          self.residual_hidden, len(self.types),
+                                          len(self.lift_features))
         self.optimizer = self.optimizer_class(self.parameters(), lr=lr_schedule(1),
                                               **self.optimizer_kwargs)
 
@@ -141,4 +203,6 @@ class CandidateScorerPolicy(MaskableActorCriticPolicy):
         data.update(columns=self.columns, heuristic_scale=self.heuristic_scale,
                     residual_hidden=self.residual_hidden, types=self.types,
                     hold_choice=self.hold_choice)
+        if self.lift_features:  # a policy without a lift head saves what it always did
+            data.update(lift_features=self.lift_features, lift_shares=self.lift_shares)
         return data

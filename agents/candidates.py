@@ -20,6 +20,12 @@ small network shared across rows whose last layer starts at zero: untrained, its
 Eq. 9's choice (row 0 wins ties: torch's argmax takes the first). A model saved with
 ``hold_choice`` holds a choice other than Eq. 9's until the crew reaches a target or the
 target leaves its scope, as the student does (``agents.hold``).
+
+A model with a lift head (``lift_features`` saved with its policy; issue 42 item 6) reads a
+lift block after the rows (the lift features, then the crew type's one-hot; zeros in a target
+question) and has two more actions after the rows ("run on", "lift now"; masked in a target
+question): the same model answers the floor's lift questions (``agents.lift.ModelLogistics``,
+``CandidateModelEvaluator.logistics``).
 """
 
 from __future__ import annotations
@@ -30,6 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from cmdp_pymunk.evaluate import Evaluator, PriorityEvaluator, as_target_values
+from cmdp_pymunk.logistics import Logistics
 from cmdp_pymunk.state import ScopeKind
 
 from .features import FEATURE_NAMES, FloorFacts, candidate_features
@@ -41,16 +48,26 @@ EQ9_RANGE = (-1.0, 1.5)  # V' with the paper's betas (1, 0.5, -1): from -1 up to
 # the typed rows' vocabulary: the paper's crew types (cmdp_pymunk/cases/precast_floor.toml),
 # in a fixed order that a typed model's weights are laid out in
 CREW_TYPES = ("JCC", "HIC", "GC", "RC", "FC")
+# the lift block's upper bound: its features (stocks in lifts, crews, queued requests) stay
+# far below it; they are never clipped, so the lift answer reads them as the rule does
+LIFT_HIGH = 100.0
+LIFT_ANSWERS = 2  # "run on", "lift now": the actions after the rows of a model with a lift head
 
 
-def observation_bounds(cap: int, types: int = 0) -> tuple[np.ndarray, np.ndarray]:
+def observation_bounds(cap: int, types: int = 0, lift: int = 0
+                       ) -> tuple[np.ndarray, np.ndarray]:
     """Low and high of the flat observation (``cap`` rows of ``CANDIDATE_COLUMNS`` and, typed,
     ``types`` one-hot columns of the crew's type): V' in ``EQ9_RANGE``, every feature and type
-    column in [0, 1]."""
+    column in [0, 1]; with ``lift`` lift features, a lift block after the rows (the features
+    in [0, ``LIFT_HIGH``], the type's one-hot in [0, 1])."""
     low = np.zeros((cap, len(CANDIDATE_COLUMNS) + types), np.float32)
     high = np.ones_like(low)
     low[:, 0], high[:, 0] = EQ9_RANGE
-    return low.ravel(), high.ravel()
+    if not lift:
+        return low.ravel(), high.ravel()
+    block = np.concatenate([np.full(lift, LIFT_HIGH, np.float32), np.ones(types, np.float32)])
+    return (np.concatenate([low.ravel(), np.zeros_like(block)]),
+            np.concatenate([high.ravel(), block]))
 
 
 def type_columns(crew_type: str, types: tuple[str, ...]) -> np.ndarray:
@@ -70,15 +87,20 @@ def has_choice(crew) -> bool:
 class CandidateView:
     """Builds a decision's rows and turns a chosen row into V_Tar (see the module doc); keeps
     the case-only facts per case. ``types``: the crew-type vocabulary of typed rows
-    (``CREW_TYPES``), () for the untyped rows of ``CANDIDATE_COLUMNS`` only."""
+    (``CREW_TYPES``), () for the untyped rows of ``CANDIDATE_COLUMNS`` only. ``lift``: the
+    lift head's feature count (0: none; then the observation is the rows alone)."""
 
-    def __init__(self, cap: int, types: tuple[str, ...] = ()):
+    def __init__(self, cap: int, types: tuple[str, ...] = (), lift: int = 0):
         if cap < 2:
             raise ValueError(f"candidates = {cap}: the policy needs at least 2 to choose from")
-        self.cap, self.types = cap, tuple(types)
+        self.cap, self.types, self.lift = cap, tuple(types), lift
         self.width = len(CANDIDATE_COLUMNS) + len(self.types)  # floats per row
+        # the lift block after the rows, and the two lift answers after the rows' actions
+        self.lift_width = lift + len(self.types) if lift else 0
+        self.answers = LIFT_ANSWERS if lift else 0
+        self.size = cap * self.width + self.lift_width
         self.base = PriorityEvaluator()
-        self.low, self.high = observation_bounds(cap, len(self.types))
+        self.low, self.high = observation_bounds(cap, len(self.types))  # the rows' bounds
         self._facts: dict[int, FloorFacts] = {}
 
     def facts(self, site) -> FloorFacts:
@@ -93,17 +115,30 @@ class CandidateView:
         priorities = self.base.priorities(crew, site, position)
         values = as_target_values(priorities)
         order = ranked(values)[:self.cap]
-        obs = np.zeros(self.cap * self.width, np.float32)
-        table = obs.reshape(self.cap, self.width)
+        obs = np.zeros(self.size, np.float32)  # a lift block stays zero in a target question
+        rows = obs[:self.cap * self.width]
+        table = rows.reshape(self.cap, self.width)
         table[:len(order), 0] = [priorities[t] for t in order]
         table[:len(order), 1:len(CANDIDATE_COLUMNS)] = candidate_features(
             self.facts(site), crew, site, position, order, priorities, positions)
         if self.types:
             table[:len(order), len(CANDIDATE_COLUMNS):] = type_columns(crew.type, self.types)
-        np.clip(obs, self.low, self.high, out=obs)
-        mask = np.zeros(self.cap, bool)
+        np.clip(rows, self.low, self.high, out=rows)
+        mask = np.zeros(self.cap + self.answers, bool)  # the lift answers masked
         mask[:len(order)] = True
         return CandidateDecision(obs, mask, order, values)
+
+    def lift_question(self, crew_type: str, phi) -> tuple[np.ndarray, np.ndarray]:
+        """A lift question's observation (the rows zero, the lift block ``phi`` and the crew
+        type's one-hot, unclipped) and mask (the two answers only)."""
+        obs = np.zeros(self.size, np.float32)
+        block = obs[self.cap * self.width:]
+        block[:self.lift] = phi
+        if self.types:
+            block[self.lift:] = type_columns(crew_type, self.types)
+        mask = np.zeros(self.cap + self.answers, bool)
+        mask[self.cap:] = True
+        return obs, mask
 
 
 @dataclass
@@ -130,22 +165,32 @@ class CandidateModelEvaluator(Evaluator):
     What the rows are and whether a choice is held come from the policy's saved parameters:
     ``types`` (the crew-type vocabulary of typed rows; () for untyped) and ``hold_choice``
     (hold a choice other than Eq. 9's as the student does, ``agents.hold``); a model saved
-    before them has neither and behaves as it always did."""
+    before them has neither and behaves as it always did.
+
+    ``logistics``: with a lift head (``lift_features`` saved with the policy), the logistics
+    role the same model plays (``agents.lift.ModelLogistics``; the commands give it to the
+    floor unless ``--logistics`` names another role); None without one."""
 
     def __init__(self, path: str | Path, model=None):
         self.path = Path(path)
         self.model = model if model is not None else load_candidate_model(path)
-        cap = self.model.action_space.n
         policy = self.model.policy
-        self.view = CandidateView(cap, tuple(getattr(policy, "types", ())))
+        lift = tuple(getattr(policy, "lift_features", ()))
+        cap = self.model.action_space.n - (LIFT_ANSWERS if lift else 0)
+        self.view = CandidateView(cap, tuple(getattr(policy, "types", ())), len(lift))
         self.held = HeldChoices() if getattr(policy, "hold_choice", False) else None
-        expected = cap * self.view.width
+        expected = self.view.size
         if self.model.observation_space.shape != (expected,):
             raise ValueError(f"{self.path}: the model reads {self.model.observation_space.shape} "
                              f"floats, expected ({expected},) for {cap} candidates of "
                              f"{self.view.width} columns ({len(CANDIDATE_COLUMNS)} and "
-                             f"{len(self.view.types)} crew types); fix: retrain it with these "
-                             "features")
+                             f"{len(self.view.types)} crew types) and a lift block of "
+                             f"{self.view.lift_width}; fix: retrain it with these features")
+        self.logistics = None
+        if lift:
+            from .lift import ModelLogistics
+
+            self.logistics = ModelLogistics(self, lift, tuple(policy.lift_shares))
 
     def values_for(self, engine, i: int) -> dict[int, float]:
         site = engine.site
@@ -189,3 +234,11 @@ def load_candidate_model(path: str | Path):
 
     return load_model(path, MaskablePPO, "MaskablePPO model", "give a .zip written by "
                       "cmdp-train stage2 with action = candidate")
+
+
+def logistics_of(evaluator) -> Logistics | None:
+    """The logistics role an evaluator plays besides its targets (a masked-choice model with a
+    lift head: ``agents.lift.ModelLogistics``), or None for every other evaluator."""
+    if isinstance(evaluator, CandidateModelEvaluator):
+        return evaluator.logistics
+    return None

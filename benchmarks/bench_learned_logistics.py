@@ -9,12 +9,15 @@ roles on the pymunk floor of the built-in case, scripted navigator, paired by se
 A run is ``EVALUATOR:ROLE``: an evaluator spec (``agents.specs``; a spec may hold ``:``, the
 role is after the last one) and a ``--logistics`` spec of the commands
 (``cmdp_pymunk.logistics.from_spec``: never, crane-idle, ...), where the ``:`` of a spec is
-written ``=`` (``reorder=0.5``, ``learned=PATH``) and ``reorder`` alone is ``reorder:0.5``
-(the names of the first runs). Each run's floors go to ``<out>/<run>.csv`` once the run
-is whole (a stopped benchmark leaves the runs it finished, and skips them when started again).
-``--table`` prints every run in ``--out`` against ``priority:never`` (paired: mean difference
-with its 95 % interval, ratio of the means, ``training.runs.paired``) and against the
-learned role's run of the same evaluator. One process; about 5 s a floor on one core.
+written ``=`` (``reorder=0.5``, ``learned=PATH``) and ``reorder`` alone is ``reorder:0.5`` (the
+names of the first runs). ``model`` is the evaluator's own lift head (a stage-2 model that
+decides logistics too, ``agents.lift``; e.g. ``models/stage2_high_level.zip:model``, the one
+SB3 model for both decisions), refused for an evaluator without one. Each run's floors go to
+``<out>/<run>.csv`` once the run is whole (a stopped benchmark leaves the runs it finished, and
+skips them when started again). ``--table`` prints every run in ``--out`` against
+``priority:never`` (paired: mean difference with its 95 % interval, ratio of the means,
+``training.runs.paired``) and against the learned role's run of the same evaluator. One
+process; about 5 s a floor on one core.
 """
 
 from __future__ import annotations
@@ -38,15 +41,33 @@ REFERENCE = "priority:never"
 FIELDS = ("seed", "finished", "makespan_s", "crane_waits", "crane_wait_s", "lifts_asked")
 
 
+MODEL_ROLE = "model"  # the evaluator's own lift head
+
+
 def logistics_spec(role: str) -> str:
     """A run's role as a ``--logistics`` spec: ``=`` for ``:`` (a run splits at its last
-    ``:``), ``reorder`` alone for ``reorder:0.5`` (the first runs' name)."""
+    ``:``), ``reorder`` alone for ``reorder:0.5`` (the first runs' name), ``model`` as
+    ``case`` (the commands then give the floor the evaluator's lift head)."""
+    if role == MODEL_ROLE:
+        return "case"
     return "reorder:0.5" if role == "reorder" else role.replace("=", ":", 1)
 
 
-def role_from_spec(role: str):
-    """The role a run names (``logistics.from_spec``, which checks it naming the fix)."""
-    return from_spec(logistics_spec(role), option="role")
+def role_from_spec(role: str, evaluator: str | None = None):
+    """The role a run names (``logistics.from_spec``, which checks it naming the fix); for
+    ``model``, the lift head of ``evaluator`` (a ValueError with the fix if it has none)."""
+    if role != MODEL_ROLE:
+        return from_spec(logistics_spec(role), option="role")
+    from agents.candidates import logistics_of
+    from agents.specs import evaluator_from_spec
+
+    head = logistics_of(evaluator_from_spec(evaluator)) if evaluator else None
+    if head is None:
+        raise ValueError(f"role 'model': {evaluator!r} has no lift head; fix: a stage-2 model "
+                         "written with a lift head (distill student-model --lift), e.g. "
+                         "models/stage2_high_level.zip:model, or name a role (never, "
+                         "learned=PATH, ...)")
+    return head
 
 
 def split_run(run: str) -> tuple[str, str]:
@@ -162,7 +183,8 @@ def parse(argv) -> Args:
     runs = [r for r in a.runs.split(",") if r]
     for run in runs:  # bad input fails here, before any floor
         try:
-            role_from_spec(split_run(run)[1])
+            evaluator, role = split_run(run)
+            role_from_spec(role, evaluator)
         except ValueError as err:
             p.error(f"--runs {run!r}: {err}")
     return Args(seed_list(a.seeds), runs, a.out, a.table, a.floor)

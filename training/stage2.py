@@ -462,11 +462,13 @@ def crew_types(config: Stage2Config) -> tuple[str, ...]:
     return CREW_TYPES if config.typed else ()
 
 
-def new_candidate_model(config: Stage2Config, venv):
+def new_candidate_model(config: Stage2Config, venv, lift: dict | None = None):
     """MaskablePPO with ``agents.candidate_policy.CandidateScorerPolicy`` (Eq. 9 untrained;
     ``net_arch`` is its critic's); typed rows and ``hold_choice`` go into the policy's saved
     parameters (an untyped, unheld policy's are as before), and a typed policy with
-    ``start_rule`` starts as that per-type student."""
+    ``start_rule`` starts as that per-type student. ``lift``: a lift head's
+    ``lift_features`` and ``lift_shares`` (``agents.candidate_policy``; ``venv`` then has its
+    spaces: ``training.research.distill.choice_venv``)."""
     from agents.candidate_policy import CandidateScorerPolicy
     from agents.candidates import CANDIDATE_COLUMNS
 
@@ -478,6 +480,7 @@ def new_candidate_model(config: Stage2Config, venv):
         policy_kwargs["types"] = types
     if config.hold_choice:
         policy_kwargs["hold_choice"] = True
+    policy_kwargs.update(lift or {})
     model = scaffold.new_ppo(config, CandidateScorerPolicy, venv, policy_kwargs,
                              seed=config.seed, algorithm=algorithm(config))
     if config.start_rule and types:

@@ -11,43 +11,44 @@
     python -m training.research.distill fit-model runs/labels --out runs/distilled/model.zip
                                      [--typed] [--hold-choice]
     python -m training.research.distill student-model STUDENT.json --out MODEL.zip
-                                     [--hold-choice]
+                                     [--hold-choice] [--lift RULE.json]
     python -m training.research.distill noise runs/labels [--every 5] [--futures 2] [--workers 2]
     python -m training.research.distill relabel runs/labels --out runs/labels-all [--features all]
 
 ``label`` runs the lookahead (``agents.lookahead``) on each seed's floor and keeps, for every
-decision with two or more candidates, the candidates' features (``agents.features``), their
-Eq. 9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per
-floor, written whole as soon as its floor is done, so a stopped run resumes where it stopped
-(seeds with a file are skipped). ``--teacher OPTIONS`` names the whole lookahead
+decision with two or more candidates, the candidates' features (``agents.features``), their Eq.
+9 values, the lookahead's makespan per candidate and its choice: one ``seed-N.npz`` per floor,
+written whole as soon as its floor is done, so a stopped run resumes where it stopped (seeds
+with a file are skipped). ``--teacher OPTIONS`` names the whole lookahead
 (``agents.specs.make_lookahead``'s ``candidates=K+futures=F+race=R+floor=event+base=SPEC``)
-instead of ``--candidates`` and ``--futures``; ``--features`` the candidate features kept
-(any of ``agents.features.ALL_FEATURES``, their names stored in each file; files without
-names hold ``FEATURE_NAMES``). The floors run in worker processes, or on Ray actors with
-``--ray`` (docs/ray.md). ``--futures expected`` labels with the certainty-equivalent
-lookahead (every task not yet started at its expected pace: a choice that depends on the state
-alone, which a student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that
-evaluator (a student, a rule, a masked-choice model) and the lookahead labels the decisions on
-its states. ``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``)
-to the labels by cross-entropy; ``--typed``, with typed rows (the crew's type as a one-hot)
-and a per-type linear term (``Stage2Config.typed``), ``--hold-choice`` holding its choices as
-the student does. ``student-model`` writes, without training, a typed masked-choice model
-whose untrained policy is a per-type student (a student of ``FEATURE_NAMES``: ``fit
---features first``), for PPO to fine-tune (``start_model``); with ``--hold-choice`` it plays
-the student's schedule. ``noise`` (``training.research.label_noise``) replays labelled
+instead of ``--candidates`` and ``--futures``; ``--features`` the candidate features kept (any
+of ``agents.features.ALL_FEATURES``, their names stored in each file; files without names hold
+``FEATURE_NAMES``). The floors run in worker processes, or on Ray actors with ``--ray``
+(docs/ray.md). ``--futures expected`` labels with the certainty-equivalent lookahead (every
+task not yet started at its expected pace: a choice that depends on the state alone, which a
+student can learn). ``--acting SPEC`` is a DAgger round: the floor follows that evaluator (a
+student, a rule, a masked-choice model) and the lookahead labels the decisions on its states.
+``fit-model`` fits the masked-choice SB3 model (MaskablePPO, ``agents.candidates``) to the
+labels by cross-entropy; ``--typed``, with typed rows (the crew's type as a one-hot) and a
+per-type linear term (``Stage2Config.typed``), ``--hold-choice`` holding its choices as the
+student does. ``student-model`` writes, without training, a typed masked-choice model whose
+untrained policy is a per-type student (a student of ``FEATURE_NAMES``: ``fit --features
+first``), for PPO to fine-tune (``start_model``); with ``--hold-choice`` it plays the student's
+schedule; ``--lift RULE.json`` also gives it a lift head that starts as that learned logistics
+rule (``logistics.Learned``, ``agents.lift``): the one model then answers the floor's lift
+questions as the rule does. ``noise`` (``training.research.label_noise``) replays labelled
 decisions kept with ``--states`` in other sampled futures: how much of a label is the future's
-noise. ``relabel`` (``training.research.relabel``) computes other features for labels made
-with ``--acting`` by replaying their floors under the acting policy, without the teacher (a
-few seconds a floor). ``fit`` fits the student (``agents.student``): per crew type a
-weight vector w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches
-the teacher's soft choice (softmax of minus the makespans over ``tau_s``), with an L2
-penalty; every weight 0 is Eq. 9 itself. ``--features`` fits on some of the labels' feature
-columns, taken by name (policy iteration labels carry all 15; a typed model reads the 11
-``FEATURE_NAMES``). ``--weights gap`` weights each decision's
-cross-entropy by how much its choice matters (``choice_weights``). The JSON it writes names
-the command, the label folder and the seeds. Rounds of approximate policy iteration (label the
-student's own states, fit, make the student the next base) are
-``training.research.policy_iteration``.
+noise. ``relabel`` (``training.research.relabel``) computes other features for labels made with
+``--acting`` by replaying their floors under the acting policy, without the teacher (a few
+seconds a floor). ``fit`` fits the student (``agents.student``): per crew type a weight vector
+w so that softmax(beta * (V' + w . phi)) over a decision's candidates matches the teacher's
+soft choice (softmax of minus the makespans over ``tau_s``), with an L2 penalty; every weight 0
+is Eq. 9 itself. ``--features`` fits on some of the labels' feature columns, taken by name
+(policy iteration labels carry all 15; a typed model reads the 11 ``FEATURE_NAMES``).
+``--weights gap`` weights each decision's cross-entropy by how much its choice matters
+(``choice_weights``). The JSON it writes names the command, the label folder and the seeds.
+Rounds of approximate policy iteration (label the student's own states, fit, make the student
+the next base) are ``training.research.policy_iteration``.
 """
 
 from __future__ import annotations
@@ -68,7 +69,12 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 from tqdm import tqdm
 
 import cmdp_pymunk
-from agents.candidates import CANDIDATE_COLUMNS, observation_bounds, type_columns
+from agents.candidates import (
+    CANDIDATE_COLUMNS,
+    LIFT_ANSWERS,
+    observation_bounds,
+    type_columns,
+)
 from agents.features import ALL_FEATURES, FEATURE_NAMES, FloorFacts, candidate_features
 from agents.lookahead import LookaheadEvaluator
 from agents.navigator import Navigator
@@ -77,6 +83,7 @@ from agents.student import StudentEvaluator
 from cmdp_pymunk.engine import Engine
 from cmdp_pymunk.evaluate import PriorityEvaluator
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.logistics import Learned
 from cmdp_pymunk.rollout import run_episode
 from training.cli import OneLineParser, add_ray_option, seed_list
 from training.research.label_noise import noise
@@ -490,17 +497,19 @@ def choice_rows(data: dict, cap: int, types: tuple[str, ...] = ()) \
     return flat * np.repeat(mask, width, axis=1), mask
 
 
-def choice_venv(cap: int, types: int = 0):
+def choice_venv(cap: int, types: int = 0, lift: int = 0):
     """A vector env with only the spaces of a masked-choice floor (``training.candidate_loop``;
-    ``types``: that many crew-type columns a row): enough to build the model without running
-    floors."""
+    ``types``: that many crew-type columns a row; ``lift``: that many lift features in a lift
+    block, and the two lift answers, ``agents.candidates``): enough to build the model
+    without running floors."""
 
 
-    low, high = observation_bounds(cap, types)
+    low, high = observation_bounds(cap, types, lift)
+    actions = cap + (LIFT_ANSWERS if lift else 0)
 
     class ChoiceSpaces(gymnasium.Env):
         observation_space = spaces.Box(low, high, dtype=np.float32)
-        action_space = spaces.Discrete(cap)
+        action_space = spaces.Discrete(actions)
 
         def reset(self, *, seed=None, options=None):
             return self.observation_space.low.copy(), {}
@@ -509,22 +518,30 @@ def choice_venv(cap: int, types: int = 0):
             raise RuntimeError("fit-model builds the model; it plays no floor")
 
         def action_masks(self):
-            return np.ones(cap, bool)
+            return np.ones(actions, bool)
 
     return DummyVecEnv([ChoiceSpaces])
 
 
 def new_choice_model(cap: int, start_rule: str, seed: int, typed: bool = False,
-                     hold_choice: bool = False):
+                     hold_choice: bool = False, lift: Learned | None = None):
     """A fresh masked-choice MaskablePPO (``training.stage2``'s, from
     ``training/configs/stage2_candidate.toml``) that starts as Eq. 9 or as ``start_rule``
-    (typed: a per-type student, ``Stage2Config.typed``); ``hold_choice`` is saved with it."""
+    (typed: a per-type student, ``Stage2Config.typed``); ``hold_choice`` is saved with it.
+    ``lift``: a learned logistics rule (``logistics.Learned``) the model's lift head starts
+    as (its features, shares and weights; ``CandidateScorer.start_from_lift``)."""
 
     settings = Stage2Config.load(DEFAULT_CONFIG.with_name("stage2_candidate.toml")).model_dump()
     config = Stage2Config.model_validate({**settings, "candidates": cap,
                                           "start_rule": start_rule, "seed": seed,
                                           "typed": typed, "hold_choice": hold_choice})
-    return new_candidate_model(config, choice_venv(cap, len(crew_types(config))))
+    types = len(crew_types(config))
+    if lift is None:
+        return new_candidate_model(config, choice_venv(cap, types))
+    head = {"lift_features": lift.features, "lift_shares": lift.shares}
+    model = new_candidate_model(config, choice_venv(cap, types, len(lift.features)), head)
+    model.policy.action_net.start_from_lift(lift.weights, lift.bias)
+    return model
 
 
 def choice_agreement(logits: np.ndarray, mask: np.ndarray, target: np.ndarray) -> float:
@@ -663,14 +680,23 @@ def student_model(args) -> int:
 
     cap = StudentEvaluator.load(args.student).candidates  # a bad file fails here, named
     student = student_weights(args.student, cap, "student-model")  # and other features here
+    try:  # and a bad lift rule here, before anything is built
+        lift = Learned(args.lift) if args.lift else None
+    except (OSError, ValueError) as err:
+        raise ValueError(f"--lift {args.lift}: {err}") from None
     data = json.loads(Path(args.student).read_text(encoding="utf-8"))
     model = new_choice_model(cap, str(args.student), args.seed, typed=True,
-                             hold_choice=args.hold_choice)
+                             hold_choice=args.hold_choice, lift=lift)
     meta = {"command": "python -m training.research.distill " + " ".join(args.argv),
             "student": str(args.student), "candidates": cap, "typed": True,
             "hold_choice": args.hold_choice, "seed": args.seed,
             "crew_types": sorted(student),
             "student_meta": {k: v for k, v in data.items() if k != "weights"}}
+    if lift is not None:  # the lift head's start, and the rule's own provenance
+        meta["lift"] = {"rule": str(args.lift), "features": list(lift.features),
+                        "weights": list(lift.weights), "bias": lift.bias,
+                        "shares": list(lift.shares),
+                        "rule_command": lift.meta.get("command", "")}
     save_model(model, Path(args.out), meta, "student-model")
     return 0
 
@@ -804,6 +830,10 @@ def main(argv: list[str] | None = None) -> int:
                    help="hold a choice until the crew reaches a target, as the student does "
                         "(then it plays the student's schedule)")
     s.add_argument("--seed", type=int, default=0, help="torch seed (the critic's start)")
+    s.add_argument("--lift", default="", metavar="RULE.json",
+                   help="also give the model a lift head that starts as this learned logistics "
+                        "rule (logistics.Learned, e.g. models/logistics_learned.json): the one "
+                        "model then answers the floor's lift questions too")
     n = sub.add_parser("noise", help="how much of the teacher's labels holds in other "
                        "futures (needs label --states; training/research/label_noise.py)")
     n.add_argument("labels", help="label folder made by `label --states`")

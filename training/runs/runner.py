@@ -11,6 +11,7 @@ navigator) pair and runs seeds on them, on the case or on the case without its d
 
 from __future__ import annotations
 
+from agents.candidates import logistics_of
 from agents.models import PolicyStuck
 from agents.specs import evaluator_from_spec, make_navigator
 from cmdp_pymunk import disruptions
@@ -125,11 +126,15 @@ def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None =
     ``fidelity``: "pymunk" (the paper's floor) or "event" (``cmdp_pymunk.eventfloor``, whose
     crews walk without a low level; ``calibration`` its fitted numbers). ``logistics``: a
     ``--logistics`` spec (``cmdp_pymunk.logistics.from_spec``; "case": the case's reorder
-    point), made into a role of this engine's own."""
+    point), made into a role of this engine's own; left at "case" with an evaluator that
+    decides logistics too (a stage-2 model with a lift head, ``agents.lift``), that
+    evaluator's role answers."""
+    role = from_spec(logistics)
+    if logistics == "case":
+        role = logistics_of(evaluator)  # None for every other evaluator: the case's point
     return make_floor(case, fidelity, calibration, stage=2, evaluator=evaluator,
                       max_time_s=max_time_s, park_idle=navigator_spec == "scripted",
-                      position_log_every_s=position_log_every_s,
-                      logistics=from_spec(logistics))
+                      position_log_every_s=position_log_every_s, logistics=role)
 
 
 class EpisodeRunner:
