@@ -61,3 +61,29 @@ class ModelLogistics(Levels):
                                                  deterministic=True)
         return int(action[0]) == view.cap + 1  # after "run on" (view.cap)
 
+def has_lift_head(spec: str) -> bool:
+    """Whether the evaluator spec names a saved model with a lift head (its ``policy_kwargs``
+    name ``lift_features``), read from the zip's ``data`` without loading the model: what a
+    run's header and ``summary.json`` say decides the lifts under ``--logistics case``."""
+    import json
+    import zipfile
+    from pathlib import Path
+
+    path = Path(spec)
+    if path.suffix != ".zip" or not path.is_file():
+        return False
+    try:
+        with zipfile.ZipFile(path) as archive:
+            data = json.loads(archive.read("data"))
+    except (OSError, KeyError, ValueError, zipfile.BadZipFile):
+        return False  # not a saved SB3 model: loading it says why, where it is loaded
+    kwargs = data.get("policy_kwargs")
+    return isinstance(kwargs, dict) and bool(kwargs.get("lift_features"))
+
+
+def lifts_decided_by(logistics: str, evaluator: str) -> str:
+    """Who asks for the lifts, in words: the ``--logistics`` spec, or under ``case`` with a
+    lift-head model the model itself (``make_engine`` gives it the floor's role)."""
+    if logistics == "case" and has_lift_head(evaluator):
+        return "the evaluator's lift head"
+    return logistics

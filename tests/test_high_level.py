@@ -221,3 +221,19 @@ def test_the_fine_tunes_env_answered_by_the_start_replays_the_starts_floor():
         "action_net.lift_linear.weight", "action_net.lift_linear.bias",
         "action_net.lift_per_type.weight"}
     assert any(n.startswith("value_net.") for n in trainable)
+
+
+def test_the_run_says_the_model_decides_the_lifts(tmp_path):
+    # under --logistics case a model with a lift head asks for the lifts: the header and
+    # summary.json say so, not "case" (the case's reorder point)
+    from agents.lift import has_lift_head, lifts_decided_by
+
+    assert has_lift_head("models/stage2_high_level.zip")
+    assert not has_lift_head("models/stage2_evaluator.zip")
+    assert not has_lift_head("priority") and not has_lift_head(str(tmp_path / "none.zip"))
+    (tmp_path / "bad.zip").write_text("not a zip")
+    assert not has_lift_head(str(tmp_path / "bad.zip"))
+    assert lifts_decided_by("case", "models/stage2_high_level.zip") == \
+        "the evaluator's lift head"
+    assert lifts_decided_by("never", "models/stage2_high_level.zip") == "never"
+    assert lifts_decided_by("case", "models/stage2_evaluator.zip") == "case"

@@ -101,6 +101,7 @@ def mspdi_dates(calendar) -> str:
 
 
 def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None) -> dict:
+    from agents.lift import lifts_decided_by
     from cmdp_pymunk.cost import run_cost_fields
     from cmdp_pymunk.report import (
         crew_summary,
@@ -122,6 +123,8 @@ def summary(engine, episode, args: SimulateArgs, case_label: str, lb, cpsat=None
         "fidelity": engine.motion.name, "calibration": None,
         # who asked for the lifts: the --logistics spec ("case": the case's reorder point)
         "logistics": args.logistics,
+        # ... and who decided them in words (under "case" a model with a lift head does)
+        "lifts_asked_by": lifts_decided_by(args.logistics, args.evaluator),
         "evaluator": args.evaluator, "navigator": args.navigator,
         "navigator_sampling": "deterministic" if args.deterministic else "stochastic",
         "makespan_s": makespan,
@@ -422,11 +425,13 @@ def check_workers(args: SimulateArgs, case, spec: str, pool) -> None:
 def announce(args: SimulateArgs, inputs: Inputs, pool) -> None:
     """The run's first lines: the case, the bound, the strategy and the floor, and what the
     options leave out or add."""
+    from agents.lift import lifts_decided_by
+
     case, floor = inputs.case, inputs.floor
     print(f"cmdp-simulate: case {case.case.name!r} ({len(case.crews)} crews, "
           f"{len(case.tasks)} tasks), lower bound {inputs.lb.lower_bound_s:.0f} s, evaluator "
           f"{args.evaluator}, navigator {args.navigator}, {floor.label()}, "
-          f"logistics {args.logistics}"
+          f"logistics {lifts_decided_by(args.logistics, args.evaluator)}"
           + (f"; {args.episodes} episodes, {pool.label}" if args.episodes > 1 else ""),
           flush=True)
     if floor.fidelity == "event" and args.charts and args.seed_charts:
