@@ -41,7 +41,7 @@ def event_log(case, evaluator: str, logistics: str, seed: int, floor: str):
 
 
 def main(argv=None) -> int:
-    from bench_learned_logistics import logistics_spec, split_run
+    from benchmarks.bench_learned_logistics import logistics_spec, split_run
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_version_flag(p)
