@@ -4,7 +4,7 @@ the imported storeys of tests/ifc_models.py, under the priority heuristic (Eq. 9
 cheap strategies (``--strategies all``: every name of ``evaluate.EVALUATORS``), on seeds
 0..N-1, on either floor.
 
-    PYTHONPATH=. python benchmarks/sweep_reach.py [--fidelity pymunk|event] [--seeds 3]
+    PYTHONPATH=. python benchmarks/sweep_reach.py [--fidelity pymunk|event] [--seeds 3|10-19]
         [--layouts 6] [--strategies priority,nearest|all] [--no-ifc] [--floors edge,fenced]
 
 A floor the check refuses is run anyway (the check bypassed) and counted as "refused but
@@ -76,7 +76,15 @@ def floors(layouts: int, ifc: bool, wanted: list[str] = ()) -> list[tuple[str, d
     return out
 
 
-def run(data: dict, strategy: str, seeds: range, fidelity: str) -> list[dict]:
+def _seeds(text: str):
+    """``--seeds``: a bare number N is seeds 0..N-1 (as before); else ``training.cli.seed_list``
+    (``10-19``, ``0,3,5``), to extend a sweep past the seeds already run."""
+    from training.cli import seed_list
+
+    return range(int(text)) if text.isdigit() else seed_list(text)
+
+
+def run(data: dict, strategy: str, seeds, fidelity: str) -> list[dict]:
     """One row per seed: makespan_s (None: not finished), stalled, tasks ended of tasks."""
     import cmdp_pymunk.cases.load as load
     from agents.navigator import Navigator
@@ -99,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_version_flag(p)
     p.add_argument("--fidelity", default="pymunk", choices=("pymunk", "event"))
-    p.add_argument("--seeds", type=int, default=3, help="seeds 0..N-1")
+    p.add_argument("--seeds", type=_seeds, default=range(3),
+                   help="seeds 0..N-1 for a number N, or a list or range, e.g. 10-19")
     p.add_argument("--layouts", type=int, default=6, help="generated layouts, seeds 0..K-1")
     p.add_argument("--strategies", default="priority,nearest",
                    help="comma-separated evaluator names, or all (every one of "
@@ -126,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
             first = str(err).splitlines()[1].strip() if "\n" in str(err) else str(err)
         for strategy in strategies:
             began = time.perf_counter()
-            rows = run(data, strategy, range(a.seeds), a.fidelity)
+            rows = run(data, strategy, a.seeds, a.fidelity)
             done = [r["makespan_s"] for r in rows if r["makespan_s"] is not None]
             bad = [r for r in rows if r["makespan_s"] is None]
             mean = f"{statistics.mean(done):,.0f} s" if done else "-"
