@@ -65,3 +65,23 @@ def test_checkpoint_resumes_without_running_again(tmp_path, monkeypatch):
     for floor in ("pymunk", "event"):
         assert again["entries"][0][floor]["makespans_s"] == \
             first["entries"][0][floor]["makespans_s"][:1]
+
+
+def test_lever_gap_by_hand():
+    """The two floors' effects against each other, per seed: (event var - event base) -
+    (pymunk var - pymunk base); a seed some floor did not finish is left out."""
+    def rows(*makespans):
+        return [{"seed": s, "makespan_s": m, "finished": m is not None}
+                for s, m in enumerate(makespans)]
+
+    table = {("base", "pymunk"): rows(100.0, 200.0, 300.0, 400.0),
+             ("v", "pymunk"): rows(90.0, 180.0, 290.0, 350.0),     # effects -10 -20 -10 -50
+             ("base", "event"): rows(110.0, 190.0, 310.0, None),
+             ("v", "event"): rows(100.0, 150.0, 330.0, 400.0)}    # effects -10 -40 +20 (-)
+    gap = vv._lever_gap(table, "v")
+    gaps = [0.0, -20.0, 30.0]  # seeds 0-2: event effect less pymunk effect
+    half = 4.302653 * np.std(gaps, ddof=1) / np.sqrt(3)  # Student's t, 2 degrees of freedom
+    assert gap["lever_gap_mean_s"] == pytest.approx(np.mean(gaps))
+    assert gap["lever_gap_ci95_s"] == pytest.approx(half, rel=1e-4)
+    assert gap["lever_gap_holds_0"] is True
+    assert vv._lever_gap({k: v[:1] for k, v in table.items()}, "v")["lever_gap_mean_s"] is None
