@@ -65,6 +65,7 @@ from cmdp_pymunk.cases.reach import (
     CLEARANCE_M,
     NEIGHBOURS,
     PlaneGrid,
+    area_points,
     free_cells,
 )
 from cmdp_pymunk.geometry import Outline
@@ -222,6 +223,7 @@ class _Plans:
         self.escape: list[_Escape | None] = [None] * n
         self.aside: dict[int, tuple[np.ndarray, float]] = {}  # parked crews making way
         self.rungs = {"back_off": 0, "make_way": 0, "detour": 0, "give_up": 0}  # fired
+        self.work_points: dict = {}  # (radius, task, decks laid) -> the area's work points
         self.plans = 0
 
     def _make_grids(self) -> None:
@@ -339,17 +341,53 @@ class _Plans:
                 self.since_progress[crew.index] = 0
                 self.best[crew.index] = math.inf
         if here == 0.0 and target < len(self.site.components):
-            # in the approach band: close in on the component's nearest point
-            shape = self.site.components[target].rect
-            if isinstance(shape, Outline):  # a polygon: its nearest point, not its box's
-                px, py = shape.nearest(x, y)
+            # in the approach band: close in on the component's nearest point, or, once the
+            # crew has backed off stuck here, on the nearest work point
+            point = self._work_point(crew, target, x, y) if self._stuck_before(crew, target) \
+                else None
+            if point is not None:
+                px, py = point
             else:
-                x0, y0, x1, y1 = shape
-                px, py = min(max(x, x0), x1), min(max(y, y0), y1)
+                shape = self.site.components[target].rect
+                if isinstance(shape, Outline):  # a polygon: its nearest point, not its box's
+                    px, py = shape.nearest(x, y)
+                else:
+                    x0, y0, x1, y1 = shape
+                    px, py = min(max(x, x0), x1), min(max(y, y0), y1)
         else:
             carrot = self._carrot(field, x, y, lowest=detoured)
             px, py = carrot if carrot is not None else self.site.target_xy[target]
         return self._drive(crew, pose, x, y, px, py)
+
+    def _stuck_before(self, crew, target: int) -> bool:
+        """Whether the crew has backed off stuck on its way to ``target`` (the ladder's spots,
+        kept until a give-up starts it afresh)."""
+        esc = self.escape[crew.index]
+        return esc is not None and esc.target == target and bool(esc.spots)
+
+    def _work_point(self, crew, target: int, x: float, y: float) -> tuple[float, float] | None:
+        """The nearest point of the crew's task area at ``target`` where a crew of its radius
+        fits among the components standing (``reach.area_points``: the case check's work
+        points, where the event floor's walks end), or None where there is none.
+
+        Why: the component's nearest point can lie behind another component. A crew that
+        closes in on it from the band below a beam fencing a slab's edge presses against the
+        beam, its centre short of the area, while the check's work point sits round the
+        beam's corner (the fenced slabs with open corners, seed 41: JCC-1 pressed for 4,900 s,
+        0.3 m short); the ladder's back-offs and detours all led back to the same spot."""
+        task = crew.scope[target]
+        key = (round(crew.spec.radius_m, 3), task, self.laid)
+        points = self.work_points.get(key)
+        if points is None:
+            standing = [c.rect for c in self.site.components if c.index not in self.laid]
+            _, px, py, ok = area_points(self.plane, self.site.tasks[task].area, standing,
+                                        crew.spec.radius_m)
+            points = self.work_points[key] = (px[ok], py[ok])
+        px, py = points
+        if px.size == 0:
+            return None
+        k = int(np.argmin(np.hypot(px - x, py - y)))
+        return float(px[k]), float(py[k])
 
     def _value(self, field, x, y) -> float:
         i, j = self._cell(x, y)

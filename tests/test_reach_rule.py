@@ -169,13 +169,40 @@ def test_slab_edges_fenced_by_beams_are_refused_by_name():
 @pytest.mark.slow
 def test_slab_edges_fenced_but_for_the_corners_load_and_finish():
     """The JCC does reach the JC areas, at their corners: the floor loads and seeds 0-1 end
-    every task (pymunk, priority heuristic, the navigator)."""
+    every task (pymunk, priority heuristic, the navigator); and seed 41, where JCC-1 came
+    along the bottom beam and pressed against it for 4,900 s, 0.3 m short of the area, until
+    the navigator closed in on the work point once stuck (``Navigator._work_point``)."""
     from agents.navigator import Navigator
     from cmdp_pymunk.eventfloor.floor import make_floor
     from cmdp_pymunk.rollout import run_episode
 
     case = case_from_dict(fenced_slabs(corners_open=True), "fenced.toml")
-    for seed in (0, 1):
+    for seed in (0, 1, 41):
         floor = make_floor(case, "pymunk", evaluator="priority")
         episode = run_episode(floor, Navigator(), seed, stall_s=3000.0, progress=False)
         assert episode.stalled is None and floor.site.done, seed
+
+
+def test_a_crew_stuck_below_a_beam_closes_in_on_the_work_point_round_its_corner():
+    """In the band below the bottom beam the component's nearest point lies behind the beam;
+    the nearest work point (the check's: in the JC area, where the JCC fits) lies round the
+    beam's corner, 1.13 m or more from it. The navigator heads there once it has backed off
+    stuck (the ladder's spots), not before (the golden schedules keep every other approach)."""
+    from agents.navigator import Navigator, _Escape
+    from cmdp_pymunk.engine import Engine
+
+    case = case_from_dict(fenced_slabs(corners_open=True), "fenced.toml")
+    engine = Engine(case, evaluator="priority")
+    engine.reset(0)
+    plans = Navigator().plans(engine)
+    jcc = next(c for c in engine.site.crews if c.type == "JCC")
+    task = next(t.index for t in engine.site.tasks if t.id == "JC-S-2")
+    jcc.scope = {1: task}  # S-2, the component at index 1
+    x, y = 4.02, -3.01  # where seed 41's JCC-1 pressed against the bottom beam
+    px, py = plans._work_point(jcc, 1, x, y)
+    assert in_area(px, py, engine.site.tasks[task].area)
+    assert math.hypot(px - 4.4, py + 1.9) >= fit_distance(JCC_RADIUS) - 1e-9  # the corner
+    assert px > 4.4  # round the beam's end, not straight up into it
+    assert not plans._stuck_before(jcc, 1)
+    plans.escape[jcc.index] = _Escape(1, 0.3, 0.0, spots=[(x, y)])
+    assert plans._stuck_before(jcc, 1) and not plans._stuck_before(jcc, 0)
