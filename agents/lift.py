@@ -18,6 +18,9 @@ left at ``case``).
 
 from __future__ import annotations
 
+import json
+import zipfile
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from cmdp_pymunk.logistics import Learned, Levels
@@ -61,14 +64,11 @@ class ModelLogistics(Levels):
                                                  deterministic=True)
         return int(action[0]) == view.cap + 1  # after "run on" (view.cap)
 
+
 def has_lift_head(spec: str) -> bool:
     """Whether the evaluator spec names a saved model with a lift head (its ``policy_kwargs``
     name ``lift_features``), read from the zip's ``data`` without loading the model: what a
     run's header and ``summary.json`` say decides the lifts under ``--logistics case``."""
-    import json
-    import zipfile
-    from pathlib import Path
-
     path = Path(spec)
     if path.suffix != ".zip" or not path.is_file():
         return False

@@ -129,9 +129,9 @@ def make_engine(case, evaluator, navigator_spec: str, max_time_s: float | None =
     point), made into a role of this engine's own; left at "case" with an evaluator that
     decides logistics too (a stage-2 model with a lift head, ``agents.lift``), that
     evaluator's role answers."""
-    role = from_spec(logistics)
-    if logistics == "case":
-        role = logistics_of(evaluator)  # None for every other evaluator: the case's point
+    # under "case" an evaluator with a lift head answers (None for every other evaluator:
+    # the case's reorder point)
+    role = logistics_of(evaluator) if logistics == "case" else from_spec(logistics)
     return make_floor(case, fidelity, calibration, stage=2, evaluator=evaluator,
                       max_time_s=max_time_s, park_idle=navigator_spec == "scripted",
                       position_log_every_s=position_log_every_s, logistics=role)
