@@ -28,14 +28,22 @@ from pathlib import Path
 
 import gymnasium
 import numpy as np
+import torch
 from gymnasium import spaces
+from sb3_contrib import MaskablePPO
+from stable_baselines3.common.utils import set_random_seed
+from stable_baselines3.common.vec_env import DummyVecEnv
 
 import cmdp_pymunk
 from agents.candidates import CandidateModelEvaluator
+from agents.specs import make_navigator
 from cmdp_pymunk.adapters.decision_loop import DecisionLoop
+from cmdp_pymunk.eventfloor import calibration_for
 from cmdp_pymunk.events import write_atomic
+from cmdp_pymunk.rollout import run_episode
 from training.cli import OneLineParser, seed_list
 from training.runs.paired import paired
+from training.runs.runner import make_engine
 
 
 class LiftEnv(gymnasium.Env):
@@ -109,11 +117,6 @@ def _bounds(evaluator):
 
 def floors(evaluator: CandidateModelEvaluator, seeds: list[int]) -> list[dict]:
     """The model's deterministic event floors (both decisions its own), as bench rows."""
-    from agents.specs import make_navigator
-    from cmdp_pymunk.eventfloor import calibration_for
-    from cmdp_pymunk.rollout import run_episode
-    from training.runs.runner import make_engine
-
     case = cmdp_pymunk.load_case(None)
     engine = make_engine(case, evaluator, "scripted", fidelity="event",
                          calibration=calibration_for(case))
@@ -151,11 +154,6 @@ class Args:
 
 
 def main(argv: list[str] | None = None) -> int:
-    import torch
-    from sb3_contrib import MaskablePPO
-    from stable_baselines3.common.utils import set_random_seed
-    from stable_baselines3.common.vec_env import DummyVecEnv
-
     argv = list(sys.argv[1:] if argv is None else argv)
     p = OneLineParser(prog="python -m training.research.lift_finetune",
                       description=__doc__.split("\n")[0])

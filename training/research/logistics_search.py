@@ -33,9 +33,11 @@ import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import cma
 import numpy as np
 
 import cmdp_pymunk
+from agents.specs import evaluator_from_spec
 from cmdp_pymunk import add_version_flag
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 from cmdp_pymunk.events import write_atomic
@@ -99,10 +101,6 @@ def search(config: SearchConfig, log=print) -> tuple[Learned, list[dict], dict]:
     """CMA-ES over the rule's weights on the training seeds; then the best rule seen against
     the shipped roles on the selection seeds. Returns the rule, the search's history (one row
     a candidate) and the selection's paired numbers."""
-    import cma
-
-    from agents.specs import evaluator_from_spec
-
     case = cmdp_pymunk.load_case(None)
     calibration = calibration_for(case)
     evaluator = evaluator_from_spec(config.evaluator)
