@@ -20,16 +20,24 @@ so the free floor is what a perfect dirty tracking of them would leave: the tabl
 their effects (Table 1, the pace draws), P_cons (Eq. 2) and the next event's time, the target
 evaluation (Eq. 9), and the walks. It prints CPU ms a floor of each, round by round, and the
 ratio of the medians. A bound, not a setting: the free floor writes no log and counts nothing.
+
+First, untimed, what ends each span (each event) on those seeds: P_cons' next change (a task
+ends, a load is full or runs out, a storage reaches its reorder point, the crane is done:
+``construct.next_change_in``), a walk arriving, a row of Table 1 due in the next second, or the
+rest (a re-evaluation due, a disruption, the stall guard, the time limit). Events are the
+model's own: fewer of them means another model, not a faster loop.
 """
 
 from __future__ import annotations
 
 import argparse
+import collections
+import math
 import statistics
 import time
 
 import cmdp_pymunk
-from cmdp_pymunk import engine, metrics, reward
+from cmdp_pymunk import construct, engine, metrics, reward
 from cmdp_pymunk.eventfloor import EventFloor, calibration_for
 from cmdp_pymunk.eventfloor import floor as event_floor
 from training.cli import seed_list
@@ -70,6 +78,38 @@ def play(floor: EventFloor, seeds: list[int]) -> tuple[float, list]:
     return (time.process_time() - start) / len(seeds) * 1000.0, makespans
 
 
+def event_causes(floor: EventFloor, seeds: list[int]) -> dict[str, float]:
+    """What ended each span on ``seeds``, per floor (the module doc's four causes)."""
+    motion = floor.motion
+    span_s = motion.span_s
+    causes: collections.Counter = collections.Counter()
+
+    def counted(engine_):
+        k = span_s(engine_)
+        site, now = engine_.site, engine_.site.time_s
+        change = construct.next_change_in(site, engine_.positions, motion.invasion_of,
+                                          engine_.lift_levels)
+        if change < math.inf and max(1, math.ceil(change - 1e-9)) == k:
+            causes["P_cons' next change"] += 1
+        elif any(walk is not None and crew.moving and walk.arrival_s == now + k
+                 for walk, crew in zip(motion.walks, site.crews, strict=True)):
+            causes["a walk arrives"] += 1
+        elif k == 1:
+            causes["a row due in the next second"] += 1
+        else:
+            causes["the rest"] += 1
+        return k
+
+    motion.span_s = counted  # this floor's motion only, for these seeds
+    try:
+        for seed in seeds:
+            floor.reset(seed)
+            floor.run()
+    finally:
+        del motion.span_s
+    return {cause: n / len(seeds) for cause, n in causes.most_common()}
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     cmdp_pymunk.add_version_flag(p)
@@ -86,6 +126,9 @@ def main(argv: list[str] | None = None) -> int:
         floor.reset(0)
         floor.run()  # the case's paths planned (untimed)
         floors.append(floor)
+    causes = event_causes(floors[0], seeds)
+    print(f"events a floor, {sum(causes.values()):.0f}, by what ends the span: " +
+          ", ".join(f"{cause} {n:.1f}" for cause, n in causes.items()), flush=True)
     rows = {"as shipped": [], "bookkeeping free": []}
     for r in range(args.rounds):
         ms, want = play(floors[0], seeds)

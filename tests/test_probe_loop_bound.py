@@ -32,3 +32,16 @@ def test_a_pass_that_feeds_the_dynamics_is_refused(monkeypatch):
         assert "makespans differ" in str(stop)
     else:
         raise AssertionError("a pass feeding the dynamics was not refused")
+
+
+def test_every_span_is_put_down_to_one_cause_and_the_motion_is_left_as_it_was():
+    import cmdp_pymunk
+    from cmdp_pymunk.eventfloor import EventFloor
+
+    floor = EventFloor(cmdp_pymunk.load_case(None), evaluator="priority", stall_s=3600.0)
+    causes = probe.event_causes(floor, [3])
+    assert set(causes) <= {"P_cons' next change", "a walk arrives",
+                           "a row due in the next second", "the rest"}
+    assert sum(causes.values()) == floor.spans_run  # one cause a span (seed 3's spans)
+    assert causes["P_cons' next change"] > 0 and causes["a walk arrives"] > 0
+    assert "span_s" not in vars(floor.motion)  # the class's own again
