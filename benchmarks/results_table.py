@@ -26,7 +26,8 @@ not used: it needs ``arch<8``, and arch 7.2 fails to import beside pandas 3 (whi
 pulls in here), while arch 8 breaks rliable's bootstrap (``random_state`` is refused).
 
 Writes ``OUT/episodes.csv`` (one row per variant, strategy and seed), ``OUT/table.md`` and
-``OUT/table.json``, atomically; prints the table. docs/results.md holds a run's output.
+``OUT/table.json``, atomically; prints the table. docs/results.md holds a run's makespans,
+docs/research-log.md its whole output.
 """
 
 from __future__ import annotations
