@@ -15,7 +15,7 @@ import pettingzoo
 import cmdp_pymunk  # noqa: F401  (registers the cmdp/ variants)
 from agents.navigator import Navigator
 from cmdp_pymunk.schedule import task_bars
-from media.charts import gantt_agents, gantt_tasks
+from media.gantt import gantt_agents, gantt_tasks
 
 
 def main(argv=None) -> list[Path]:

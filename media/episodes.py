@@ -16,8 +16,8 @@ docs/event-floor.md) say so in the titles (:func:`floor_note`), so that no chart
 for the pymunk floor's. Times in seconds in, hours on the axes; the P50/P80/P90 lines are
 labelled in hours with the seconds beside them (``P80 9.17 h (33,000 s)``). With a working
 calendar (``cmdp-simulate --start``, the case's ``[calendar]``) the hours are simulated working
-hours, a date axis runs on top (``media.charts.date_ticks``) and the percentiles' labels end
-with their dates. Rendered off-screen and written atomically, like ``media.charts``.
+hours, a date axis runs on top (``media.figures.date_ticks``) and the percentiles' labels end
+with their dates. Rendered off-screen and written atomically (``media.figures.save_png``).
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ from cmdp_pymunk.cases.load import Calendar
 from cmdp_pymunk.report import PERCENTILES
 from cmdp_pymunk.schedule import tasks_ended
 from cmdp_pymunk.workcalendar import calendar_datetime
-from media.charts import HOUR_S, _date_axis, save_png
+from media.figures import _date_axis, save_png
+from media.timeline import HOUR_S
 
 EPISODE_FILES = ("makespan_histogram.png", "s_curve.png")
 BAND = (10, 90)  # the S-curve's band: percentiles over episodes at each time

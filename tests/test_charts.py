@@ -1,5 +1,6 @@
-"""Figs. 9-11 (media/charts.py), drawn from the hand-made event log of ``conftest.RUN`` on the
-tiny case."""
+"""Figs. 9-11 (media/gantt.py, media/layout_views.py; the log read by media/timeline.py), the
+GIF writer (media/gif.py) and a run folder's charts (media/charts.py), drawn from the hand-made
+event log of ``conftest.RUN`` on the tiny case."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 from conftest import RUN, distinct_colours, make_events, make_log
 
 from cmdp_pymunk.events import Event, write_atomic
-from media import charts
+from media import charts, figures, gantt, gif, layout_views, timeline
 
 TASKING_RED = (214, 39, 40)  # #d62728, Fig. 9's tasking colour
 
@@ -23,7 +24,7 @@ def run_dir(tmp_path):
 
 
 def test_activity_intervals_by_hand():
-    iv = charts.activity_intervals(make_events())
+    iv = timeline.activity_intervals(make_events())
     assert list(iv) == ["X-1", "K-1", "M-1", "M-2"]  # the order crews first appear
     as_tuples = {crew: [tuple(i) for i in ivs] for crew, ivs in iv.items()}
     # X-1 leaves at 290: nothing after it.
@@ -47,34 +48,34 @@ def test_activity_intervals_end_at_the_given_time_and_drop_empty_ones():
     events = make_events([(0, "activity", "A-1", "navigating"),
                           (0, "activity", "A-1", "tasking"),  # replaces the first at once
                           (50, "activity", "B-1", "navigating")])
-    iv = charts.activity_intervals(events, end_s=80)
+    iv = timeline.activity_intervals(events, end_s=80)
     assert [tuple(i) for i in iv["A-1"]] == [(0, 80, "tasking")]
     assert [tuple(i) for i in iv["B-1"]] == [(50, 80, "navigating")]
-    assert charts.activity_intervals([]) == {}
+    assert timeline.activity_intervals([]) == {}
 
 
 def test_crew_paths_and_execution_order(tiny_case):
     events = make_events()
-    paths = charts.crew_paths(events)
+    paths = timeline.crew_paths(events)
     assert list(paths) == ["X-1", "K-1", "M-1"]
     np.testing.assert_array_equal(paths["X-1"], [[0, -6, 3], [5, -5, 2], [135, -1, 1],
                                                  [150, 3, 0.5], [285, -2, -2]])
-    assert charts.execution_order(events, tiny_case, "X-1") == ["A", "B"]
-    assert charts.execution_order(events, tiny_case, "M-1") == ["C"]  # resumed: counted once
-    assert charts.execution_order(events, tiny_case, "M-2") == []
-    assert charts.default_crew(tiny_case) == "X-1"  # no HIC in the tiny case: the first crew
+    assert timeline.execution_order(events, tiny_case, "X-1") == ["A", "B"]
+    assert timeline.execution_order(events, tiny_case, "M-1") == ["C"]  # resumed: counted once
+    assert timeline.execution_order(events, tiny_case, "M-2") == []
+    assert layout_views.default_crew(tiny_case) == "X-1"  # no HIC in the tiny case: the first crew
 
 
 def test_widths_grow_with_time():
     # times 0, 10, 30: segment midpoints 5 and 20, so fractions 5/30 and 20/30 of the span.
-    w = charts.widths_by_time(np.array([0.0, 10.0, 30.0]), narrow=1.0, wide=4.0)
+    w = layout_views.widths_by_time(np.array([0.0, 10.0, 30.0]), narrow=1.0, wide=4.0)
     np.testing.assert_allclose(w, [1.0 + 3.0 * 5 / 30, 1.0 + 3.0 * 20 / 30])
-    assert charts.widths_by_time(np.array([7.0])).shape == (0,)
+    assert layout_views.widths_by_time(np.array([7.0])).shape == (0,)
 
 
 def test_task_types_from_case_or_prefix(tiny_case):
-    assert charts.task_types(tiny_case, ["K-A", "Z-Q"]) == {"K-A": "K", "Z-Q": "Z"}
-    assert charts.task_types(None, ["JC-P-11"]) == {"JC-P-11": "JC"}
+    assert timeline.task_types(tiny_case, ["K-A", "Z-Q"]) == {"K-A": "K", "Z-Q": "Z"}
+    assert timeline.task_types(None, ["JC-P-11"]) == {"JC-P-11": "JC"}
 
 
 def test_draw_run_writes_three_legible_pngs(run_dir, tiny_case):
@@ -101,7 +102,7 @@ def test_draw_run_refuses_a_log_of_another_case(run_dir):
 
 def test_trajectories_rejects_an_unknown_crew(tiny_case, tmp_path):
     with pytest.raises(ValueError, match="one of X-1, K-1, M-1, M-2"):
-        charts.trajectories(make_events(), tiny_case, tmp_path / "t.png", crew="HIC-1")
+        layout_views.trajectories(make_events(), tiny_case, tmp_path / "t.png", crew="HIC-1")
 
 
 def test_cli(tmp_path, capsys):
@@ -131,14 +132,14 @@ def test_cli_finds_the_resolved_case_json(tmp_path, tiny_case, capsys):
 
 def test_write_gif(tmp_path):
     frames = [np.full((12, 16, 3), 40 * i, dtype=np.uint8) for i in range(4)]
-    path = charts.write_gif(iter(frames), tmp_path / "a.gif", 0.25)
+    path = gif.write_gif(iter(frames), tmp_path / "a.gif", 0.25)
     back = iio.imread(path, index=None)
     assert back.shape == (4, 12, 16, 3)
     assert iio.immeta(path, index=0)["duration"] == 250  # ms
     with pytest.raises(ValueError, match="frame 1"):
-        charts.write_gif([frames[0], frames[1][..., :2]], tmp_path / "b.gif", 0.25)
+        gif.write_gif([frames[0], frames[1][..., :2]], tmp_path / "b.gif", 0.25)
     with pytest.raises(ValueError, match="no frames"):
-        charts.write_gif([], tmp_path / "c.gif", 0.25)
+        gif.write_gif([], tmp_path / "c.gif", 0.25)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.gif"]  # no temporary left
 
 
@@ -152,10 +153,10 @@ def test_gif_stream_merges_repeats_and_stores_changed_rectangles(tmp_path):
     b[4:6, 7:10] = (200, 30, 30)
     c = b.copy()
     c[0, 0] = (1, 2, 3)
-    with charts.GifStream(tmp_path / "s.gif", 0.1) as gif:
+    with gif.GifStream(tmp_path / "s.gif", 0.1) as stream:
         for frame in (a, a, a, b, c):
-            gif.append(frame)
-    assert (gif.frames, gif.stored) == (5, 3)
+            stream.append(frame)
+    assert (stream.frames, stream.stored) == (5, 3)
     back = iio.imread(tmp_path / "s.gif", index=None)
     assert back.shape == (3, 10, 14, 3)
     for got, want in zip(back, (a, b, c), strict=True):
@@ -172,8 +173,8 @@ def test_gif_stream_merges_repeats_and_stores_changed_rectangles(tmp_path):
 
 def test_gif_stream_leaves_nothing_when_interrupted(tmp_path):
     with pytest.raises(KeyboardInterrupt):
-        with charts.GifStream(tmp_path / "x.gif", 0.1) as gif:
-            gif.append(np.zeros((4, 4, 3), np.uint8))
+        with gif.GifStream(tmp_path / "x.gif", 0.1) as stream:
+            stream.append(np.zeros((4, 4, 3), np.uint8))
             raise KeyboardInterrupt
     assert list(tmp_path.iterdir()) == []
 
@@ -184,10 +185,10 @@ def test_every_crew_gets_its_own_small_panel(tiny_case):
 
     paths = {"RC-1": np.array([[0.0, -1.0, 0.0], [5.0, 1.0, 0.5], [9.0, 2.0, 1.0]]),
              "HIC-1": np.array([[0.0, 2.0, 2.0], [4.0, 2.0, -1.0]])}
-    axes = charts.crew_multiples(Figure(), paths, tiny_case, ["HIC-1", "RC-1"])
+    axes = layout_views.crew_multiples(Figure(), paths, tiny_case, ["HIC-1", "RC-1"])
     assert [ax.get_title() for ax in axes] == ["HIC-1", "RC-1"]
     segments = [len(c.get_segments()) for ax in axes for c in ax.collections
-                if isinstance(c, charts.LineCollection)]
+                if isinstance(c, layout_views.LineCollection)]
     assert segments == [1, 2]  # a path of k points is k - 1 segments
 
 
@@ -205,33 +206,33 @@ CUT = [r for r in RUN if r[0] <= 400]
 def test_run_end_by_hand():
     events = make_events()
     # finished: the makespan is M-C's finish, 500 s = 0.139 h
-    end = charts.run_end(events, 4)
-    assert end == charts.RunEnd("finished", 500, 4, 4) and end.finished
+    end = timeline.run_end(events, 4)
+    assert end == timeline.RunEnd("finished", 500, 4, 4) and end.finished
     assert end.label() == "makespan 0.14 h (500 s)"
-    assert charts.run_end(events, 4, {"all_finished": True, "stalled": None,
-                                      "simulated_s": 500.0}) == end
+    assert timeline.run_end(events, 4, {"all_finished": True, "stalled": None,
+                                        "simulated_s": 500.0}) == end
     cut = make_events(CUT)
     # summary.json says it stalled at 720 s (after the log's last event, 400 s): 0.2 h
-    stalled = charts.run_end(cut, 4, {"all_finished": False, "simulated_s": 720.0,
-                                      "stalled": {"time_s": 720.0, "after_s": 320.0}})
-    assert stalled == charts.RunEnd("stalled", 720, 3, 4) and not stalled.finished
+    stalled = timeline.run_end(cut, 4, {"all_finished": False, "simulated_s": 720.0,
+                                        "stalled": {"time_s": 720.0, "after_s": 320.0}})
+    assert stalled == timeline.RunEnd("stalled", 720, 3, 4) and not stalled.finished
     assert stalled.label() == "stalled at t = 0.20 h (720 s), 3 of 4 tasks ended"
-    limit = charts.run_end(cut, 4, {"all_finished": False, "stalled": None, "simulated_s": 900})
+    limit = timeline.run_end(cut, 4, {"all_finished": False, "stalled": None, "simulated_s": 900})
     assert limit.label() == "time limit at t = 0.25 h (900 s), 3 of 4 tasks ended"
     # no summary.json (or one without the keys): the log and the case's count alone
     for summary in (None, {"case": "tiny"}):
-        assert charts.run_end(cut, 4, summary).label() == \
+        assert timeline.run_end(cut, 4, summary).label() == \
             "unfinished at t = 0.11 h (400 s), 3 of 4 tasks ended"
     # a log that reads as finished by count, with no summary: the makespan
-    assert charts.run_end(cut, 3).label() == "makespan 0.08 h (300 s)"
+    assert timeline.run_end(cut, 3).label() == "makespan 0.08 h (300 s)"
 
 
 def test_a_stalled_run_s_gantt_charts_say_so_instead_of_a_makespan(tiny_case):
     cut = make_events(CUT)
-    end = charts.RunEnd("stalled", 720.0, 3, 4)
+    end = timeline.RunEnd("stalled", 720.0, 3, 4)
     label = "stalled at t = 0.20 h (720 s), 3 of 4 tasks ended"
-    tasks = charts.gantt_tasks_figure(cut, tiny_case, "Tasks: tiny", end)
-    agents = charts.gantt_agents_figure(cut, "Crews' activities: tiny", end)
+    tasks = gantt.gantt_tasks_figure(cut, tiny_case, "Tasks: tiny", end)
+    agents = gantt.gantt_agents_figure(cut, "Crews' activities: tiny", end)
     assert tasks.axes[0].get_title() == f"Tasks: tiny\n{label}"
     assert agents.axes[0].get_title() == f"Crews' activities: tiny\n{label}"
     for fig in (tasks, agents):
@@ -246,14 +247,14 @@ def test_a_stalled_run_s_gantt_charts_say_so_instead_of_a_makespan(tiny_case):
     paused = [c for c in tasks.axes[0].collections if c.get_alpha() == 0.25]
     assert [p.get_paths()[0].get_extents().x1 * 3600 for p in paused] == pytest.approx([720])
     # without ``end``, the tasks chart judges by the case: 3 of its 4 tasks ended
-    texts = chart_texts(charts.gantt_tasks_figure(cut, tiny_case))
+    texts = chart_texts(gantt.gantt_tasks_figure(cut, tiny_case))
     assert "unfinished at t = 0.11 h (400 s), 3 of 4 tasks ended" in texts
 
 
 def test_a_run_that_started_few_tasks_says_how_many(tiny_case):
     # the log ends at 160 s (0.044 h): X-A ended, X-B and K-A just started, M-C not
     events = make_events([r for r in CUT if r[0] <= 160])
-    fig = charts.gantt_tasks_figure(events, tiny_case, end=charts.run_end(events, 4))
+    fig = gantt.gantt_tasks_figure(events, tiny_case, end=timeline.run_end(events, 4))
     assert fig.axes[0].get_ylabel() == "3 of 4 tasks started, by start time"
     assert fig.axes[0].get_title() == \
         "Tasks (Fig. 10)\nunfinished at t = 0.04 h (160 s), 1 of 4 tasks ended"
@@ -261,15 +262,15 @@ def test_a_run_that_started_few_tasks_says_how_many(tiny_case):
 
 def test_a_finished_run_s_gantt_charts_still_say_makespan(tiny_case):
     events = make_events()
-    for fig in (charts.gantt_tasks_figure(events, tiny_case, "Tasks: tiny"),
-                charts.gantt_agents_figure(events, "Crews' activities: tiny",
-                                           charts.run_end(events, 4))):
+    for fig in (gantt.gantt_tasks_figure(events, tiny_case, "Tasks: tiny"),
+                gantt.gantt_agents_figure(events, "Crews' activities: tiny",
+                                          timeline.run_end(events, 4))):
         assert fig.axes[0].get_title() in ("Tasks: tiny", "Crews' activities: tiny")
         texts = chart_texts(fig)
         assert "makespan 0.14 h (500 s)" in texts
         assert not [t for t in texts if "stalled" in t or "unfinished" in t]
     # no case, no end (an old caller): the last finish is the makespan, as before
-    assert "makespan 0.14 h (500 s)" in chart_texts(charts.gantt_agents_figure(events))
+    assert "makespan 0.14 h (500 s)" in chart_texts(gantt.gantt_agents_figure(events))
 
 
 def test_draw_run_reads_how_the_run_ended_from_summary_json(run_dir, tiny_case, monkeypatch):
@@ -277,8 +278,8 @@ def test_draw_run_reads_how_the_run_ended_from_summary_json(run_dir, tiny_case, 
     write_atomic(run_dir / "summary.json", json.dumps(
         {"all_finished": False, "stalled": {"time_s": 720.0}, "simulated_s": 720.0}))
     drawn = []
-    real = charts.gantt_tasks_figure
-    monkeypatch.setattr(charts, "gantt_tasks_figure",
+    real = gantt.gantt_tasks_figure
+    monkeypatch.setattr(gantt, "gantt_tasks_figure",
                         lambda *a, **k: drawn.append(real(*a, **k)) or drawn[-1])
     assert charts.main([str(run_dir), "--case", str(run_dir / "case.json")]) == 2  # no such
     write_atomic(run_dir / "case.json", json.dumps(tiny_case.model_dump(mode="json")))
@@ -300,11 +301,11 @@ def test_with_a_calendar_the_gantt_charts_get_a_date_axis(tiny_case):
     calendar = Calendar(start="2026-01-09T15:55", holidays=["2026-01-12"])
     case = tiny_case.model_copy(update={"calendar": calendar})
     events = make_events()
-    assert charts.date_ticks(calendar, 540) == [(0.0, "Fri 09 Jan 15:55"),
+    assert figures.date_ticks(calendar, 540) == [(0.0, "Fri 09 Jan 15:55"),
                                                 (pytest.approx(300 / 3600), "Tue 13 Jan")]
-    for fig in (charts.gantt_tasks_figure(events, case, "Tasks: tiny"),
-                charts.gantt_agents_figure(events, "Crews' activities: tiny",
-                                           charts.run_end(events, 4), calendar)):
+    for fig in (gantt.gantt_tasks_figure(events, case, "Tasks: tiny"),
+                gantt.gantt_agents_figure(events, "Crews' activities: tiny",
+                                          timeline.run_end(events, 4), calendar)):
         ax = fig.axes[0]
         top = ax.child_axes[0]
         assert [t.get_text() for t in top.get_xticklabels()] == ["Fri 09 Jan 15:55",
@@ -314,10 +315,10 @@ def test_with_a_calendar_the_gantt_charts_get_a_date_axis(tiny_case):
         assert ax.get_xlabel() == "simulated working time (h)"
         assert "makespan 0.14 h (500 s), Tue 2026-01-13 08:03" in chart_texts(fig)
     # over many working days every k-th opening is labelled: 40 days -> every 4th
-    ticks = charts.date_ticks(calendar, 300 + 39 * 28800)
+    ticks = figures.date_ticks(calendar, 300 + 39 * 28800)
     assert len(ticks) == 11 and ticks[1][1] == "Fri 16 Jan"  # Tue, Wed, Thu, [Fri]
     # without a calendar: no date axis, as before
-    assert charts.gantt_tasks_figure(events, tiny_case).axes[0].child_axes == []
+    assert gantt.gantt_tasks_figure(events, tiny_case).axes[0].child_axes == []
 
 
 def test_s_curve_title_says_how_many_episodes_finished():
@@ -341,7 +342,7 @@ def test_stall_picture_draws_a_hand_made_stall_report(tmp_path, tiny_case):
                        "distance_m": 2.5}, "way_m": [[2.0, -2.0], [1.5, -1.5], [1.0, -1.0]]},
                   {"crew": "M-2", "radius_m": 0.56, "activity": "idle_no_target",
                    "position_m": [6.0, 3.0], "heading_for": None}]}
-    path = charts.stall_picture(report, tiny_case, tmp_path / "stall.png", make_events())
+    path = layout_views.stall_picture(report, tiny_case, tmp_path / "stall.png", make_events())
     assert path.read_bytes()[:4] == b"\x89PNG" and not list(tmp_path.glob(".*.tmp"))
 
 
@@ -360,7 +361,7 @@ def test_crews_busy_counted_by_hand():
     each of those times (a switch between two busy activities, at 220 and 400, changes
     nothing); 0 is always a step."""
     crew_types = {"X-1": "XC", "K-1": "KC", "M-1": "MC", "M-2": "MC"}
-    profile = charts.crews_busy(make_events(), crew_types)
+    profile = timeline.crews_busy(make_events(), crew_types)
     times = [0, 10, 130, 160, 220, 280, 300, 320, 350, 370, 400, 430, 440, 500]
     assert profile.times_s.tolist() == times
     assert list(profile.counts) == ["XC", "KC", "MC"]
@@ -376,28 +377,28 @@ def test_crane_lifts_and_busy_share_per_bin_by_hand():
     """Bins of 200 s up to 540 s: [0, 200), [200, 400), [400, 600). Both lifts land in the
     second bin; the assist's 30 s (190-220) puts 10 s in the first bin and 20 s in the
     second, the material lift's 60 s (300-360) all in the second: shares 10/200, 80/200, 0."""
-    lifts = charts.crane_lifts(make_events() + CRANE)
+    lifts = timeline.crane_lifts(make_events() + CRANE)
     assert lifts == [(220.0, "task"), (360.0, "material")]
-    starts, count, busy = charts.crane_per_bin(lifts, {"material": 60.0, "task": 30.0}, 540.0,
-                                               bin_s=200.0)
+    starts, count, busy = timeline.crane_per_bin(lifts, {"material": 60.0, "task": 30.0}, 540.0,
+                                                 bin_s=200.0)
     assert starts.tolist() == [0, 200, 400]
     assert {k: v.tolist() for k, v in count.items()} == {"material": [0, 1, 0],
                                                          "task": [0, 1, 0]}
     assert busy.tolist() == pytest.approx([0.05, 0.4, 0.0])
     # a lift landing on a bin's edge counts in the later bin; its time before it in the earlier
-    _, count, busy = charts.crane_per_bin([(400.0, "material")], {"material": 60.0}, 540.0,
-                                          bin_s=200.0)
+    _, count, busy = timeline.crane_per_bin([(400.0, "material")], {"material": 60.0}, 540.0,
+                                            bin_s=200.0)
     assert count["material"].tolist() == [0, 0, 1]
     assert busy.tolist() == pytest.approx([0.0, 0.3, 0.0])
 
 
 def test_resource_profile_chart(tmp_path, tiny_case):
-    fig = charts.resource_profile_figure(make_events() + CRANE, tiny_case)
+    fig = gantt.resource_profile_figure(make_events() + CRANE, tiny_case)
     texts = chart_texts(fig)
     assert "MC: rebar crew (2 crews)" in texts and "XC: cleaning crew (1 crew)" in texts
     assert "material lifts" in texts and "hoisting assists" in texts
     assert "crane lifts\nper 15 min" in texts  # a run under 4 h: bins of 15 minutes
     assert "makespan 0.14 h (500 s)" in texts
-    path = charts.resource_profile(make_events() + CRANE, tiny_case, tmp_path / "r.png")
+    path = gantt.resource_profile(make_events() + CRANE, tiny_case, tmp_path / "r.png")
     image = iio.imread(path)
     assert image.shape[1] >= 600 and distinct_colours(image) > 20

@@ -441,8 +441,8 @@ def test_no_stall_on_the_disrupted_floor_with_the_heuristic(first):
 
 def test_disruption_intervals_from_a_hand_made_log():
     from cmdp_pymunk.events import Event
-    from media.charts import Disruption as Band
-    from media.charts import disruption_intervals
+    from media.timeline import Disruption as Band
+    from media.timeline import disruption_intervals
 
     log = [Event(10.0, "disruption_start", "", "crane", "crane_breakdown"),
            Event(20.0, "disruption_start", "X-1", "X-1", "absence"),
@@ -455,16 +455,16 @@ def test_disruption_intervals_from_a_hand_made_log():
 
 
 def test_the_gantt_charts_draw_the_bands(tmp_path):
-    from media import charts
+    from media import gantt, timeline
 
     # X-1 away [50, 110) puts K-A's crane request at 189 (129 + 60); the crane breaks down
     # [200, 300) while it assists: K-1 idle for the breakdown exactly then
     e = run({"crane_breakdowns": [{"at_s": 200.0, "duration_s": 100.0}],
              "absences": [{"crew": "X-1", "at_s": 50.0, "duration_s": 60.0}]})
-    intervals = charts.activity_intervals(e.log.events)
-    assert charts.ActivityInterval(50.0, 110.0, "idle_absence") in intervals["X-1"]
-    assert charts.ActivityInterval(200.0, 300.0, "idle_crane_breakdown") in intervals["K-1"]
-    for draw in (charts.gantt_agents, charts.gantt_tasks):
+    intervals = timeline.activity_intervals(e.log.events)
+    assert timeline.ActivityInterval(50.0, 110.0, "idle_absence") in intervals["X-1"]
+    assert timeline.ActivityInterval(200.0, 300.0, "idle_crane_breakdown") in intervals["K-1"]
+    for draw in (gantt.gantt_agents, gantt.gantt_tasks):
         path = draw(e.log.events, tmp_path / f"{draw.__name__}.png")
         assert path.stat().st_size > 1000
 

@@ -1,11 +1,11 @@
 """Charts of many episodes (media/episodes.py), from hand-made makespans and finish times, and
-Fig. 10's task ids (media/charts.py) on a log of more tasks than fit an unlabelled axis."""
+Fig. 10's task ids (media/gantt.py) on a log of more tasks than fit an unlabelled axis."""
 
 import imageio.v3 as iio
 from conftest import make_events
 
 from cmdp_pymunk.report import makespan_stats
-from media import charts
+from media import gantt
 from media.episodes import draw_episodes
 
 # three episodes of 4 tasks; the third stops after 2
@@ -36,8 +36,8 @@ def test_every_task_row_carries_its_id(tmp_path, monkeypatch):
     rows = [(10 * i, "task_start", "X-1", f"T-{i:02d}") for i in range(90)]
     rows += [(10 * i + 5, "task_finish", "X-1", f"T-{i:02d}") for i in range(90)]
     figures = []
-    monkeypatch.setattr(charts, "save_png", lambda fig, path: figures.append(fig) or path)
-    charts.gantt_tasks(make_events(sorted(rows)), tmp_path / "g.png")
+    monkeypatch.setattr(gantt, "save_png", lambda fig, path: figures.append(fig) or path)
+    gantt.gantt_tasks(make_events(sorted(rows)), tmp_path / "g.png")
     labels = [t.get_text() for t in figures[0].axes[0].get_yticklabels()]
     assert labels == [f"T-{i:02d}" for i in range(90)]  # by start time, the first on top
 

@@ -154,7 +154,7 @@ def test_gif_is_written(tmp_path):
 
 def test_a_ctrl_c_while_the_gif_streams_leaves_no_half_gif(tmp_path, monkeypatch, capsys):
     """The frames go to a temporary file as they are drawn: a Ctrl-C mid-episode deletes it."""
-    from media.charts import GifStream
+    from media.gif import GifStream
 
     real = GifStream.append
 
@@ -192,12 +192,12 @@ class Frozen:
 def gantt_figures(monkeypatch):
     """The Gantt figures cmdp-simulate draws, by function name (their texts are checked, not
     their pixels)."""
-    from media import charts
+    from media import gantt
 
     drawn = {}
 
     def spying(name):
-        real = getattr(charts, name)
+        real = getattr(gantt, name)
 
         def spy(*args, **kwargs):
             drawn[name] = real(*args, **kwargs)
@@ -205,7 +205,7 @@ def gantt_figures(monkeypatch):
         return spy
 
     for name in ("gantt_agents_figure", "gantt_tasks_figure"):
-        monkeypatch.setattr(charts, name, spying(name))
+        monkeypatch.setattr(gantt, name, spying(name))
     return drawn
 
 

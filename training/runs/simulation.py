@@ -261,7 +261,7 @@ def write_outputs(run: SeedRun, folder: Path, args: SimulateArgs, case, cpsat=No
         export_4d(args.ifc, case, task_bars(run.events),
                   folder / f"{args.ifc.stem}-4d.ifc", start)
     if data["stalled"]:  # where it stuck, drawn even without charts: the first thing to see
-        from media.charts import stall_picture
+        from media.layout_views import stall_picture
 
         stall_picture(data["stalled"], case, folder / "stall.png", run.events)
     if args.charts and args.seed_charts:
@@ -299,7 +299,7 @@ def frame_interval(case, lb) -> float:
     """Simulated seconds between GIF frames, so the floor plays in GIF_SECONDS or less.
 
     Sized on three times the lower bound (heuristic makespans sit at about twice it). The
-    frames are written as they come (``media.charts.GifStream``), so an episode longer than
+    frames are written as they come (``media.gif.GifStream``), so an episode longer than
     that plays longer.
     """
     return max(case.simulation.step_s, math.ceil(3 * lb.lower_bound_s / (GIF_SECONDS * GIF_FPS)))
@@ -575,7 +575,7 @@ def play_seeds(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, 
             gif, made_folder = None, not folder.exists()
             try:
                 if seed in here:
-                    from media.charts import GifStream
+                    from media.gif import GifStream
                     from media.render import draw_frame
 
                     gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
