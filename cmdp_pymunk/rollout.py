@@ -88,7 +88,7 @@ def run_episode(engine: Engine, low_level: LowLevel, seed: int, stall_s: float |
         progress: show a tqdm bar of the tasks ended (the simulated time beside it).
         frame_every_s: draw a frame every this many simulated seconds (None: no frames) with
             ``render(engine)`` (e.g. ``media.render.draw_frame``).
-        on_frame: where each frame goes as it is drawn (e.g. ``media.charts.GifStream.append``,
+        on_frame: where each frame goes as it is drawn (e.g. ``media.gif.GifStream.append``,
             so that no frame is held); None keeps them in ``Episode.frames``.
     """
     from tqdm import tqdm

@@ -85,7 +85,7 @@ anything runs; ``summary.json`` records it (``logistics``) and the console heade
 An episode that stops making progress (no task moves on for ``--stall-s`` simulated seconds)
 is stopped and reported in prose (``report.stall_text``: when, each walking crew's target and
 how far it stands from it, what the others do, the tasks on and queued) with a picture,
-``stall.png`` in its folder (``media.charts.stall_picture``: the crews where they stand, the
+``stall.png`` in its folder (``media.layout_views.stall_picture``: the crews where they stand, the
 targets, the ways they meant to walk, their last minutes of path), drawn even with
 ``--no-charts``; ``summary.json``'s ``stalled`` keeps the report as data. The command then
 exits with 1.
