@@ -5,6 +5,11 @@ PY := $(VENV)/bin/python
 export SDL_VIDEODRIVER := dummy
 export SDL_AUDIODRIVER := dummy
 export PYGAME_HIDE_SUPPORT_PROMPT := 1
+# Python's bytecode caches are written (into __pycache__, ignored by git) even where the
+# environment turns them off (PYTHONDONTWRITEBYTECODE, set on the development machines): without
+# them pytest rewrites the asserts of every test module again in each of the gate's workers at
+# every run (collection 13.3 s instead of 7.5 s a worker) and each process compiles the package.
+unexport PYTHONDONTWRITEBYTECODE
 
 .PHONY: demo test test-slow test-nightly test-ray test-wheel docs lint bench clean
 
