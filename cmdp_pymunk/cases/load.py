@@ -386,21 +386,53 @@ def _shared_start_problems(parts: _Parts) -> list[str]:
 
 
 def _semantic_problems(parts: _Parts) -> list[str]:
-    """Cross-references, geometry and precedence: what field-by-field validation cannot see."""
+    """Cross-references, geometry and precedence: what field-by-field validation cannot see.
+    One group a function, in the order the problems are listed: the task types, where crews
+    start, ids used twice, the layout (components, storages, what stands on them), the tasks."""
+    frame = _Frame.of(parts.plane)
+    return (_task_type_problems(parts) + _start_problems(parts, frame)
+            + _duplicate_id_problems(parts) + _layout_problems(parts, frame)
+            + _task_problems(parts))
+
+
+def _unknown(parts: _Parts, section: str, name: str) -> bool:
+    """``name`` is not among the names the file defines in ``section`` (a section missing or
+    unusable is reported apart: nothing in it is unknown)."""
+    return parts.names[section] is not None and name not in parts.names[section]
+
+
+@dataclass(frozen=True)
+class _Frame:
+    """The plane's extent as the checks word it (None where the plane did not validate)."""
+
+    half_w: float
+    half_h: float
+    bounds: str  # "[-w, w] x [-h, h]", for the messages
+
+    @classmethod
+    def of(cls, plane: Plane | None) -> _Frame | None:
+        if plane is None:
+            return None
+        half_w, half_h = plane.half_extents
+        return cls(half_w, half_h, f"[-{half_w:g}, {half_w:g}] x [-{half_h:g}, {half_h:g}]")
+
+    def outside(self, x0: float, y0: float, x1: float, y1: float) -> bool:
+        return x0 < -self.half_w or x1 > self.half_w or y0 < -self.half_h or y1 > self.half_h
+
+
+def _task_type_problems(parts: _Parts) -> list[str]:
+    """Each task type's crew type and material (known, supplied by a storage, carried), and
+    one material per crew type."""
     problems: list[str] = []
     names = parts.names
-
-    def unknown(section: str, name: str) -> bool:
-        return names[section] is not None and name not in names[section]
-
     for name, tt in parts.task_types.items():
         where = f"task_types.{name}"
-        if unknown("crew_types", tt.crew_type):
+        if _unknown(parts, "crew_types", tt.crew_type):
             problems.append(f'{where}: crew_type names unknown crew type "{tt.crew_type}"'
                             f"{_did_you_mean(tt.crew_type, names['crew_types'])}")
         if tt.material is None:
             continue
-        if unknown("materials", tt.material):
+        if _unknown(parts, "materials", tt.material):
             problems.append(f'{where}: material "{tt.material}" is not in [materials]'
                             f"{_did_you_mean(tt.material, names['materials'])}")
         elif parts.storage_materials is not None and tt.material not in parts.storage_materials:
@@ -421,43 +453,52 @@ def _semantic_problems(parts: _Parts) -> list[str]:
             problems.append(f"crew_types.{crew_type}: its task types need different materials "
                             f"({listed}) but a crew carries one; "
                             "fix: give these task types to different crew types")
+    return problems
 
+
+def _start_problems(parts: _Parts, frame: _Frame | None) -> list[str]:
+    """The outlet and the crews' starts on the plane, the crews' types, shared starts."""
+    problems: list[str] = []
     plane = parts.plane
-    if plane is not None:
-        half_w, half_h = plane.half_extents
-        bounds = f"[-{half_w:g}, {half_w:g}] x [-{half_h:g}, {half_h:g}]"
-
-        def outside(x0: float, y0: float, x1: float, y1: float) -> bool:
-            return x0 < -half_w or x1 > half_w or y0 < -half_h or y1 > half_h
-
-        if not (abs(plane.outlet_x_m) <= half_w and abs(plane.outlet_y_m) <= half_h):
-            problems.append(f"plane: the outlet ({plane.outlet_x_m:g}, {plane.outlet_y_m:g}) "
-                            f"lies outside the plane {bounds}; fix: move it onto the plane")
-
+    if frame is not None and not (abs(plane.outlet_x_m) <= frame.half_w
+                                  and abs(plane.outlet_y_m) <= frame.half_h):
+        problems.append(f"plane: the outlet ({plane.outlet_x_m:g}, {plane.outlet_y_m:g}) "
+                        f"lies outside the plane {frame.bounds}; fix: move it onto the plane")
     for i, crew in parts.crews:
         where = f'crews[{i}] "{crew.id}"'
-        if unknown("crew_types", crew.type):
+        if _unknown(parts, "crew_types", crew.type):
             problems.append(f'{where}: type names unknown crew type "{crew.type}"'
-                            f"{_did_you_mean(crew.type, names['crew_types'])}")
-        if plane is not None and not (abs(crew.start_x_m) < half_w
-                                      and abs(crew.start_y_m) < half_h):
+                            f"{_did_you_mean(crew.type, parts.names['crew_types'])}")
+        if frame is not None and not (abs(crew.start_x_m) < frame.half_w
+                                      and abs(crew.start_y_m) < frame.half_h):
             problems.append(f"{where}: start ({crew.start_x_m:g}, {crew.start_y_m:g}) is outside "
-                            f"the plane {bounds}; fix: move it inside")
-    problems += _shared_start_problems(parts)
+                            f"the plane {frame.bounds}; fix: move it inside")
+    return problems + _shared_start_problems(parts)
+
+
+def _duplicate_id_problems(parts: _Parts) -> list[str]:
+    """An id used twice within one list section."""
+    problems: list[str] = []
     for section in _LISTS:
         seen: set[str] = set()
-        for item_id in names[section] or ():
+        for item_id in parts.names[section] or ():
             if item_id in seen:
                 problems.append(f'{section}: id "{item_id}" is used twice; fix: rename one')
             seen.add(item_id)
+    return problems
 
+
+def _layout_problems(parts: _Parts, frame: _Frame | None) -> list[str]:
+    """Components and storages on the plane and apart, storages' materials and reorder points,
+    the outlet and the crews' starts off the components."""
+    problems: list[str] = []
     placed: list[tuple[int, Component, tuple]] = []
     for i, comp in parts.components:
         r = _rect(comp)
         where = f'components[{i}] "{comp.id}"'
-        if plane is not None and outside(*r):
+        if frame is not None and frame.outside(*r):
             problems.append(f"{where}: rectangle x {r[0]:g}..{r[2]:g}, y {r[1]:g}..{r[3]:g} "
-                            f"lies outside the plane {bounds}; fix: move or shrink it")
+                            f"lies outside the plane {frame.bounds}; fix: move or shrink it")
         for j, other, _ro in placed:
             if (size := _plan_overlap(comp, other)) is not None:
                 problems.append(_components_overlap(i, comp, j, other, size))
@@ -469,18 +510,20 @@ def _semantic_problems(parts: _Parts) -> list[str]:
                 problems.append(f'{where}: overlaps components[{j}] "{comp.id}" (crews could '
                                 "not stand in it to fetch); fix: move the storage off the "
                                 "component")
-        if unknown("materials", st.material):
+        if _unknown(parts, "materials", st.material):
             problems.append(f'{where}: material "{st.material}" is not in [materials]'
-                            f"{_did_you_mean(st.material, names['materials'])}")
+                            f"{_did_you_mean(st.material, parts.names['materials'])}")
         elif (mat := parts.materials.get(st.material)) is not None and \
                 mat.reorder_at >= st.capacity:
             problems.append(f"{where}: its capacity ({st.capacity:g}) is at most "
                             f"materials.{st.material}.reorder_at ({mat.reorder_at:g}), so it "
                             "would be re-ordered on every fetch; fix: set reorder_at below "
                             "the capacity (0: order when empty)")
-        if plane is not None and outside(*_rect(st)):
-            problems.append(f"{where}: lies outside the plane {bounds}; fix: move it inside")
+        if frame is not None and frame.outside(*_rect(st)):
+            problems.append(f"{where}: lies outside the plane {frame.bounds}; fix: move it "
+                            "inside")
 
+    plane = parts.plane
     if plane is not None:
         for j, comp, _rc in placed:
             if _on_component(comp, plane.outlet_x_m, plane.outlet_y_m):
@@ -494,11 +537,18 @@ def _semantic_problems(parts: _Parts) -> list[str]:
                 problems.append(f'crews[{i}] "{crew.id}": start ({crew.start_x_m:g}, '
                                 f'{crew.start_y_m:g}) lies inside components[{j}] "{comp.id}"'
                                 "; fix: start the crew on open floor")
+    return problems
 
+
+def _task_problems(parts: _Parts) -> list[str]:
+    """Each task's type, material and component, its predecessors, one task per crew type per
+    component, a crew for every task type in use, and no precedence cycle."""
+    problems: list[str] = []
+    names = parts.names
     tasks_of_type: dict[str, list[str]] = {}
     for i, task in parts.tasks:
         where = f'tasks[{i}] "{task.id}"'
-        if unknown("task_types", task.type):
+        if _unknown(parts, "task_types", task.type):
             problems.append(f'{where}: type names unknown task type "{task.type}"'
                             f"{_did_you_mean(task.type, names['task_types'])}")
         else:
@@ -508,13 +558,13 @@ def _semantic_problems(parts: _Parts) -> list[str]:
                 problems.append(f"{where}: material_quantity is {task.material_quantity:g} but "
                                 f"task type {task.type} needs no material; fix: remove "
                                 "material_quantity or give the task type a material")
-        if unknown("components", task.component):
+        if _unknown(parts, "components", task.component):
             problems.append(f'{where}: names component "{task.component}" which does not exist'
                             f"{_did_you_mean(task.component, names['components'])}")
         for pred in task.predecessors:
             if pred == task.id:
                 problems.append(f"{where}: precedes itself; fix: remove it from predecessors")
-            elif unknown("tasks", pred):
+            elif _unknown(parts, "tasks", pred):
                 problems.append(f'{where}: precedence names unknown task "{pred}"'
                                 f"{_did_you_mean(pred, names['tasks'])}")
     # The decision table targets components: one task per crew type per component, or the
@@ -535,7 +585,8 @@ def _semantic_problems(parts: _Parts) -> list[str]:
         tt = parts.task_types.get(type_name)
         crew_types_on_crews = parts.crew_types_on_crews
         if (tt is None or not crew_types_on_crews  # no crews at all: reported already
-                or unknown("crew_types", tt.crew_type) or tt.crew_type in crew_types_on_crews):
+                or _unknown(parts, "crew_types", tt.crew_type)
+                or tt.crew_type in crew_types_on_crews):
             continue
         problems.append(f"task_types.{type_name}: no crew performs this task type (it needs a "
                         f'"{tt.crew_type}" crew), yet {len(users)} task(s) have it, e.g. '
