@@ -234,13 +234,25 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
     calendar = calendar or getattr(case, "calendar", None) or default_calendar()
     stop = round(log_end_s(events) if end_s is None else max(end_s, log_end_s(events)))
     bars = {b.task: b for b in task_bars(events, stop)}
-    paused_since = paused_at_end(events)
     uid = {t.id: k for k, t in enumerate(case.tasks, start=1)}
     crew_uid = {c.id: k for k, c in enumerate(case.crews, start=1)}
     order = sorted(bars.values(), key=lambda b: b.start_s)  # as schedule.csv
     rows = [b.task for b in order if b.task in uid] + [t.id for t in case.tasks
                                                        if t.id not in bars]
-    spans = {}  # task -> (start s, finish s, notes), whole seconds
+    spans = _task_spans(events, rows, bars, stop)
+    x = writer("Project", {"xmlns": NAMESPACE})
+    _project(x, case, calendar, spans)
+    _tasks(x, case, calendar, rows, spans, bars, uid)
+    _resources(x, case, crew_uid)
+    _assignments(x, calendar, rows, spans, bars, uid, crew_uid)
+    return x.document()
+
+
+def _task_spans(events: Sequence[Event], rows: list[str], bars: dict, stop: int) -> dict:
+    """Each task's (start s, finish s, notes) in whole seconds: its bar, or the stop for a
+    task not started; the notes say what was left undone and the pauses."""
+    paused_since = paused_at_end(events)
+    spans = {}
     for task in rows:
         bar = bars.get(task)
         if bar is None:
@@ -256,8 +268,11 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
                 f"paused {len(pauses)} time{'s' if len(pauses) > 1 else ''} "
                 f"({sum(pauses):,.0f} s)", notes]))
         spans[task] = (start, finish, notes)
+    return spans
 
-    x = writer("Project", {"xmlns": NAMESPACE})
+
+def _project(x, case, calendar: Calendar, spans: dict) -> None:
+    """The project's own fields, the task fields' aliases and the working calendar."""
     zero = first_working_moment(calendar)
     last = max((f for _, f, _ in spans.values()), default=0)
     name = case.case.name
@@ -285,6 +300,10 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
     x.close()
     _calendar(x, calendar, f"{name} working time")
 
+
+def _tasks(x, case, calendar: Calendar, rows: list[str], spans: dict, bars: dict,
+           uid: dict) -> None:
+    """One ``Task`` a row: its dates, notes, predecessors and text fields."""
     spec = {t.id: t for t in case.tasks}
     x.open("Tasks")
     for row, task_id in enumerate(rows, start=1):
@@ -332,6 +351,9 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
         x.close()  # Task
     x.close()  # Tasks
 
+
+def _resources(x, case, crew_uid: dict) -> None:
+    """One work ``Resource`` a crew."""
     x.open("Resources")
     for crew in case.crews:
         x.open("Resource")
@@ -347,6 +369,10 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
         x.close()
     x.close()
 
+
+def _assignments(x, calendar: Calendar, rows: list[str], spans: dict, bars: dict, uid: dict,
+                 crew_uid: dict) -> None:
+    """One ``Assignment`` a started task: its crew, its dates, its work."""
     x.open("Assignments")
     started = [t for t in rows if t in bars and bars[t].crew in crew_uid]
     for k, task_id in enumerate(started, start=1):
@@ -361,7 +387,6 @@ def schedule_mspdi(events: Sequence[Event], case, end_s: float | None = None,
         x.leaf("Work", iso_duration(finish - start))
         x.close()
     x.close()
-    return x.document()
 
 
 def write_mspdi(path: str | Path, events: Sequence[Event], case, end_s: float | None = None,
