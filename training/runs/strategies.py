@@ -255,17 +255,7 @@ def compare_strategies(args: EvaluateArgs) -> int:
     """Every strategy x low level x seed (the module doc), resumed from ``args.out`` with
     ``args.resume``; returns the exit status (1 if an episode stalled, timed out or was lost).
     ``BadSetting`` or ``BackendError`` (exit 2) before any episode."""
-    from cmdp_pymunk import interrupt
-
-    try:
-        case = cmdp_pymunk.load_case(args.case)
-        calendar = calendar_of(case, args)  # dates the finishes; the episodes run in seconds
-        floor = run_floor(case, args)  # before anything is built or run
-        from_spec(args.logistics, case=case)  # a role that misfits the case
-        check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
-                    args.deterministic)
-    except ValueError as err:  # CaseError is a ValueError
-        raise BadSetting(str(err)) from None
+    case, calendar, floor = _checked_inputs(args)
     run_specs = {s: s for s in args.strategies}
     done = resumable(case, args) if args.resume else []
     args.out.mkdir(parents=True, exist_ok=True)
@@ -274,61 +264,12 @@ def compare_strategies(args: EvaluateArgs) -> int:
     # Workers (and Ray) start before CP-SAT: an unreachable cluster fails before any work.
     with open_backend(episode_job, runner_args, args.workers, args.ray) as pool:
         lb = lower_bound(case)
-        cpsat = None
-        if args.solves_cpsat:
-            from agents.cpsat import save_plan, solve
-
-            why = "for the cpsat strategy" if "cpsat" in args.strategies else "(--cpsat-bound)"
-            print(f"cmdp-evaluate: solving CP-SAT {why}, time limit {args.cpsat_s:g} s ...",
-                  flush=True)
-            cpsat = solve(case, args.cpsat_s)
-            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}"
-                  f"{logistics_label(args.logistics)}: lower bound "
-                  f"{lb.lower_bound_s:,.0f} s; CP-SAT bound {cpsat.bound_s:,.0f} s "
-                  f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
-                  f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
-        else:
-            print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}"
-                  f"{logistics_label(args.logistics)}: lower bound "
-                  f"{lb.lower_bound_s:,.0f} s (CP-SAT not solved: add the cpsat strategy or "
-                  "--cpsat-bound for its bound)")
-        if floor.uncalibrated_note(args.case):
-            print(f"cmdp-evaluate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
-                  flush=True)
+        cpsat = _bounds_header(case, args, floor, lb)
         if "cpsat" in args.strategies:
-            plan = args.out / "cpsat_plan.json"
-            if args.resume and plan.is_file():  # the kept episodes replayed this plan
-                run_specs["cpsat"] = f"cpsat:{plan}"
-            else:
-                try:
-                    run_specs["cpsat"] = f"cpsat:{save_plan(plan, case, cpsat)}"
-                except ValueError as err:
-                    raise BadSetting(str(err)) from None
-        problems = [p for p in pool.check_each(check_worker, list(run_specs.values()),
-                                               args.navigators, args.deterministic) if p]
-        if problems:
-            raise BadSetting(f"{problems[0]}; fix: put the file at the same path on every "
-                             "node (a shared file system), docs/ray.md")
-        if measures_cost(args, case):  # a strategy that cannot play the plain case fails
-            from cmdp_pymunk.disruptions import undisrupted  # now, not in a worker
-
-            try:
-                check_specs(undisrupted(case), list(run_specs.values()), args.navigators,
-                            args.deterministic)
-            except ValueError as err:
-                raise BadSetting(f"the case without its disruptions (what they cost): {err}; "
-                                 "fix: add --no-disruption-cost") from None
+            run_specs["cpsat"] = _cpsat_spec(case, args, cpsat)
+        _check_on_workers(case, args, run_specs, pool)
         write_atomic(args.out / "resume.json", json.dumps(resume_settings(case, args)) + "\n")
-        n = len(args.seeds) * len(args.strategies) * len(args.navigators)
-        wanted = set(episode_jobs(args))
-        kept = sum((r["strategy"], r["navigator"], r["seed"]) in wanted for r in done)
-        print(f"cmdp-evaluate: {n} episodes ({len(args.strategies)} strategies x "
-              f"{len(args.navigators)} low level(s) x {len(args.seeds)} seeds"
-              + (f", {kept} kept from the earlier run" if kept else "")
-              + f"), {pool.label}", flush=True)
-        if measures_cost(args, case):
-            print("cmdp-evaluate: the case has disruptions: each episode is also played "
-                  "without them, for what they cost (--no-disruption-cost to skip)", flush=True)
+        kept = _announce(case, args, pool, done)
         start = time.perf_counter()
         try:
             rows = play_episodes(case, args, run_specs, pool, done)
@@ -338,7 +279,116 @@ def compare_strategies(args: EvaluateArgs) -> int:
             return 1
         wall = time.perf_counter() - start
     ran = len(rows) - kept
-    cpsat_dict = cpsat.as_dict() if cpsat else None
+    rows, summary, fields, table, time_use = _results(case, args, floor, calendar, rows, lb,
+                                                      cpsat)
+    settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
+                "working_calendar": calendar_summary(calendar, None, None) if calendar else None,
+                "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
+                **floor.record(),
+                "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict() if cpsat else None,
+                "episodes": len(rows), "episodes_resumed": kept, "wall_s": round(wall, 1),
+                "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
+                "command": sys.argv, "versions": versions()}
+    _write_results(case, args, rows, fields, summary, table, time_use, settings, lb, cpsat)
+    print(table, end="")
+    print(f"cmdp-evaluate: {ran} episodes in {wall:.0f} s "
+          f"({ran / max(wall, 1e-9):.2f} episodes/s) -> {args.out}")
+    return 1 if any(not r["finished"] for r in rows) else 0
+
+
+def _checked_inputs(args: EvaluateArgs):
+    """The case, its working calendar and the floor, every setting checked against them
+    before anything is built or run (``BadSetting`` naming the fix)."""
+    try:
+        case = cmdp_pymunk.load_case(args.case)
+        calendar = calendar_of(case, args)  # dates the finishes; the episodes run in seconds
+        floor = run_floor(case, args)  # before anything is built or run
+        from_spec(args.logistics, case=case)  # a role that misfits the case
+        check_specs(case, [s for s in args.strategies if s != "cpsat"], args.navigators,
+                    args.deterministic)
+    except ValueError as err:  # CaseError is a ValueError
+        raise BadSetting(str(err)) from None
+    return case, calendar, floor
+
+
+def _bounds_header(case, args: EvaluateArgs, floor: Floor, lb):
+    """The CP-SAT solve if the run asks for it (its result, else None), and the run's first
+    line: the case, the floor, the bounds; the uncalibrated floor's note."""
+    cpsat = None
+    if args.solves_cpsat:
+        from agents.cpsat import solve
+
+        why = "for the cpsat strategy" if "cpsat" in args.strategies else "(--cpsat-bound)"
+        print(f"cmdp-evaluate: solving CP-SAT {why}, time limit {args.cpsat_s:g} s ...",
+              flush=True)
+        cpsat = solve(case, args.cpsat_s)
+        print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}"
+              f"{logistics_label(args.logistics)}: lower bound "
+              f"{lb.lower_bound_s:,.0f} s; CP-SAT bound {cpsat.bound_s:,.0f} s "
+              f"({'optimal' if cpsat.optimal else 'not proven optimal'}, best schedule "
+              f"{cpsat.makespan_s or float('nan'):,.0f} s, {cpsat.wall_s:.1f} s)")
+    else:
+        print(f"cmdp-evaluate: case {case.case.name!r} on the {floor.label()}"
+              f"{logistics_label(args.logistics)}: lower bound "
+              f"{lb.lower_bound_s:,.0f} s (CP-SAT not solved: add the cpsat strategy or "
+              "--cpsat-bound for its bound)")
+    if floor.uncalibrated_note(args.case):
+        print(f"cmdp-evaluate: {floor.uncalibrated_note(args.case)}", file=sys.stderr,
+              flush=True)
+    return cpsat
+
+
+def _cpsat_spec(case, args: EvaluateArgs, cpsat) -> str:
+    """The cpsat strategy's spec: the plan it replays (the kept one on ``--resume``)."""
+    from agents.cpsat import save_plan
+
+    plan = args.out / "cpsat_plan.json"
+    if args.resume and plan.is_file():  # the kept episodes replayed this plan
+        return f"cpsat:{plan}"
+    try:
+        return f"cpsat:{save_plan(plan, case, cpsat)}"
+    except ValueError as err:
+        raise BadSetting(str(err)) from None
+
+
+def _check_on_workers(case, args: EvaluateArgs, run_specs: dict[str, str], pool) -> None:
+    """Every strategy's files found by every worker, and each strategy able to play the case
+    without its disruptions where the run measures what they cost (``BadSetting``)."""
+    problems = [p for p in pool.check_each(check_worker, list(run_specs.values()),
+                                           args.navigators, args.deterministic) if p]
+    if problems:
+        raise BadSetting(f"{problems[0]}; fix: put the file at the same path on every "
+                         "node (a shared file system), docs/ray.md")
+    if measures_cost(args, case):  # a strategy that cannot play the plain case fails
+        from cmdp_pymunk.disruptions import undisrupted  # now, not in a worker
+
+        try:
+            check_specs(undisrupted(case), list(run_specs.values()), args.navigators,
+                        args.deterministic)
+        except ValueError as err:
+            raise BadSetting(f"the case without its disruptions (what they cost): {err}; "
+                             "fix: add --no-disruption-cost") from None
+
+
+def _announce(case, args: EvaluateArgs, pool, done: list[dict]) -> int:
+    """The run's second line (episodes, those kept from an earlier run, the backend) and the
+    disruptions' note; returns the episodes kept."""
+    n = len(args.seeds) * len(args.strategies) * len(args.navigators)
+    wanted = set(episode_jobs(args))
+    kept = sum((r["strategy"], r["navigator"], r["seed"]) in wanted for r in done)
+    print(f"cmdp-evaluate: {n} episodes ({len(args.strategies)} strategies x "
+          f"{len(args.navigators)} low level(s) x {len(args.seeds)} seeds"
+          + (f", {kept} kept from the earlier run" if kept else "")
+          + f"), {pool.label}", flush=True)
+    if measures_cost(args, case):
+        print("cmdp-evaluate: the case has disruptions: each episode is also played "
+              "without them, for what they cost (--no-disruption-cost to skip)", flush=True)
+    return kept
+
+
+def _results(case, args: EvaluateArgs, floor: Floor, calendar, rows: list[dict], lb, cpsat):
+    """The episodes' rows (dated), the summary per strategy, the log's fields, the markdown
+    table and the time use."""
     # each strategy's entry says the floor it ran on (appended: older columns keep their places)
     summary = [{**e, "fidelity": floor.fidelity, "calibration": floor.source or "",
                 "calibration_fingerprint": floor.calibration.fingerprint
@@ -354,7 +404,7 @@ def compare_strategies(args: EvaluateArgs) -> int:
                                       == (e["strategy"], e["navigator"])], rows, e)}
                for e in summary]
     time_use = time_use_summary(rows)
-    table = markdown_table(summary, lb.lower_bound_s, cpsat_dict)
+    table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict() if cpsat else None)
     if args.logistics != "case":  # no table of another logistics may pass for the case's
         table = (f"Logistics {args.logistics} (who asks for lifts), not the case's reorder "
                  "point.\n\n" + table)
@@ -365,15 +415,14 @@ def compare_strategies(args: EvaluateArgs) -> int:
     table += "\n" + money_table(summary, case)
     if time_use:
         table += "\n" + time_use_table(time_use)
-    settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
-                "working_calendar": calendar_summary(calendar, None, None) if calendar else None,
-                "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
-                **floor.record(),
-                "lower_bound": lb.as_dict(), "cpsat": cpsat_dict, "episodes": len(rows),
-                "episodes_resumed": kept, "wall_s": round(wall, 1),
-                "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
-                "command": sys.argv, "versions": versions()}
-    # A Ctrl-C while the results are written is held until all of them are.
+    return rows, summary, fields, table, time_use
+
+
+def _write_results(case, args: EvaluateArgs, rows, fields, summary, table, time_use,
+                   settings: dict, lb, cpsat) -> None:
+    """The tables, the settings and the figures, a Ctrl-C held until all are written."""
+    from cmdp_pymunk import interrupt
+
     interrupt.enter()
     try:
         write_tables(args.out, "summary", rows, fields, summary, table, time_use)
@@ -392,10 +441,6 @@ def compare_strategies(args: EvaluateArgs) -> int:
                 draw_time_use(time_use, args.out / "time_use.png")
     finally:
         interrupt.leave()
-    print(table, end="")
-    print(f"cmdp-evaluate: {ran} episodes in {wall:.0f} s "
-          f"({ran / max(wall, 1e-9):.2f} episodes/s) -> {args.out}")
-    return 1 if any(not r["finished"] for r in rows) else 0
 
 
 def whatif_entries(args: EvaluateArgs) -> list:
