@@ -537,10 +537,7 @@ def play_seeds(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, 
     each seed's task finish times and whether any episode stalled or timed out."""
     from tqdm import tqdm
 
-    from agents.models import PolicyStuck
     from cmdp_pymunk import interrupt
-    from cmdp_pymunk.report import seconds_and_hours, stall_text
-    from cmdp_pymunk.rollout import run_episode
     from cmdp_pymunk.schedule import finish_times
     from training.runs.backends import WorkerLost, Workers
 
@@ -550,16 +547,9 @@ def play_seeds(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, 
     in_process = isinstance(pool, Workers) and pool.workers == 1
     progress.runner = pool.runner if in_process else None
     task_bar = args.progress and args.episodes == 1
-    # In seed order, each seed's floor (but the GIF's) and then, for what the disruptions
-    # cost, the same seed without them: the backend hands results back in this order.
     cost = measures_cost(args, case)
-    jobs = []
-    for seed in seeds:
-        if seed not in here:
-            jobs.append((spec, args, case_label, lb, seed, task_bar and in_process))
-        if cost:
-            jobs.append((spec, args, case_label, lb, seed, False, True))
-    remote = pool.imap(jobs)
+    remote = pool.imap(_seed_jobs(seeds, here, cost, spec, args, case_label, lb,
+                                  task_bar and in_process))
     bar = tqdm(total=args.episodes, unit="episode", mininterval=1.0, desc="cmdp-simulate",
                disable=not args.progress or args.episodes == 1)
     rows, finishes, failed = [], [], False
@@ -576,18 +566,10 @@ def play_seeds(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, 
             try:
                 if seed in here:
                     from media.gif import GifStream
-                    from media.render import draw_frame
 
                     gif = GifStream(folder / "rollout.gif", 1.0 / GIF_FPS)
-                    progress.engine = engine
-                    try:
-                        episode = run_episode(engine, navigator, seed, args.stall_s, task_bar,
-                                              frame_interval(case, lb), on_frame=gif.append,
-                                              render=draw_frame)
-                        run = seed_run(engine, episode, args, case_label, lb)
-                    except PolicyStuck as err:
-                        run = SeedRun(seed, None, [], str(err))
-                    progress.engine = None
+                    run = _play_here(engine, navigator, seed, args, case, case_label, lb,
+                                     task_bar, gif, progress)
                 try:
                     if seed not in here:
                         run = next(remote)
@@ -618,30 +600,74 @@ def play_seeds(args: SimulateArgs, case, case_label: str, lb, cpsat, spec: str, 
             progress.kept.append(seed)
             rows.append(data)
             finishes.append(finish_times(run.events))
-            if data["stalled"]:
-                failed = True
-                bar.write(f"cmdp-simulate: seed {seed}: STALLED (the picture: "
-                          f"{folder / 'stall.png'})\n" + stall_text(data["stalled"]),
-                          file=sys.stderr)
-            elif not data["all_finished"]:
-                failed = True
-                bar.write(f"cmdp-simulate: seed {seed}: time limit reached with "
-                          f"{data['tasks_finished']}/{len(case.tasks)} tasks finished",
-                          file=sys.stderr)
-            else:
-                finish = (data.get("calendar") or {}).get("finish")
-                bar.write(f"cmdp-simulate: seed {seed}: makespan "
-                          f"{seconds_and_hours(data['makespan_s'])} "
-                          f"({data['makespan_over_lower_bound']:.2f} x lower bound"
-                          + (f", {data['makespan_over_seed_bound']:.2f} x seed bound "
-                             f"{data['seed_bound_s']:,.0f} s"
-                             if data.get("makespan_over_seed_bound") else "") + "), "
-                          + (f"finish {finish.replace('T', ' ')[:16]}, " if finish else "")
-                          + f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
-                          file=sys.stdout)
-            if data["disruptions"] is not None:
-                bar.write(f"cmdp-simulate: seed {seed}: {cost_text(data)}", file=sys.stdout)
+            failed = _seed_line(bar, seed, data, folder, case) or failed
     return rows, finishes, failed
+
+
+def _seed_jobs(seeds: list[int], here: list[int], cost: bool, spec: str, args: SimulateArgs,
+               case_label: str, lb, task_bar: bool) -> list[tuple]:
+    """In seed order, each seed's floor (but the GIF's, played ``here``) and then, for what the
+    disruptions cost, the same seed without them: the backend hands results back in this
+    order."""
+    jobs = []
+    for seed in seeds:
+        if seed not in here:
+            jobs.append((spec, args, case_label, lb, seed, task_bar))
+        if cost:
+            jobs.append((spec, args, case_label, lb, seed, False, True))
+    return jobs
+
+
+def _play_here(engine, navigator, seed: int, args: SimulateArgs, case, case_label: str, lb,
+               task_bar: bool, gif, progress: Progress) -> SeedRun:
+    """The GIF's seed, played on this process's ``engine``, its frames into ``gif`` as they
+    are drawn; a policy that got stuck gives a run that says so."""
+    from agents.models import PolicyStuck
+    from cmdp_pymunk.rollout import run_episode
+    from media.render import draw_frame
+
+    progress.engine = engine
+    try:
+        episode = run_episode(engine, navigator, seed, args.stall_s, task_bar,
+                              frame_interval(case, lb), on_frame=gif.append,
+                              render=draw_frame)
+        run = seed_run(engine, episode, args, case_label, lb)
+    except PolicyStuck as err:
+        run = SeedRun(seed, None, [], str(err))
+    progress.engine = None
+    return run
+
+
+def _seed_line(bar, seed: int, data: dict, folder: Path, case) -> bool:
+    """A seed's line on the console (stalled, cut by the time limit, or its makespan and
+    finish) and its disruptions' cost; returns whether the seed failed."""
+    from cmdp_pymunk.report import seconds_and_hours, stall_text
+
+    failed = False
+    if data["stalled"]:
+        failed = True
+        bar.write(f"cmdp-simulate: seed {seed}: STALLED (the picture: "
+                  f"{folder / 'stall.png'})\n" + stall_text(data["stalled"]),
+                  file=sys.stderr)
+    elif not data["all_finished"]:
+        failed = True
+        bar.write(f"cmdp-simulate: seed {seed}: time limit reached with "
+                  f"{data['tasks_finished']}/{len(case.tasks)} tasks finished",
+                  file=sys.stderr)
+    else:
+        finish = (data.get("calendar") or {}).get("finish")
+        bar.write(f"cmdp-simulate: seed {seed}: makespan "
+                  f"{seconds_and_hours(data['makespan_s'])} "
+                  f"({data['makespan_over_lower_bound']:.2f} x lower bound"
+                  + (f", {data['makespan_over_seed_bound']:.2f} x seed bound "
+                     f"{data['seed_bound_s']:,.0f} s"
+                     if data.get("makespan_over_seed_bound") else "") + "), "
+                  + (f"finish {finish.replace('T', ' ')[:16]}, " if finish else "")
+                  + f"{data['simulated_s_per_wall_s']:.0f} x real time -> {folder}",
+                  file=sys.stdout)
+    if data["disruptions"] is not None:
+        bar.write(f"cmdp-simulate: seed {seed}: {cost_text(data)}", file=sys.stdout)
+    return failed
 
 
 def cost_text(data: dict) -> str:
