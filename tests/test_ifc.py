@@ -12,7 +12,8 @@ import pytest
 ifcopenshell = pytest.importorskip("ifcopenshell")
 
 from cmdp_pymunk.cases.ifc_export import read_4d  # noqa: E402
-from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay  # noqa: E402
+from cmdp_pymunk.cases.ifc_import import import_storey  # noqa: E402
+from cmdp_pymunk.cases.ifc_overlay import load_overlay  # noqa: E402
 from cmdp_pymunk.cases.load import CaseError, load_case  # noqa: E402
 from tests import ifc_models  # noqa: E402
 from training.commands import import_ifc, simulate  # noqa: E402
@@ -302,7 +303,7 @@ def test_the_storeys_ranges_by_hand():
     Level 2 1.75..5.25 m (none above: as far up as down); a roof at 10 m makes Level 2's
     1.75..6.75 m and its own 6.75..13.25 m; a storey alone spans its level +- 2 m (a nominal
     4 m storey)."""
-    from cmdp_pymunk.cases.ifc_import import storey_range
+    from cmdp_pymunk.cases.ifc_storey import storey_range
 
     def span(model, storey):
         r = storey_range(model, storey)

@@ -58,7 +58,7 @@ def test_a_level_is_described_with_its_route_and_how_to_set_it():
 
 
 def test_the_overlay_level_is_validated(tmp_path):
-    from cmdp_pymunk.cases.ifc_import import load_overlay
+    from cmdp_pymunk.cases.ifc_overlay import load_overlay
 
     overlay = tmp_path / "o.toml"
     overlay.write_text("[import]\nlevel_m = -3.0\n")  # below the model's origin: a basement
@@ -78,7 +78,8 @@ def test_the_overlay_level_is_validated(tmp_path):
 
 def _import(tmp_path, overlay_text: str | None = None, **stated):
     """``raised_storey(**stated)`` written and imported; (data, report, level notes)."""
-    from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay
+    from cmdp_pymunk.cases.ifc_import import import_storey
+    from cmdp_pymunk.cases.ifc_overlay import load_overlay
     from tests import ifc_models
 
     f, _ = ifc_models.raised_storey("IFC4", **stated)
@@ -98,7 +99,8 @@ SUPPORTS = {"IfcBeam": 4, "IfcColumn": 6, "IfcWall": 1}
 def _refused(tmp_path, overlay: str, *model_args, **model_kwargs):
     """The raised storey (``ifc_models.raised_storey(*model_args, **model_kwargs)``) imported
     with ``overlay`` and refused: the error and what the model made."""
-    from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay
+    from cmdp_pymunk.cases.ifc_import import import_storey
+    from cmdp_pymunk.cases.ifc_overlay import load_overlay
     from tests import ifc_models
 
     f, made = ifc_models.raised_storey(*model_args, **model_kwargs)

@@ -8,7 +8,8 @@ import pytest
 
 ifcopenshell = pytest.importorskip("ifcopenshell")
 
-from cmdp_pymunk.cases.ifc_import import import_storey, load_overlay  # noqa: E402
+from cmdp_pymunk.cases.ifc_import import import_storey  # noqa: E402
+from cmdp_pymunk.cases.ifc_overlay import load_overlay  # noqa: E402
 from cmdp_pymunk.cases.load import CaseError, case_from_dict  # noqa: E402
 from tests import ifc_models  # noqa: E402
 

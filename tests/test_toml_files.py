@@ -9,7 +9,7 @@ import pytest
 from conftest import tiny_dict
 
 from cmdp_pymunk.cases.generated import to_toml
-from cmdp_pymunk.cases.ifc_import import load_overlay
+from cmdp_pymunk.cases.ifc_overlay import load_overlay
 from cmdp_pymunk.cases.load import CaseError, case_from_dict, load_case
 from cmdp_pymunk.eventfloor.calibration import (
     Calibration,

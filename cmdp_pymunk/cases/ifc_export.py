@@ -12,7 +12,7 @@ IfcRelAssignsTasks that puts the task in the schedule, written entity by entity
 
 ``model_from_case`` writes a case's components as an IFC4 model (the sample model and the
 tests' models are made so). IfcOpenShell is an optional dependency, imported only when a
-function here is called (``ifc_import.require_ifcopenshell``).
+function here is called (``ifc_model.require_ifcopenshell``).
 """
 
 from __future__ import annotations
@@ -20,7 +20,8 @@ from __future__ import annotations
 import datetime as dt
 from pathlib import Path
 
-from .ifc_import import open_model, require_ifcopenshell, task_code
+from .ifc_model import open_model, require_ifcopenshell
+from .ifc_schedule import task_code
 from .load import CaseError
 
 # -- a case as a model -----------------------------------------------------------------------

@@ -73,13 +73,15 @@ def parse_args(argv: list[str] | None = None) -> ImportArgs:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     from cmdp_pymunk.cases.generated import to_toml
-    from cmdp_pymunk.cases.ifc_import import IfcUnavailable, import_storey, load_overlay, open_model
+    from cmdp_pymunk.cases.ifc_import import import_storey
+    from cmdp_pymunk.cases.ifc_model import IfcUnavailable, open_model
+    from cmdp_pymunk.cases.ifc_overlay import load_overlay
     from cmdp_pymunk.cases.load import CaseError
     from cmdp_pymunk.events import write_atomic
 
     try:
         if args.list_storeys:
-            from cmdp_pymunk.cases.ifc_import import storey_names
+            from cmdp_pymunk.cases.ifc_storey import storey_names
 
             for name in storey_names(open_model(args.model)):
                 print(name)

@@ -373,7 +373,7 @@ def load_inputs(args: SimulateArgs) -> Inputs:
         from_spec(args.logistics, case=case)  # a role that misfits the case
         if args.ifc is not None:
             from cmdp_pymunk.cases.ifc_export import open_for_4d
-            from cmdp_pymunk.cases.ifc_import import IfcUnavailable
+            from cmdp_pymunk.cases.ifc_model import IfcUnavailable
 
             try:
                 open_for_4d(args.ifc, case)
