@@ -174,10 +174,47 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     """The case data of a storey's elements (footprints checked; each element's height
     against ``storey``'s range unless the overlay's ``import.check_storey`` is false), the
     notes, and where the precedences came from ("recipe" or "model")."""
-    problems, notes = [], []
-    min_fill = float(overlay.data["import"]["min_fill"])
+    notes: list[str] = []
     polygons = overlay.data["import"]["polygons"] is True
     drawn = {k for k, e in enumerate(elements) if polygons and e.outline is not None}
+    _check_footprints(elements, overlay, storey, source, notes)
+    rects = [e.rect for e in elements]
+    cx, cy, half_w, half_h = _plane_of(elements, rects, drawn, overlay, storey, source)
+    components = _components(elements, ids, drawn, cx, cy)
+    _decks_and_lanes(elements, rects, components, overlay, notes)  # marks the decks
+    recipe = overlay.recipe
+    with_tasks = [k for k, e in enumerate(elements) if recipe.chains.get(e.kind)]
+    use_model = schedule is not None and bool(schedule.sequences)
+    ends = {} if use_model else {
+        ids[k]: [ids[j] for j in neighbours(rects, k, with_tasks, recipe.neighbour_gap_m)]
+        for k in with_tasks}
+    crews = _crews_with_work(elements, overlay, notes)
+    storages = [StorageSpot(st["id"], st["material"], st["width_m"], st["height_m"],
+                            st["capacity"], st.get("congestion_index_full", 0.5),
+                            1 if st.get("edge", "top") == "top" else -1,
+                            _r(float(st.get("x_frac", 0.0)) * half_w))
+                for st in overlay.data["storages"]]
+    data = plan_case(name=name, description=description, half_width_m=half_w,
+                     half_height_m=half_h, base=overlay.base, crane_times=overlay.data["crane"],
+                     crews=crews, storages=storages, components=components, recipe=recipe,
+                     ends=ends, time_limit_s_per_task=TIME_LIMIT_S_PER_TASK)
+    data["case"].update(overlay.data.get("case", {}))
+    tasks = data["tasks"]
+    _check_tasks_manned(tasks, elements, overlay, source)
+    if use_model:
+        _model_precedences(schedule, tasks, source)
+        notes += schedule.notes
+    return data, notes, "model" if use_model else "recipe"
+
+
+def _check_footprints(elements: Sequence[Element], overlay: Overlay,
+                      storey: StoreyRange | None, source: str, notes: list[str]) -> None:
+    """Each element's footprint: a body to take it from, on the storey, with an extent in
+    plan, and a rectangle it fills enough (or a polygon imported as drawn); a ``CaseError``
+    with every problem, else the notes (``notes``, appended) on polygons and boxed ones."""
+    problems = []
+    min_fill = float(overlay.data["import"]["min_fill"])
+    polygons = overlay.data["import"]["polygons"] is True
     check_storey = storey is not None and overlay.data["import"]["check_storey"]
     for e in elements:
         if e.rect is None:
@@ -208,7 +245,14 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
             notes.append(f"{e.label}: boxed, its footprint fills {e.fill:.0%} of its rectangle")
     if problems:
         raise CaseError(source, problems)
-    rects = [e.rect for e in elements]
+
+
+def _plane_of(elements: Sequence[Element], rects: list, drawn: set[int], overlay: Overlay,
+              storey: StoreyRange | None, source: str) -> tuple[float, float, float, float]:
+    """The plane round the footprints: their centre (cx, cy) and the plane's half extents,
+    the overlay's margins or its fixed size; a ``CaseError`` for footprints that overlap or
+    lie outside a fixed plane."""
+    problems = []
     for i, j in overlapping_pairs(rects):  # beyond GEOMETRY_TOLERANCE_M, as the case check
         size = rects[i].overlap(rects[j])
         if i in drawn or j in drawn:  # a polygon's box may reach over what it leaves free
@@ -238,7 +282,13 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         half_w, half_h = _r(fixed_w), _r(fixed_h)
     if problems:
         raise CaseError(source, problems)
+    return cx, cy, half_w, half_h
 
+
+def _components(elements: Sequence[Element], ids: Sequence[str], drawn: set[int], cx: float,
+                cy: float) -> list[dict]:
+    """Each element as a component entry, centred on the plane; one imported as drawn with
+    its outline and the box of the outline's rounded corners."""
     components = []
     for k, (e, cid) in enumerate(zip(elements, ids, strict=True)):
         x, y = e.rect.centre
@@ -252,6 +302,13 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
                          width_m=max(xs) - min(xs), height_m=max(ys) - min(ys),
                          outline=corners)
         components.append(entry)
+    return components
+
+
+def _decks_and_lanes(elements: Sequence[Element], rects: list, components: list[dict],
+                     overlay: Overlay, notes: list[str]) -> set[int]:
+    """The slabs that form decks (marked ``deck`` on their components) and the notes on them
+    and on lanes narrower than the widest crew (but a deck's joints); returns the decks."""
     crew_types = overlay.base["crew_types"]
     widest = max(2 * math.sqrt(crew_types[ct]["occupation_area_m2"] / math.pi)
                  for ct in overlay.data["crews"] if overlay.data["crews"][ct] > 0) \
@@ -269,14 +326,13 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
         notes.append(f"the lane between {elements[i].label} and {elements[j].label} is "
                      f"{gap:.2f} m wide, narrower than the widest crew ({widest:.2f} m): no "
                      "crew passes there")
-    recipe = overlay.recipe
-    with_tasks = [k for k, e in enumerate(elements) if recipe.chains.get(e.kind)]
-    use_model = schedule is not None and bool(schedule.sequences)
-    ends = {} if use_model else {
-        ids[k]: [ids[j] for j in neighbours(rects, k, with_tasks, recipe.neighbour_gap_m)]
-        for k in with_tasks}
-    # Crews only of the types that have work here: an idle crew type would wait all floor and
-    # become an IfcCrewResource with nothing to do in the 4D model.
+    return decks
+
+
+def _crews_with_work(elements: Sequence[Element], overlay: Overlay,
+                     notes: list[str]) -> list[tuple[str, str]]:
+    """The overlay's crews, (id, type), of the types that have work here: an idle crew type
+    would wait all floor and become an IfcCrewResource with nothing to do in the 4D model."""
     left_out = crews_left_out(elements, overlay)
     crews = [(f"{ct}-{k + 1}", ct) for ct, n in overlay.data["crews"].items()
              if ct not in left_out for k in range(n)]
@@ -285,17 +341,13 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
                      + ", ".join(f"{ct} ({n} crew{'s' if n > 1 else ''})"
                                  for ct, n in left_out.items())
                      + " on this storey: left out of the case")
-    storages = [StorageSpot(st["id"], st["material"], st["width_m"], st["height_m"],
-                            st["capacity"], st.get("congestion_index_full", 0.5),
-                            1 if st.get("edge", "top") == "top" else -1,
-                            _r(float(st.get("x_frac", 0.0)) * half_w))
-                for st in overlay.data["storages"]]
-    data = plan_case(name=name, description=description, half_width_m=half_w,
-                     half_height_m=half_h, base=overlay.base, crane_times=overlay.data["crane"],
-                     crews=crews, storages=storages, components=components, recipe=recipe,
-                     ends=ends, time_limit_s_per_task=TIME_LIMIT_S_PER_TASK)
-    data["case"].update(overlay.data.get("case", {}))
-    tasks = data["tasks"]
+    return crews
+
+
+def _check_tasks_manned(tasks: list[dict], elements: Sequence[Element], overlay: Overlay,
+                        source: str) -> None:
+    """Some task on the storey, and a crew in the overlay for every task type in use (a
+    ``CaseError`` naming the fix)."""
     if not tasks:
         raise CaseError(source, ["the recipe gives the storey's elements no tasks (their kinds "
                                  "have no chain); fix: add [recipe.chains] for "
@@ -311,23 +363,25 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
             f"task type {tt} ({len(ids_)} task(s) on the storey, e.g. {ids_[0]}) needs a "
             f'"{ct}" crew, and [crews] has none; fix: add {ct} = 1 to the overlay\'s [crews]'
             for (tt, ct), ids_ in unmanned.items()])
-    if use_model:
-        cycle = _schedule_cycle(schedule)
-        if cycle:
-            raise CaseError(source, ["the model's 4D schedule has a cycle of IfcRelSequence: "
-                                     + " -> ".join(schedule.tasks[g][0] for g in cycle)
-                                     + "; fix: remove one of these sequences in the model"])
-        chains: dict[str, list[str]] = {}
-        for t in tasks:
-            chains.setdefault(t["component"], []).append(t["id"])
-        types = {t["id"]: t["type"] for t in tasks}
-        extra = _sequence_predecessors(schedule, chains, types)
-        for t in tasks:
-            if t["id"] in extra:
-                t["predecessors"] = list(dict.fromkeys(t.get("predecessors", [])
-                                                       + extra[t["id"]]))
-        notes += schedule.notes
-    return data, notes, "model" if use_model else "recipe"
+
+
+def _model_precedences(schedule: ModelSchedule, tasks: list[dict], source: str) -> None:
+    """The model's 4D schedule's sequences added to the tasks' predecessors (a cycle: a
+    ``CaseError``)."""
+    cycle = _schedule_cycle(schedule)
+    if cycle:
+        raise CaseError(source, ["the model's 4D schedule has a cycle of IfcRelSequence: "
+                                 + " -> ".join(schedule.tasks[g][0] for g in cycle)
+                                 + "; fix: remove one of these sequences in the model"])
+    chains: dict[str, list[str]] = {}
+    for t in tasks:
+        chains.setdefault(t["component"], []).append(t["id"])
+    types = {t["id"]: t["type"] for t in tasks}
+    extra = _sequence_predecessors(schedule, chains, types)
+    for t in tasks:
+        if t["id"] in extra:
+            t["predecessors"] = list(dict.fromkeys(t.get("predecessors", [])
+                                                   + extra[t["id"]]))
 
 
 def import_storey(model_path: str | Path, storey: str, overlay: Overlay | None = None
