@@ -66,9 +66,9 @@ Its parts, each a module of ``training.search`` (issue 43: a module a reader hol
 (``PlanConfig``), ``plan_floors`` (the floors played, kept in ``episodes.jsonl``),
 ``plan_scores`` (what a plan scores, the cost bound, the ranking), ``plan_study`` (Optuna's
 study and sampler), ``plan_confirm`` (the held-out seeds, the plan chosen, each change alone)
-and ``plan_outputs`` (the files). This module keeps the search itself
-(``search_plans``, in named steps) and still offers, re-imported, the names the command and
-the docs give as ``training.search.plan_search.X`` (``__all__``).
+and ``plan_outputs`` (the files). This module keeps the search itself (``search_plans``, in
+named steps) and still offers, re-imported, the names the command and the docs give as
+``training.search.plan_search.X`` (``__all__``).
 """
 
 from __future__ import annotations
@@ -133,12 +133,16 @@ class SearchRun:
         return len(self.config.confirm_seeds)
 
     def variant_of(self, changes: tuple[Change, ...]):
+        """A plan's label and case, made once (``CaseError`` for a plan the case's checks
+        refuse)."""
         label = label_of(changes)
         if label not in self.variants:
             self.variants[label] = make_variant(self.case, changes).case if changes else self.case
         return label, self.variants[label]
 
     def bound_of(self, rows: list[dict], rung: int) -> dict:
+        """A plan's rows at a rung against the cost bound, paired with the case on the same
+        ``rung`` search seeds (``cost_bound``)."""
         return cost_bound(rows, self.floors.of("event", BASE_LABEL,
                                                self.config.search_seeds[:rung]),
                           self.config.max_cost_ratio)
