@@ -38,7 +38,7 @@ DEFAULT_OUT = Path("runs/plan")
 def parse_args(argv: list[str] | None = None):
     from training.cli import seed_list
     from training.fidelity import CALIBRATION_HELP
-    from training.search.plan_search import OBJECTIVES, SAMPLERS, SCREENS, PlanConfig
+    from training.search.plan_config import OBJECTIVES, SAMPLERS, SCREENS, PlanConfig
 
     d = PlanConfig()
     p = OneLineParser(prog="cmdp-plan", description=plain(__doc__))
@@ -113,7 +113,8 @@ def main(argv: list[str] | None = None) -> int:
     from cmdp_pymunk.cases.load import CaseError
     from training.fidelity import resolve_floor
     from training.runs.backends import BackendError
-    from training.search.plan_search import search_plans, trial_rows, write_outputs
+    from training.search.plan_outputs import trial_rows, write_outputs
+    from training.search.plan_search import search_plans
 
     a, config = parse_args(argv)
     try:
