@@ -27,7 +27,7 @@ import time
 
 import cmdp_pymunk
 from cmdp_pymunk.report import versions
-from training.research.distill import _label_job
+from training.research.distill_labels import _label_job
 from training.runs.backends import open_backend
 from training.runs.strategies import episode_job
 

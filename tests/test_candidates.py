@@ -192,13 +192,13 @@ def test_returns_against_the_heuristic_cancel_the_heuristics_own_makespan():
 
 def test_a_run_can_start_from_a_distilled_model(tmp_path):
     # PPO fine-tuning after distillation: the new model's scorer is the distilled one's
-    from training.research import distill
+    from training.research import distill_model
 
-    distilled = distill.new_choice_model(3, "", seed=0)
+    distilled = distill_model.new_choice_model(3, "", seed=0)
     with th.no_grad():
         distilled.policy.action_net.linear.weight.fill_(0.25)
     distilled.save(tmp_path / "d.zip")
-    venv = distill.choice_venv(3)
+    venv = distill_model.choice_venv(3)
     config = Stage2Config(action="candidate", central_critic=False, candidates=3,
                           net_arch=[128, 128], start_model=str(tmp_path / "d.zip"))
     model = stage2.new_candidate_model(config, venv)
@@ -206,7 +206,7 @@ def test_a_run_can_start_from_a_distilled_model(tmp_path):
                     distilled.policy.action_net.linear.weight)
     with pytest.raises(ValueError, match="same candidates"):
         stage2.new_candidate_model(config.model_copy(update={"candidates": 4}),
-                                   distill.choice_venv(4))
+                                   distill_model.choice_venv(4))
 
 
 @pytest.mark.parametrize("name", ["stage2.toml", "stage2_candidate.toml", "stage2_event.toml",
@@ -335,10 +335,10 @@ def test_a_typed_held_model_keeps_types_and_hold_through_save_and_load(tmp_path)
     from sb3_contrib import MaskablePPO
 
     from agents.candidates import CandidateModelEvaluator
-    from training.research import distill
+    from training.research import distill_model
 
     student = save_student(tmp_path / "student.json", HAND_WEIGHTS)
-    model = distill.new_choice_model(3, student, seed=0, typed=True, hold_choice=True)
+    model = distill_model.new_choice_model(3, student, seed=0, typed=True, hold_choice=True)
     model.save(tmp_path / "typed.zip")
     loaded = MaskablePPO.load(tmp_path / "typed.zip", device="cpu")
     assert loaded.policy.types == CREW_TYPES and loaded.policy.hold_choice is True
@@ -349,7 +349,7 @@ def test_a_typed_held_model_keeps_types_and_hold_through_save_and_load(tmp_path)
     evaluator = CandidateModelEvaluator(tmp_path / "typed.zip")
     assert evaluator.view.types == CREW_TYPES and evaluator.held is not None
     # an untyped model: no type columns, no hold, the parameters of before
-    distill.new_choice_model(3, "", seed=0).save(tmp_path / "plain.zip")
+    distill_model.new_choice_model(3, "", seed=0).save(tmp_path / "plain.zip")
     plain = CandidateModelEvaluator(tmp_path / "plain.zip")
     assert plain.view.types == () and plain.held is None
     assert not hasattr(plain.model.policy.action_net, "per_type")
@@ -357,14 +357,14 @@ def test_a_typed_held_model_keeps_types_and_hold_through_save_and_load(tmp_path)
 
 def test_a_student_of_other_features_is_refused_with_the_fix(tmp_path, capsys):
     from agents.features import ALL_FEATURES
-    from training.research import distill
+    from training.research import distill, distill_model
 
     for name, features in (("all", ALL_FEATURES), ("reordered", FEATURE_NAMES[::-1])):
         path = save_student(tmp_path / f"{name}.json", {"RC": [0.1] * len(features)},
                             features=features)
         config = candidate_config(candidates=3, typed=True, start_rule=path)
         with pytest.raises(ValueError, match=r"all.json|reordered.json") as err:
-            stage2.new_candidate_model(config, distill.choice_venv(3, len(CREW_TYPES)))
+            stage2.new_candidate_model(config, distill_model.choice_venv(3, len(CREW_TYPES)))
         assert "in that order; fix: give a rule or student of these" in str(err.value)
         assert "--features first" in str(err.value)
         # untyped: a rule of one vector for every type, the same check (weights go by position)
@@ -372,14 +372,14 @@ def test_a_student_of_other_features_is_refused_with_the_fix(tmp_path, capsys):
                             {t: [0.1] * len(features) for t in CREW_TYPES}, features=features)
         with pytest.raises(ValueError, match="an untyped model reads"):
             stage2.new_candidate_model(candidate_config(candidates=3, start_rule=rule),
-                                       distill.choice_venv(3))
+                                       distill_model.choice_venv(3))
         out = tmp_path / f"{name}.zip"
         assert distill.main(["student-model", path, "--out", str(out)]) == 2
         assert "--features first" in capsys.readouterr().err and not out.exists()
     other = save_student(tmp_path / "five.json", HAND_WEIGHTS, candidates=5)
     with pytest.raises(ValueError, match="candidates=5"):
         stage2.new_candidate_model(candidate_config(candidates=3, typed=True, start_rule=other),
-                                   distill.choice_venv(3, len(CREW_TYPES)))
+                                   distill_model.choice_venv(3, len(CREW_TYPES)))
 
 
 def event_floor(evaluator, seed):

@@ -12,7 +12,7 @@ from conftest import event_floor, play_floor
 import cmdp_pymunk
 from agents.features import FEATURE_NAMES, FloorFacts
 from agents.student import StudentEvaluator
-from training.research import distill
+from training.research import distill, distill_fit, distill_labels, distill_model
 
 
 def test_a_student_without_weights_is_eq_9_exactly(priority_floor):
@@ -40,9 +40,33 @@ def test_floor_facts_tail_by_hand(tiny_case):
     assert facts.unlock_s.tolist() == [0.0, 0.0, 0.0, 0.0]
 
 
+# what ``training.research.distill`` held before it was split (issue 43); older scripts and the
+# docs import these from it
+BEFORE_THE_SPLIT = {
+    "distill_labels": ("lookahead_settings", "futures_option", "teacher_options",
+                       "features_option", "label_teacher", "label_floor", "decision_state",
+                       "save_labels", "_label_job", "label_files", "load_labels"),
+    "distill_fit": ("FIT_DEFAULTS", "soft_targets", "choice_weights", "FIT_WEIGHTS",
+                    "fit_weights", "select_features"),
+    "distill_model": ("MODEL_FIT_DEFAULTS", "MODEL_FIT_HELP", "choice_rows", "choice_venv",
+                      "new_choice_model", "choice_agreement", "choice_regret_s",
+                      "fit_choice_model", "save_model"),
+}
+
+
+def test_the_split_modules_names_are_still_distills():
+    homes = {"distill_labels": distill_labels, "distill_fit": distill_fit,
+             "distill_model": distill_model}
+    for home, names in BEFORE_THE_SPLIT.items():
+        for name in names:
+            assert getattr(distill, name) is getattr(homes[home], name), name
+            assert name.startswith("_") or name in distill.__all__, name
+    assert all(hasattr(distill, name) for name in distill.__all__)
+
+
 def test_soft_targets_by_hand():
     # makespans 100, 400 and a missing candidate, tau 300: e^0 : e^-1 : 0
-    p = distill.soft_targets(np.array([[100.0, 400.0, np.nan]]), 300.0)
+    p = distill_fit.soft_targets(np.array([[100.0, 400.0, np.nan]]), 300.0)
     assert p[0].tolist() == pytest.approx([1 / (1 + np.e ** -1), np.e ** -1 / (1 + np.e ** -1),
                                            0.0])
 
@@ -56,7 +80,7 @@ def test_fit_finds_a_feature_the_teacher_follows():
     makespan = 30000.0 - 2000.0 * features[:, :, tail]  # the longest tail finishes sooner
     data = {"crew_type": np.array(["FC"] * n), "values": values, "features": features,
             "makespan_s": makespan}
-    weights, report = distill.fit_weights(data, tau_s=300.0, l2=0.01)
+    weights, report = distill_fit.fit_weights(data, tau_s=300.0, l2=0.01)
     assert weights["FC"][tail] > 0.5
     assert report["FC"]["agree_student_teacher"] > report["FC"]["agree_base_teacher"] + 0.3
 
@@ -108,13 +132,13 @@ def test_choice_rows_pad_clip_and_mask_by_hand():
     features = np.zeros((2, 2, f))
     features[0, 1, 0] = 1.7
     features[1, 1, 0] = 0.5  # behind a NaN value: not a candidate
-    flat, mask = distill.choice_rows({"values": values, "features": features}, cap=3)
+    flat, mask = distill_model.choice_rows({"values": values, "features": features}, cap=3)
     rows = flat.reshape(2, 3, f + 1)
     assert mask.tolist() == [[True, True, False], [True, False, False]]
     assert rows[0, :, 0].tolist() == pytest.approx([1.2, 0.4, 0.0])
     assert rows[0, 1, 1] == 1.0 and rows[1, 1].tolist() == [0.0] * (f + 1)
     with pytest.raises(ValueError, match="--candidates 2"):
-        distill.choice_rows({"values": values, "features": features}, cap=1)
+        distill_model.choice_rows({"values": values, "features": features}, cap=1)
     # labels with every feature (policy iteration's): the model's columns taken by name, the
     # same rows; labels without one of them are refused with the fix
     from agents.features import ALL_FEATURES
@@ -122,11 +146,11 @@ def test_choice_rows_pad_clip_and_mask_by_hand():
     wide = np.zeros((2, 2, len(ALL_FEATURES)))
     wide[..., [ALL_FEATURES.index(n) for n in FEATURE_NAMES]] = features
     wide[..., len(FEATURE_NAMES):] = 9.0  # the binding features: not the model's
-    same, _ = distill.choice_rows({"values": values, "features": wide,
+    same, _ = distill_model.choice_rows({"values": values, "features": wide,
                                    "feature_names": ALL_FEATURES}, cap=3)
     assert same.tolist() == flat.tolist()
     with pytest.raises(ValueError, match="areas_near missing"):
-        distill.choice_rows({"values": values, "features": features[..., :4],
+        distill_model.choice_rows({"values": values, "features": features[..., :4],
                              "feature_names": FEATURE_NAMES[:3] + ("rank1",)}, cap=3)
 
 
@@ -143,7 +167,7 @@ def test_fit_model_learns_a_feature_the_teacher_follows_and_loads_as_an_evaluato
             "row_seed": np.repeat(np.arange(10), n // 10)}
     # 100 epochs: agreement 0.938 against Eq. 9's 0.25 on validation (200 gave 0.975), far
     # past the 0.3 margin asked, at half the fit's seconds (issue 43: the gate's time)
-    model, report = distill.fit_choice_model(data, cap=3, settings={"epochs": 100},
+    model, report = distill_model.fit_choice_model(data, cap=3, settings={"epochs": 100},
                                              log=lambda *_: None)
     assert report["validation_seeds"] == [8, 9]
     assert report["agree_start_teacher_validation"] == report["agree_eq9_teacher_validation"]
@@ -163,7 +187,7 @@ def test_choice_regret_by_hand():
     makespan = np.array([[100.0, 400.0, np.nan], [250.0, 50.0, 75.0]])
     mask = ~np.isnan(makespan)
     scores = np.array([[0.0, 1.0, 9.0], [0.0, 1.0, 0.5]])
-    assert distill.choice_regret_s(scores, mask, makespan) == pytest.approx(150.0)
+    assert distill_model.choice_regret_s(scores, mask, makespan) == pytest.approx(150.0)
 
 
 def test_label_with_expected_paces_and_an_acting_policy_then_fit_model(tmp_path):
@@ -176,7 +200,7 @@ def test_label_with_expected_paces_and_an_acting_policy_then_fit_model(tmp_path)
     assert distill.main(["label", "--case", tiny, "--seeds", "2", "--candidates", "2",
                          "--futures", "expected", "--acting", "nearest",
                          "--out", str(labels)]) == 0
-    data = distill.load_labels(labels)
+    data = distill_labels.load_labels(labels)
     assert data["teachers"] == ["lookahead:candidates=2+futures=expected"] * 3
     assert data["acting"] == ["", "", "nearest"]
     assert distill.main(["fit-model", str(labels), "--out", str(model)]) == 0
@@ -258,7 +282,7 @@ def test_student_model_plays_the_students_schedule_on_the_tiny_case(tmp_path, ca
     # labels of every feature, as policy iteration's; the student fitted on the model's 11
     assert distill.main(["label", "--case", tiny, "--seeds", "0-2", "--candidates", "2",
                          "--features", "all", "--out", str(labels)]) == 0
-    assert distill.load_labels(labels)["feature_names"] == ALL_FEATURES
+    assert distill_labels.load_labels(labels)["feature_names"] == ALL_FEATURES
     assert distill.main(["fit", str(labels), "--features", "first", "--out",
                          str(student)]) == 0
     fitted = json.loads(student.read_text())
@@ -306,14 +330,14 @@ def test_typed_choice_rows_by_hand():
     f = len(FEATURE_NAMES)
     data = {"values": np.array([[1.2, 0.4], [0.9, 0.1]]), "features": np.full((2, 2, f), 0.5),
             "crew_type": np.array(["RC", "XC"])}
-    flat, mask = distill.choice_rows(data, cap=3, types=CREW_TYPES)
+    flat, mask = distill_model.choice_rows(data, cap=3, types=CREW_TYPES)
     rows = flat.reshape(2, 3, f + 1 + len(CREW_TYPES))
     assert rows[0, :2, f + 1:].tolist() == [[0.0, 0.0, 0.0, 1.0, 0.0]] * 2
     assert (rows[1, :, f + 1:] == 0).all() and (rows[:, 2] == 0).all()
-    plain, same_mask = distill.choice_rows(data, cap=3)
+    plain, same_mask = distill_model.choice_rows(data, cap=3)
     assert (rows[..., :f + 1].reshape(2, -1) == plain).all() and (mask == same_mask).all()
     with pytest.raises(ValueError, match="crew_type"):
-        distill.choice_rows({k: data[k] for k in ("values", "features")}, 3, CREW_TYPES)
+        distill_model.choice_rows({k: data[k] for k in ("values", "features")}, 3, CREW_TYPES)
 
 
 def test_typed_fit_model_learns_per_type_choices(tmp_path):
@@ -329,9 +353,9 @@ def test_typed_fit_model_learns_per_type_choices(tmp_path):
             "makespan_s": 30000.0 - 2000.0 * sign * features[:, :, tail],
             "row_seed": np.repeat(np.arange(10), n // 10), "crew_type": crew_type}
     settings = {"epochs": 200}
-    typed, report = distill.fit_choice_model(data, 3, settings=settings, log=lambda *_: None,
+    typed, report = distill_model.fit_choice_model(data, 3, settings=settings, log=lambda *_: None,
                                              typed=True, hold_choice=True)
-    _, plain = distill.fit_choice_model(data, 3, settings=settings, log=lambda *_: None)
+    _, plain = distill_model.fit_choice_model(data, 3, settings=settings, log=lambda *_: None)
     assert report["agree_model_teacher_validation"] > 0.8
     assert report["agree_model_teacher_validation"] > plain["agree_model_teacher_validation"] + 0.2
     assert typed.policy.hold_choice and typed.policy.types[:2] == ("JCC", "HIC")
@@ -350,7 +374,7 @@ def test_relabel_replays_the_acting_floor_and_adds_features(tmp_path, capsys):
                          "--futures", "expected", "--acting", "nearest",
                          "--out", str(labels)]) == 0
     assert distill.main(["relabel", str(labels), "--case", tiny, "--out", str(wide)]) == 0
-    old, new = distill.load_labels(labels), distill.load_labels(wide)
+    old, new = distill_labels.load_labels(labels), distill_labels.load_labels(wide)
     assert len(old["choice"]) > 0 and new["feature_names"] == ALL_FEATURES
     for key in ("crew_type", "choice", "row_seed"):
         assert np.array_equal(old[key], new[key])

@@ -5,7 +5,7 @@ import json
 import numpy as np
 
 from agents.features import FEATURE_NAMES
-from training.research import distill, label_cv
+from training.research import distill_labels, label_cv
 
 
 def write_labels(folder, floors=12, decisions=25, seed=0):
@@ -27,7 +27,7 @@ def write_labels(folder, floors=12, decisions=25, seed=0):
 
 def test_the_student_gains_on_held_out_floors_and_eq9_gains_nothing(tmp_path):
     write_labels(tmp_path / "l")
-    data = distill.load_labels(tmp_path / "l")
+    data = distill_labels.load_labels(tmp_path / "l")
     folds = label_cv.seed_folds(data["seeds"], 4)
     assert sorted(np.concatenate(folds).tolist()) == list(range(12))
     student = label_cv.summary(label_cv.floor_gains(
@@ -66,7 +66,7 @@ def write_student(path, weights, features=("tail",)):
 
 def test_base_scores_are_the_students_and_a_pick_as_the_base_gains_nothing(tmp_path):
     write_labels(tmp_path / "l", floors=8, decisions=10)
-    data = distill.load_labels(tmp_path / "l")
+    data = distill_labels.load_labels(tmp_path / "l")
     write_student(tmp_path / "s.json", {"FC": [0.5]})
     scores = label_cv.base_scores(data, tmp_path / "s.json")
     tail = FEATURE_NAMES.index("tail")

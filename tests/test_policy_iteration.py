@@ -13,7 +13,7 @@ import pytest
 
 import cmdp_pymunk
 from agents.features import ALL_FEATURES, FEATURE_NAMES, POLICY_ITERATION_FEATURES
-from training.research import distill, policy_iteration
+from training.research import distill, distill_fit, distill_labels, policy_iteration
 
 ROOT = Path(__file__).resolve().parents[1]
 TINY = str(cmdp_pymunk.TINY_CASE)
@@ -27,8 +27,8 @@ def test_choice_weights_by_hand():
     # gaps (max - min over the real candidates): 900 - 100 = 800, 600 - 500 = 100, 0;
     # mean 300, so the weights are 8/3, 1/3 and 0 (mean 1)
     makespan = np.array([[100.0, 900.0, np.nan], [500.0, 500.0, 600.0], [300.0, 300.0, np.nan]])
-    assert distill.choice_weights(makespan).tolist() == pytest.approx([8 / 3, 1 / 3, 0.0])
-    assert distill.choice_weights(np.array([[5.0, 5.0]])).tolist() == [0.0]  # nothing to learn
+    assert distill_fit.choice_weights(makespan).tolist() == pytest.approx([8 / 3, 1 / 3, 0.0])
+    assert distill_fit.choice_weights(np.array([[5.0, 5.0]])).tolist() == [0.0]  # nothing to learn
 
 
 def test_gap_weighted_fit_is_the_fit_without_the_decisions_that_cost_nothing():
@@ -46,18 +46,18 @@ def test_gap_weighted_fit_is_the_fit_without_the_decisions_that_cost_nothing():
     both = {"crew_type": np.array(["FC"] * (2 * n)), "values": values, "features": features,
             "makespan_s": makespan}
     costly = {key: np.concatenate([a[:n], a[:n]]) for key, a in both.items()}
-    weighted, report = distill.fit_weights(both, tau_s=300.0, l2=0.1, weights="gap")
-    plain, _ = distill.fit_weights(costly, tau_s=300.0, l2=0.1)
+    weighted, report = distill_fit.fit_weights(both, tau_s=300.0, l2=0.1, weights="gap")
+    plain, _ = distill_fit.fit_weights(costly, tau_s=300.0, l2=0.1)
     assert weighted["FC"][tail] > 0.5  # it learnt the tail
     assert weighted["FC"] == pytest.approx(plain["FC"], abs=0.01)  # L-BFGS's tolerance
     assert report["FC"]["decisions"] == 2 * n
     with pytest.raises(ValueError, match="give one of none, gap"):
-        distill.fit_weights(both, 300.0, 0.1, weights="size")
+        distill_fit.fit_weights(both, 300.0, 0.1, weights="size")
 
 
 def _labels(path: Path, seed: int, names) -> None:
     rows = [("RC", [0.9, 0.5], np.zeros((2, len(names))), [100.0, 200.0], 0)]
-    distill.save_labels(path / f"seed-{seed}.npz",
+    distill_labels.save_labels(path / f"seed-{seed}.npz",
                         {"seed": seed, "makespan_s": 1.0, "wall_s": 0.0, "rows": rows,
                          "candidates": 2, "features": names})
 
@@ -65,12 +65,12 @@ def _labels(path: Path, seed: int, names) -> None:
 def test_label_files_name_their_features_and_must_agree(tmp_path):
     _labels(tmp_path, 0, POLICY_ITERATION_FEATURES)
     _labels(tmp_path, 1, POLICY_ITERATION_FEATURES)
-    data = distill.load_labels(tmp_path)
+    data = distill_labels.load_labels(tmp_path)
     assert data["feature_names"] == POLICY_ITERATION_FEATURES
     assert data["features"].shape == (2, 2, 15)
     _labels(tmp_path, 2, FEATURE_NAMES)
     with pytest.raises(ValueError, match="seed-2.npz has successors.*fix: fit on files of one"):
-        distill.load_labels(tmp_path)
+        distill_labels.load_labels(tmp_path)
     # a file from before the names were stored holds FEATURE_NAMES
     old = tmp_path / "old"
     old.mkdir()
@@ -78,14 +78,14 @@ def test_label_files_name_their_features_and_must_agree(tmp_path):
                         values=np.ones((1, 2)), features=np.zeros((1, 2, 11)),
                         makespan_s=np.ones((1, 2)), choice=np.zeros(1, np.int64), seed=0,
                         floor_makespan_s=1.0, wall_s=0.0)
-    assert distill.load_labels(old)["feature_names"] == FEATURE_NAMES
+    assert distill_labels.load_labels(old)["feature_names"] == FEATURE_NAMES
 
 
 def test_label_with_a_whole_teacher_and_all_features(tmp_path, capsys):
     teacher = "candidates=3+futures=4+race=2+floor=event+base=priority"
     assert distill.main(["label", "--case", TINY, "--seeds", "0", "--teacher", teacher,
                          "--features", "all", "--out", str(tmp_path / "l")]) == 0
-    data = distill.load_labels(tmp_path / "l")
+    data = distill_labels.load_labels(tmp_path / "l")
     assert data["teachers"] == [f"lookahead:{teacher}"]
     assert data["feature_names"] == ALL_FEATURES and data["features"].shape[2] == 27
     assert distill.main(["fit", str(tmp_path / "l"), "--weights", "gap",
@@ -121,7 +121,7 @@ def test_two_rounds_on_the_tiny_case(two_rounds):
     assert second["base"] == f"student:{out / 'round-1' / 'student.json'}"
     assert second["teacher"].endswith(f"race=2+floor=event+base={second['base']}")
     assert first["command"].startswith("python -m training.research.policy_iteration")
-    labels = distill.load_labels(out / "round-2" / "labels")
+    labels = distill_labels.load_labels(out / "round-2" / "labels")
     assert labels["acting"] == [second["base"]] * 2
     assert labels["teachers"] == [second["teacher"]] * 2
     for r in (1, 2):
@@ -149,18 +149,18 @@ def test_the_same_seeds_give_the_same_labels_and_weights(two_rounds, tmp_path):
 
 
 def test_a_round_resumes_after_ctrl_c(two_rounds, tmp_path, monkeypatch, capsys):
-    save = distill.save_labels
+    save = distill_labels.save_labels
 
     def save_then_stop(*args, **kwargs):  # Ctrl-C once the first label floor is written
         save(*args, **kwargs)
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(distill, "save_labels", save_then_stop)
+    monkeypatch.setattr(distill_labels, "save_labels", save_then_stop)
     assert policy_iteration.main([*ROUNDS, "--out", str(tmp_path)]) == 130
     assert "round 1: 1 of 2 label floors" in capsys.readouterr().err
     assert sorted(p.name for p in (tmp_path / "round-1").rglob("*")) == ["labels",
                                                                          "seed-0.npz"]
-    monkeypatch.setattr(distill, "save_labels", save)
+    monkeypatch.setattr(distill_labels, "save_labels", save)
     assert policy_iteration.main([*ROUNDS, "--out", str(tmp_path)]) == 0
     assert _weights(tmp_path) == _weights(two_rounds)
 

@@ -146,7 +146,7 @@ def test_gif_is_written(tmp_path):
                           "--no-progress"]) == 0
     import imageio.v3 as iio
 
-    from training.runs.simulation import GIF_FPS, GIF_SECONDS
+    from training.runs.seed_outputs import GIF_FPS, GIF_SECONDS
 
     frames = iio.imread(out / "rollout.gif", index=None)
     assert 2 <= len(frames) <= GIF_SECONDS * GIF_FPS

@@ -9,7 +9,7 @@ import pickle
 from conftest import make_events
 
 from cmdp_pymunk.events import Event
-from training.runs.simulation import SeedRun
+from training.runs.seed_outputs import SeedRun
 
 
 def test_a_seed_run_comes_back_the_same():

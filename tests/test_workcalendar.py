@@ -188,7 +188,7 @@ def test_makespans_files_carry_the_finish_dates(tmp_path):
     dates of three made-up floors (1800 s, 3660 s, unfinished) by hand."""
     import json
 
-    from training.runs.simulation import write_makespans
+    from training.runs.makespans import write_makespans
 
     rows = [{"seed": s, "makespan_s": m, "makespan_over_lower_bound": None,
              "tasks_finished": 3, "all_finished": m is not None, "reach_rate": 1.0,

@@ -146,6 +146,24 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
     if _is_number(gap):
         recipe = Recipe(recipe.chains, recipe.classes, float(gap))
 
+    problems += _field_problems(data)
+    problems += _storage_problems(data)
+    if _is_number(data["import"]["min_fill"]) and not 0 <= data["import"]["min_fill"] <= 1:
+        problems.append("import.min_fill: a share of the rectangle, from 0 to 1; fix: e.g. 0.9")
+    crew_types = base["crew_types"] if isinstance(base["crew_types"], dict) else {}
+    task_types = base["task_types"] if isinstance(base["task_types"], dict) else {}
+    problems += _crew_problems(data, crew_types)
+    problems += _recipe_problems(recipe, task_types, crew_types)
+    if problems:
+        raise CaseError(source, problems)
+    return Overlay(data=data, recipe=recipe, base=base, source=source,
+                   given=frozenset(k for k in raw if k in _OVERLAY_SECTIONS))
+
+
+def _field_problems(data: dict) -> list[str]:
+    """Each field of the plane, import and crane sections: known, and a number of 0 or more
+    (true or false, a level, IFC classes where the field asks for those)."""
+    problems = []
     for section, value in data.items():
         if section == "storages":
             continue
@@ -174,6 +192,13 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
             elif not _is_number(value[key]) or value[key] < 0:
                 problems.append(f"{section}.{key} = {value[key]!r}: write a number of 0 or "
                                 "more")
+    return problems
+
+
+def _storage_problems(data: dict) -> list[str]:
+    """The storages: a list of tables with their fields, an edge and a place along it (an
+    unusable section is replaced by none, so that the rest can be checked)."""
+    problems = []
     if not isinstance(data["storages"], list):
         problems.append("storages: write [[storages]] entries; fix: see docs/ifc.md")
         data["storages"] = []
@@ -194,10 +219,13 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
         if not _is_number(st.get("x_frac", 0.0)) or not -1 <= st.get("x_frac", 0.0) <= 1:
             problems.append(f"{where}: x_frac = {st['x_frac']!r}; fix: a number from -1 (left "
                             "wall) to 1 (right wall)")
-    if _is_number(data["import"]["min_fill"]) and not 0 <= data["import"]["min_fill"] <= 1:
-        problems.append("import.min_fill: a share of the rectangle, from 0 to 1; fix: e.g. 0.9")
-    crew_types = base["crew_types"] if isinstance(base["crew_types"], dict) else {}
-    task_types = base["task_types"] if isinstance(base["task_types"], dict) else {}
+    return problems
+
+
+def _crew_problems(data: dict, crew_types: dict) -> list[str]:
+    """The crews: a table of known crew types and whole counts (an unusable section is
+    replaced by none)."""
+    problems = []
     if not isinstance(data["crews"], dict):
         problems.append('crews: write a table of crew type = count, e.g. JCC = 1; fix: '
                         "see docs/ifc.md")
@@ -208,6 +236,13 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
                             + _did_you_mean(name, list(crew_types)))
         if not isinstance(count, int) or isinstance(count, bool) or count < 0:
             problems.append(f"crews.{name} = {count!r}: write a whole number of crews")
+    return problems
+
+
+def _recipe_problems(recipe: Recipe, task_types: dict, crew_types: dict) -> list[str]:
+    """The recipe's chains name known task types of known crew types; its classes are IFC
+    classes (or Class.PREDEFINEDTYPE) mapped to kinds."""
+    problems = []
     for kind, steps in recipe.chains.items():
         for k, step in enumerate(steps):
             for label, name in (("type", step.type), ("after_neighbours", step.after_neighbours)):
@@ -226,7 +261,4 @@ def load_overlay(path: str | Path | None = None) -> Overlay:
         if not isinstance(kind, str) or not re.fullmatch(r"Ifc\w+(\.\w+)?", cls):
             problems.append(f'recipe.classes: {cls} = {kind!r}; fix: write an IFC class (or '
                             'Class.PREDEFINEDTYPE) = "kind", e.g. IfcBeam = "cast-in-place"')
-    if problems:
-        raise CaseError(source, problems)
-    return Overlay(data=data, recipe=recipe, base=base, source=source,
-                   given=frozenset(k for k in raw if k in _OVERLAY_SECTIONS))
+    return problems

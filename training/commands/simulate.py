@@ -109,7 +109,8 @@ from training.cli import (
     positive_int,
     positive_seconds,
 )
-from training.runs.simulation import DEFAULT_IFC_START, Progress, SimulateArgs
+from training.runs.seed_outputs import DEFAULT_IFC_START
+from training.runs.simulation import Progress, SimulateArgs
 
 
 def parse_args(argv: list[str] | None = None) -> SimulateArgs:
@@ -209,7 +210,8 @@ def main(argv: list[str] | None = None) -> int:
     try:
         from cmdp_pymunk.interrupt import sigint_guard
         from training.runs.backends import BackendError
-        from training.runs.simulation import BadInput, Stopped, simulate
+        from training.runs.simulation import Stopped, simulate
+        from training.runs.simulation_inputs import BadInput
 
         with sigint_guard():
             args = parse_args(argv)

@@ -1,12 +1,12 @@
 """How much a student fitted to lookahead labels gains, measured on label floors it was not
-fitted to (issue 32): seed-fold cross-validation of ``distill.fit_weights``.
+fitted to (issue 32): seed-fold cross-validation of ``distill_fit.fit_weights``.
 
     python -m training.research.label_cv LABELS [LABELS ...] [--folds 5] [--fractions 0.25,0.5,1]
         [--features first|all|NAMES] [--pooled] [--mlp HIDDEN] [--base STUDENT [--prior]]
         [--out report.json]
 
 The label floors are split by seed into ``--folds`` folds; for each fold the student is fitted
-(gap-weighted, ``distill.FIT_DEFAULTS``) on the others, or on the first ``fraction`` of their
+(gap-weighted, ``distill_fit.FIT_DEFAULTS``) on the others, or on the first ``fraction`` of their
 seeds (a learning curve), and picks among each held-out decision's candidates. The measure is
 the teacher's estimated makespan of the picked candidate minus that of Eq. 9's pick, averaged
 over a floor's decisions, then over floors (mean and 95 % half-width over floors). The
@@ -39,7 +39,7 @@ import torch
 from agents.student import StudentEvaluator
 from cmdp_pymunk.events import write_atomic
 from training.cli import OneLineParser
-from training.research import distill
+from training.research import distill_fit, distill_labels
 
 CV_DEFAULTS = {"folds": 5, "fractions": (1.0,), "seed": 0}
 
@@ -64,8 +64,8 @@ def rows_of(data: dict, rows: np.ndarray, pooled: bool = False) -> dict:
 
 def linear_scorer(train: dict, pooled: bool):
     """The gap-weighted linear student; returns scores(test) -> V' + w_type . phi."""
-    weights, _ = distill.fit_weights(train, distill.FIT_DEFAULTS["tau_s"],
-                                     distill.FIT_DEFAULTS["l2"], "gap")
+    weights, _ = distill_fit.fit_weights(train, distill_fit.FIT_DEFAULTS["tau_s"],
+                                         distill_fit.FIT_DEFAULTS["l2"], "gap")
 
     def scores(test: dict) -> np.ndarray:
         v0 = np.nan_to_num(test["values"])
@@ -84,7 +84,7 @@ def mlp_scorer(train: dict, hidden: int, epochs: int = 600, lr: float = 3e-3,
 
     flat = train["features"].reshape(-1, train["features"].shape[2])
     mean, scale = flat.mean(0), flat.std(0) + 1e-6
-    target = distill.soft_targets(train["makespan_s"], distill.FIT_DEFAULTS["tau_s"])
+    target = distill_fit.soft_targets(train["makespan_s"], distill_fit.FIT_DEFAULTS["tau_s"])
     nets = {}
     for crew_type in sorted(set(train["crew_type"])):
         rows = train["crew_type"] == crew_type
@@ -93,7 +93,7 @@ def mlp_scorer(train: dict, hidden: int, epochs: int = 600, lr: float = 3e-3,
         mask = torch.tensor(~np.isnan(train["values"][rows]))
         v = torch.tensor(np.nan_to_num(train["values"][rows]), dtype=torch.float32)
         p = torch.tensor(target[rows], dtype=torch.float32)
-        w = torch.tensor(distill.choice_weights(train["makespan_s"][rows]), dtype=torch.float32)
+        w = torch.tensor(distill_fit.choice_weights(train["makespan_s"][rows]), dtype=torch.float32)
         net = torch.nn.Sequential(torch.nn.Linear(x.shape[2], hidden), torch.nn.Tanh(),
                                   torch.nn.Linear(hidden, 1))
         log_beta = torch.nn.Parameter(torch.tensor(float(np.log(5.0))))
@@ -216,10 +216,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.prior and not args.base:
         p.error("--prior fits a residual over a student: give it with --base STUDENT")
     try:
-        data = distill.load_labels([Path(f) for f in args.labels])
+        data = distill_labels.load_labels([Path(f) for f in args.labels])
         reference = base_scores(data, args.base) if args.base else None
         if args.features != "all":  # all: the labels' own columns
-            data = distill.select_features(data, distill.features_option(args.features))
+            data = distill_fit.select_features(data, distill_labels.features_option(args.features))
         if args.prior:  # the student's scores as V': the fit is a residual over them
             data = {**data, "values": reference}
         if args.folds < 2 or args.folds > len(set(data["row_seed"])):

@@ -17,7 +17,7 @@ searched rule, or ``priority``: Eq. 9), the previous round's student after. It
 2. fits the new student (``agents.student``: Eq. 9's V' plus w_type . phi over Eq. 9's best
    ``--candidates``) to the labels (with ``--aggregate``, the default, the labels of every
    round so far, as DAgger does) by cross-entropy weighted by how much each choice matters
-   (``distill.choice_weights``: the gap between the candidates' estimated makespans);
+   (``distill_fit.choice_weights``: the gap between the candidates' estimated makespans);
 3. plays Eq. 9, the base and the new student on ``--select-seeds`` on the pymunk floor with
    the scripted navigator (as ``cmdp-evaluate`` does, ``training.runs``) and compares them on
    the same seeds (paired differences to Eq. 9 with Student's t 95 % intervals,
@@ -63,7 +63,7 @@ from cmdp_pymunk.bounds import lower_bound
 from cmdp_pymunk.events import write_atomic
 from cmdp_pymunk.interrupt import sigint_guard
 from training.cli import OneLineParser, positive_int, positive_seconds, seed_list
-from training.research import distill
+from training.research import distill_fit, distill_labels, distill_model
 from training.runs.backends import BackendError, open_backend
 from training.runs.paired import markdown_table, summarize
 from training.runs.strategies import episode_job, read_log
@@ -85,8 +85,8 @@ class IterationArgs:
     select_seeds: tuple[int, ...] = tuple(range(140, 160))
     features: tuple[str, ...] = POLICY_ITERATION_FEATURES
     candidates: int = 3
-    tau_s: float = distill.FIT_DEFAULTS["tau_s"]
-    l2: float = distill.FIT_DEFAULTS["l2"]
+    tau_s: float = distill_fit.FIT_DEFAULTS["tau_s"]
+    l2: float = distill_fit.FIT_DEFAULTS["l2"]
     aggregate: bool = True
     workers: int = 1
     case: str | None = None
@@ -163,7 +163,7 @@ def check(args: IterationArgs):
     if "base=" in args.teacher:
         raise ValueError(f"--teacher {args.teacher!r}: leave base= out; each round's base is "
                          "the previous round's student (round 1's: --start)")
-    distill.teacher_options(f"{args.teacher}+base=priority")
+    distill_labels.teacher_options(f"{args.teacher}+base=priority")
     if args.start != "priority":
         path = Path(args.start.removeprefix("student:"))
         if not path.is_file():
@@ -206,7 +206,7 @@ def check_earlier_run(args: IterationArgs) -> None:
                              f"({', '.join(changed)}); fix: run again with the same options to "
                              "resume it, or give a new --out")
     for plan in plan_rounds(args):
-        for f in distill.label_files(plan.labels):
+        for f in distill_labels.label_files(plan.labels):
             data = np.load(f)
             teacher = f"lookahead:{plan.teacher(args.teacher)}"
             names = tuple(str(n) for n in data["feature_names"]) \
@@ -221,15 +221,15 @@ def check_earlier_run(args: IterationArgs) -> None:
 
 def label_round(args: IterationArgs, plan: Round, bar) -> None:
     """The round's label floors not labelled yet: the base acts, the teacher labels; each
-    ``seed-N.npz`` written as its floor ends (``distill.save_labels``)."""
+    ``seed-N.npz`` written as its floor ends (``distill_labels.save_labels``)."""
 
     plan.labels.mkdir(parents=True, exist_ok=True)
     todo = [s for s in plan.seeds if not (plan.labels / f"seed-{s}.npz").exists()]
     jobs = [(args.case, s, None, None, plan.base, False, plan.teacher(args.teacher),
              args.features) for s in todo]
-    with open_backend(distill._label_job, None, args.workers) as pool:
+    with open_backend(distill_labels._label_job, None, args.workers) as pool:
         for _, result in pool.as_completed(jobs):
-            distill.save_labels(plan.labels / f"seed-{result['seed']}.npz", result)
+            distill_labels.save_labels(plan.labels / f"seed-{result['seed']}.npz", result)
             bar.update(1)
             bar.write(f"policy_iteration: round {plan.number}: seed {result['seed']}: "
                       f"{len(result['rows'])} decisions, {result['overrides']} where the "
@@ -244,9 +244,9 @@ def fit_round(args: IterationArgs, plans: list[Round], plan: Round) -> tuple[dic
     labels fitted and the fit's report."""
 
     folders = [p.labels for p in plans[:plan.number]] if args.aggregate else [plan.labels]
-    data = distill.load_labels(folders)
+    data = distill_labels.load_labels(folders)
     start = time.perf_counter()
-    weights, report = distill.fit_weights(data, args.tau_s, args.l2, weights="gap")
+    weights, report = distill_fit.fit_weights(data, args.tau_s, args.l2, weights="gap")
     student = StudentEvaluator({k: v.tolist() for k, v in weights.items()},
                                candidates=args.candidates, features=data["feature_names"])
     meta = {"command": "python -m training.research.policy_iteration " + " ".join(args.argv),
@@ -327,9 +327,9 @@ def round_report(args: IterationArgs, plan: Round, fitted: dict, fit_report: dic
     """The round's numbers (module doc): its labels, agreement and regret on them, and the
     paired comparison on the selection seeds (``summary``: ``training.runs.paired.summarize``
     of its episodes)."""
-    own = distill.load_labels(plan.labels)
+    own = distill_labels.load_labels(plan.labels)
     mask = ~np.isnan(own["values"])
-    target = distill.soft_targets(own["makespan_s"], args.tau_s)
+    target = distill_fit.soft_targets(own["makespan_s"], args.tau_s)
     weights = json.loads(plan.student.read_text())["weights"]
     scores = label_scores(own, weights)
     lowest = np.argmax(target, axis=1)
@@ -352,9 +352,9 @@ def round_report(args: IterationArgs, plan: Round, fitted: dict, fit_report: dic
         "fitted_on_seeds": fitted["seeds"], "fitted_decisions": int(len(fitted["choice"])),
         "features": list(own["feature_names"]), "aggregate": args.aggregate,
         # on this round's labels (the base's own states; the student was fitted on them)
-        "agreement": {k: round(distill.choice_agreement(s, mask, target), 3)
+        "agreement": {k: round(distill_model.choice_agreement(s, mask, target), 3)
                       for k, s in scores.items()},
-        "regret_s": {k: round(distill.choice_regret_s(s, mask, own["makespan_s"]), 1)
+        "regret_s": {k: round(distill_model.choice_regret_s(s, mask, own["makespan_s"]), 1)
                      for k, s in scores.items()},
         # racing: the teacher's pick among the survivors is not always the lowest mean
         "teacher_choice_not_lowest_mean": int(np.sum(own["choice"] != lowest)),
@@ -408,7 +408,7 @@ def run(args: IterationArgs) -> int:
     per_round = [len(p.seeds) + len(args.select_seeds) * len(selection_strategies(p))
                  for p in plans]
     initial = sum(n for p, n in zip(plans, per_round, strict=True) if p in done) + sum(
-        len(distill.label_files(p.labels)) for p in plans if p not in done)
+        len(distill_labels.label_files(p.labels)) for p in plans if p not in done)
     print(f"policy_iteration: {args.rounds} round(s) from {plans[0].base}, teacher "
           f"lookahead:{args.teacher}+base=<the round's base>, label seeds "
           f"{' | '.join(_span(p.seeds) for p in plans)}, selection seeds "
@@ -450,7 +450,7 @@ def kept_text(args: IterationArgs) -> str:
         if plan.report.is_file():
             parts.append(f"round {plan.number} reported")
             continue
-        labelled = len(distill.label_files(plan.labels))
+        labelled = len(distill_labels.label_files(plan.labels))
         if labelled:
 
             episodes = len(read_log(plan.episodes))
@@ -464,7 +464,7 @@ def parse_args(argv: list[str]) -> IterationArgs:
 
     def features(text: str) -> tuple[str, ...]:
         try:
-            return distill.features_option(text)
+            return distill_labels.features_option(text)
         except ValueError as err:
             raise argparse.ArgumentTypeError(
                 str(err).removeprefix(f"--features {text!r}: ")) from None
