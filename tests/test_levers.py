@@ -139,3 +139,13 @@ def test_parse_variant_option_and_changes():
     tiny = load_case(TINY_CASE)
     labels = [c.label for c in parse_changes(tiny, "RC=2, materials.rebars.crane_lift_quantity=1")]
     assert labels == ["RC=2", "rebars.crane_lift_quantity=1"]
+
+
+def test_a_crew_of_an_unknown_type_beside_levers_is_the_case_checks_to_report():
+    # found by a sweep of broken cases: the lever check read the crew's type and raised a
+    # KeyError instead of the case check's CaseError naming the type and the fix
+    data = tiny_data(levers={"crews": {"RC": {"max": 2, "starts": [[4.0, -3.0]]}}})
+    data["crews"][0]["type"] = "RCX"
+    with pytest.raises(CaseError) as err:
+        case_from_dict(data, "tiny.toml")
+    assert 'unknown crew type "RCX"' in str(err.value) and 'did you mean "RC"?' in str(err.value)

@@ -76,8 +76,11 @@ def lever_problems(case: Case) -> list[str]:
         radius = case.crew_types[name].radius_m
         storages = [(f'storage "{s.id}"', Rect.centred(s.x_m, s.y_m, s.width_m, s.height_m))
                     for s in case.storages]
+        # a crew of an unknown type is the case check's to report (``case_check``), not a
+        # KeyError here
         crews = [(f'crew "{c.id}"', c.start_x_m, c.start_y_m,
-                  case.crew_types[c.type].radius_m) for c in case.crews]
+                  case.crew_types[c.type].radius_m) for c in case.crews
+                 if c.type in case.crew_types]
         for i, (x, y) in enumerate(lever.starts):
             at = f"{where}: starts[{i}] ({x:g}, {y:g})"
             if not (abs(x) <= half_w - radius and abs(y) <= half_h - radius):
