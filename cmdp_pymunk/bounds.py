@@ -58,8 +58,9 @@ def clipped_normal_mean(mean: float, sd: float, floor: float) -> float:
     its draw is clipped below at ``floor``, which lifts the mean a little where sd is large."""
     if sd <= 0.0:
         return max(mean, floor)
-    # scipy.stats here, not at the top: cases.load imports this module, and scipy.stats took
-    # a second of every command's start (and of each worker's) that never asks for this bound
+    # scipy.stats here, not at the top: every case load imports this module
+    # (cases.time_checks), and scipy.stats took a second of every command's start (and of
+    # each worker's) that never asks for this bound
     from scipy import stats
 
     a = (floor - mean) / sd
@@ -206,7 +207,7 @@ def drawn_durations_s(case: Case, seed: int) -> dict[str, float]:
     """Each task's working time on the floor of ``seed``: its work over the pace it will draw
     (the task's own stream, ``RandomStreams(seed).pace(index)``, and ``construct.pace_of``: the
     very draw the engine makes when the task starts), plus crane assistance if it needs it."""
-    from .construct import pace_of  # the simulation stage; cases.load imports this module
+    from .construct import pace_of  # the simulation stage; cases.time_checks imports this module
     from .streams import RandomStreams
 
     streams = RandomStreams(seed)
