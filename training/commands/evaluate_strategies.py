@@ -99,9 +99,9 @@ from training.runs.strategies import (
     BadSetting,
     EvaluateArgs,
     compare_strategies,
-    compare_whatif,
     read_log,
 )
+from training.runs.whatif_run import compare_whatif
 
 
 def parse_args(argv: list[str] | None = None) -> EvaluateArgs:
