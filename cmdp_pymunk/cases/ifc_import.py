@@ -177,7 +177,7 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     notes: list[str] = []
     polygons = overlay.data["import"]["polygons"] is True
     drawn = {k for k, e in enumerate(elements) if polygons and e.outline is not None}
-    _check_footprints(elements, overlay, storey, source, notes)
+    _check_footprints(elements, drawn, overlay, storey, source, notes)
     rects = [e.rect for e in elements]
     cx, cy, half_w, half_h = _plane_of(elements, rects, drawn, overlay, storey, source)
     components = _components(elements, ids, drawn, cx, cy)
@@ -207,16 +207,16 @@ def build_case(elements: Sequence[Element], overlay: Overlay, schedule: ModelSch
     return data, notes, "model" if use_model else "recipe"
 
 
-def _check_footprints(elements: Sequence[Element], overlay: Overlay,
+def _check_footprints(elements: Sequence[Element], drawn: set[int], overlay: Overlay,
                       storey: StoreyRange | None, source: str, notes: list[str]) -> None:
     """Each element's footprint: a body to take it from, on the storey, with an extent in
-    plan, and a rectangle it fills enough (or a polygon imported as drawn); a ``CaseError``
-    with every problem, else the notes (``notes``, appended) on polygons and boxed ones."""
+    plan, and a rectangle it fills enough (or a polygon imported as drawn: ``drawn``, by
+    index); a ``CaseError`` with every problem, else the notes (``notes``, appended) on
+    polygons and boxed ones."""
     problems = []
     min_fill = float(overlay.data["import"]["min_fill"])
-    polygons = overlay.data["import"]["polygons"] is True
     check_storey = storey is not None and overlay.data["import"]["check_storey"]
-    for e in elements:
+    for k, e in enumerate(elements):
         if e.rect is None:
             problems.append(f"{e.label}: has no body geometry to take a footprint from, "
                             "neither its own nor its parts' (elements aggregated to it, "
@@ -230,7 +230,7 @@ def _check_footprints(elements: Sequence[Element], overlay: Overlay,
                             f"({e.rect.size[0]:.3g} x {e.rect.size[1]:.3g} m; an element out "
                             "of the floor's plane); fix: model it as a solid on the floor, or "
                             "leave its class out of the recipe")
-        elif e.outline is not None and polygons:
+        elif k in drawn:
             notes.append(f"{e.label}: imported as drawn, a polygon of {len(e.outline)} corners "
                          f"filling {e.fill:.0%} of its rectangle")
         elif e.fill < min_fill:

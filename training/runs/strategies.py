@@ -279,13 +279,14 @@ def compare_strategies(args: EvaluateArgs) -> int:
             return 1
         wall = time.perf_counter() - start
     ran = len(rows) - kept
+    cpsat_dict = cpsat.as_dict() if cpsat else None
     rows, summary, fields, table, time_use = _results(case, args, floor, calendar, rows, lb,
-                                                      cpsat)
+                                                      cpsat_dict)
     settings = {**asdict(args), "workers": pool.workers, "backend": pool.label,
                 "working_calendar": calendar_summary(calendar, None, None) if calendar else None,
                 "case": case.case.name, "case_file": str(args.case) if args.case else "built-in",
                 **floor.record(),
-                "lower_bound": lb.as_dict(), "cpsat": cpsat.as_dict() if cpsat else None,
+                "lower_bound": lb.as_dict(), "cpsat": cpsat_dict,
                 "episodes": len(rows), "episodes_resumed": kept, "wall_s": round(wall, 1),
                 "episodes_per_s": round(ran / wall, 3) if wall > 0 else None,
                 "command": sys.argv, "versions": versions()}
@@ -386,14 +387,15 @@ def _announce(case, args: EvaluateArgs, pool, done: list[dict]) -> int:
     return kept
 
 
-def _results(case, args: EvaluateArgs, floor: Floor, calendar, rows: list[dict], lb, cpsat):
+def _results(case, args: EvaluateArgs, floor: Floor, calendar, rows: list[dict], lb,
+             cpsat: dict | None):
     """The episodes' rows (dated), the summary per strategy, the log's fields, the markdown
-    table and the time use."""
+    table and the time use; ``cpsat``: the CP-SAT result as data (None: not solved)."""
     # each strategy's entry says the floor it ran on (appended: older columns keep their places)
     summary = [{**e, "fidelity": floor.fidelity, "calibration": floor.source or "",
                 "calibration_fingerprint": floor.calibration.fingerprint
                 if floor.calibration is not None else ""}
-               for e in summarize(rows, lb.lower_bound_s, cpsat.bound_s if cpsat else None)]
+               for e in summarize(rows, lb.lower_bound_s, cpsat["bound_s"] if cpsat else None)]
     fields = ["strategy", "navigator", "seed", *ROW_FIELDS, *STRUCK_FIELDS, *COST_FIELDS,
               *SEED_BOUND_FIELDS, "fidelity"]
     if calendar is not None:  # appended: older columns keep their places
@@ -404,7 +406,7 @@ def _results(case, args: EvaluateArgs, floor: Floor, calendar, rows: list[dict],
                                       == (e["strategy"], e["navigator"])], rows, e)}
                for e in summary]
     time_use = time_use_summary(rows)
-    table = markdown_table(summary, lb.lower_bound_s, cpsat.as_dict() if cpsat else None)
+    table = markdown_table(summary, lb.lower_bound_s, cpsat)
     if args.logistics != "case":  # no table of another logistics may pass for the case's
         table = (f"Logistics {args.logistics} (who asks for lifts), not the case's reorder "
                  "point.\n\n" + table)
